@@ -1,0 +1,99 @@
+"""The controller plugin protocol and the sliding-mode structure the dissertation's laws share.
+
+Every law of Chapters 2-5 has the form
+
+    u = -M(x1) (u_eq + u_c + u_sw)                    e.g. (5.25), (4.43), (4.50), (4.58)
+
+with a sliding surface s, an equivalent control u_eq = Psi(x_hat) + (surface terms) - xdd_d, a compensation
+u_c taken from the observer, and a switching law u_sw. :class:`SlidingModeController` implements that frame;
+a concrete law supplies the surface, the compensation choice and the switching gain.
+
+A controller sees the reference, the measured positions, the observer's estimates and the nominal model;
+never MjData. The math runs over arrays whose last axis is the joint.
+"""
+
+from __future__ import annotations
+
+from abc import ABC, abstractmethod
+from typing import ClassVar, Literal
+
+import numpy as np
+
+from ftc_mj.gains import GainConfig
+from ftc_mj.nominal import StepModel
+from ftc_mj.observers.base import Observer
+
+#: What a law takes from the observer: the whole velocity-equation injection (Chapters 3-5), only the LUaF
+#: estimate (Appendix-D-type comparators), or nothing (the switching gain covers the whole LUaF).
+Compensation = Literal["injection", "estimate", "none"]
+
+
+class Controller(ABC):
+    """Computes the joint torque command once per control period."""
+
+    name: ClassVar[str]
+    Config: ClassVar[type[GainConfig]]
+    requires: ClassVar[frozenset[str]] = frozenset({"position"})
+
+    def __init__(self, config: GainConfig, n_joints: int, dt: float):
+        self.config = config
+        self.n = n_joints
+        self.dt = dt
+        #: The sliding variable, recorded beside the torque.
+        self.sliding = np.zeros(n_joints)
+        self.tau = np.zeros(n_joints)
+
+    def reset(self) -> None:
+        self.sliding[:] = 0.0
+        self.tau[:] = 0.0
+
+    @abstractmethod
+    def compute(
+        self,
+        t: float,
+        q_ref: np.ndarray,
+        qd_ref: np.ndarray,
+        qdd_ref: np.ndarray,
+        q_meas: np.ndarray,
+        observer: Observer,
+        model: StepModel,
+    ) -> np.ndarray:
+        """Return the torque command (the controller's own ``tau`` array, valid until the next call)."""
+
+
+class SlidingModeController(Controller):
+    """u = -M(x1) (u_eq + u_c + u_sw) with u_eq = Psi(x_hat) + surface terms - xdd_d.
+
+    Subclasses define :meth:`surface`, ``compensation`` and :meth:`switching_gain`.
+    """
+
+    compensation: Compensation = "injection"
+
+    @abstractmethod
+    def surface(self, e: np.ndarray, e_dot: np.ndarray) -> np.ndarray:
+        """Update ``self.sliding`` from the tracking errors and return the surface's terms in u_eq
+        (the part of ds/dt that is not e_ddot)."""
+
+    @abstractmethod
+    def switching_gain(self) -> np.ndarray:
+        """The gain of the switching law K sign(s)."""
+
+    def switching(self) -> np.ndarray:
+        return self.switching_gain() * np.sign(self.sliding)
+
+    def observer_compensation(self, observer: Observer) -> np.ndarray | float:
+        if self.compensation == "injection":
+            return observer.injection
+        if self.compensation == "estimate":
+            return observer.luaf_hat
+        return 0.0
+
+    def compute(self, t, q_ref, qd_ref, qdd_ref, q_meas, observer, model):
+        e = q_meas - q_ref
+        e_dot = observer.qd_hat - qd_ref
+        surface_terms = self.surface(e, e_dot)
+        u_eq = model.psi_hat + surface_terms - qdd_ref
+        u = u_eq + self.observer_compensation(observer) + self.switching()
+        np.matmul(model.M, u, out=self.tau)
+        np.negative(self.tau, out=self.tau)
+        return self.tau

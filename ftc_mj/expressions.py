@@ -1,0 +1,190 @@
+"""A small, safe expression language for scenario files.
+
+Grammar: numbers, ``+ - * / **``, unary minus/plus, parentheses, the functions
+``sin cos tan exp log sqrt abs sign tanh`` (one argument each), the constants ``pi`` and ``e``, and the
+variables a field allows (``t``, ``q1..qn``, ``qd1..qn``).
+
+The text is parsed with :func:`ast.parse` (which only parses) and the tree is walked against a whitelist
+into a SymPy expression; nothing from the file is ever evaluated as Python. SymPy gives exact derivatives
+(reference velocity and acceleration) and compiles each expression once into a plain numeric function.
+"""
+
+from __future__ import annotations
+
+import ast
+import math
+from collections.abc import Callable, Sequence
+
+import numpy as np
+import sympy as sp
+
+MAX_SOURCE_LENGTH = 2000
+MAX_DEPTH = 60
+
+FUNCTIONS: dict[str, Callable[[sp.Expr], sp.Expr]] = {
+    "sin": sp.sin,
+    "cos": sp.cos,
+    "tan": sp.tan,
+    "exp": sp.exp,
+    "log": sp.log,
+    "sqrt": sp.sqrt,
+    "abs": sp.Abs,
+    "sign": sp.sign,
+    "tanh": sp.tanh,
+}
+CONSTANTS: dict[str, sp.Expr] = {"pi": sp.pi, "e": sp.E}
+
+_BINARY = {
+    ast.Add: lambda a, b: a + b,
+    ast.Sub: lambda a, b: a - b,
+    ast.Mult: lambda a, b: a * b,
+    ast.Div: lambda a, b: a / b,
+    ast.Pow: lambda a, b: a**b,
+}
+_NODE_NAMES = {
+    ast.Attribute: "attribute access",
+    ast.Call: "function call",
+    ast.Subscript: "indexing",
+    ast.Lambda: "lambda",
+    ast.Compare: "comparison",
+    ast.BoolOp: "boolean operator",
+    ast.IfExp: "conditional",
+    ast.List: "list",
+    ast.Tuple: "tuple",
+    ast.Dict: "dict",
+    ast.Set: "set",
+    ast.ListComp: "comprehension",
+    ast.GeneratorExp: "comprehension",
+    ast.NamedExpr: "assignment",
+    ast.JoinedStr: "string",
+}
+
+
+class ExpressionError(ValueError):
+    """The text is not a valid expression of the language; the message says why (no location)."""
+
+
+def symbol(name: str) -> sp.Symbol:
+    """The SymPy symbol used for a variable (all variables are real)."""
+    return sp.Symbol(name, real=True)
+
+
+def parse(source: str | int | float, variables: Sequence[str]) -> sp.Expr:
+    """Parse ``source`` into a SymPy expression over ``variables``.
+
+    Raises:
+        ExpressionError: on anything outside the language.
+    """
+    if isinstance(source, bool) or not isinstance(source, (str, int, float)):
+        raise ExpressionError(f"expected a number or an expression string, got {type(source).__name__}")
+    if not isinstance(source, str):
+        if not math.isfinite(source):
+            raise ExpressionError(f"number {source!r} is not finite")
+        return sp.Float(source)
+    if len(source) > MAX_SOURCE_LENGTH:
+        raise ExpressionError(f"expression longer than {MAX_SOURCE_LENGTH} characters")
+    if not source.strip():
+        raise ExpressionError("empty expression")
+    try:
+        tree = ast.parse(source.strip(), mode="eval")
+    except SyntaxError as exc:
+        raise ExpressionError(f"syntax error in {source!r}: {exc.msg}") from None
+    allowed = {name: symbol(name) for name in variables}
+    expr = _convert(tree.body, allowed, depth=0)
+    if any(not math.isfinite(float(number)) for number in expr.atoms(sp.Number)):
+        raise ExpressionError(f"a number in {source!r} is outside the double-precision range")
+    return expr
+
+
+def _convert(node: ast.AST, allowed: dict[str, sp.Symbol], depth: int) -> sp.Expr:
+    if depth > MAX_DEPTH:
+        raise ExpressionError("expression nested too deeply")
+    depth += 1
+    if isinstance(node, ast.Constant):
+        value = node.value
+        if isinstance(value, bool) or not isinstance(value, (int, float)):
+            raise ExpressionError(f"constant {value!r} is not a real number")
+        # Floats keep SymPy from building huge exact integers (e.g. 9**9**9).
+        return sp.Float(value)
+    if isinstance(node, ast.Name):
+        if node.id in allowed:
+            return allowed[node.id]
+        if node.id in CONSTANTS:
+            return CONSTANTS[node.id]
+        if node.id in FUNCTIONS:
+            raise ExpressionError(f"function {node.id!r} used without an argument")
+        names = ", ".join(sorted(allowed)) or "none"
+        raise ExpressionError(f"unknown name {node.id!r} (variables allowed here: {names})")
+    if isinstance(node, ast.BinOp) and type(node.op) in _BINARY:
+        left = _convert(node.left, allowed, depth)
+        right = _convert(node.right, allowed, depth)
+        return _BINARY[type(node.op)](left, right)
+    if isinstance(node, ast.UnaryOp) and isinstance(node.op, (ast.USub, ast.UAdd)):
+        operand = _convert(node.operand, allowed, depth)
+        return -operand if isinstance(node.op, ast.USub) else operand
+    if isinstance(node, ast.Call):
+        func = node.func
+        if not isinstance(func, ast.Name) or func.id not in FUNCTIONS:
+            what = ast.unparse(func)
+            raise ExpressionError(f"call of {what!r} is not allowed (functions: {', '.join(FUNCTIONS)})")
+        if node.keywords or len(node.args) != 1 or isinstance(node.args[0], ast.Starred):
+            raise ExpressionError(f"{func.id}() takes exactly one argument")
+        return FUNCTIONS[func.id](_convert(node.args[0], allowed, depth))
+    what = _NODE_NAMES.get(type(node), type(node).__name__)
+    raise ExpressionError(f"{what} is not allowed in an expression")
+
+
+def _without_impulses(expr: sp.Expr) -> sp.Expr:
+    """Derivatives of sign/abs produce DiracDelta terms; numerically they are zero almost everywhere."""
+    return expr.replace(lambda e: isinstance(e, sp.DiracDelta), lambda e: sp.Integer(0))
+
+
+def _scalar_sign(x: float) -> float:
+    return 0.0 if x == 0 else math.copysign(1.0, x)
+
+
+_SCALAR_MODULES = [{"sign": _scalar_sign, "Abs": abs}, "math"]
+
+
+class TimeFunctions:
+    """Several expressions of ``t`` with their exact first and second derivatives, compiled once.
+
+    Evaluated on a whole time grid at once (the reference is known in advance).
+    """
+
+    def __init__(self, exprs: Sequence[sp.Expr]):
+        t = symbol("t")
+        self.exprs = list(exprs)
+        self.first = [_without_impulses(sp.diff(e, t)) for e in self.exprs]
+        self.second = [_without_impulses(sp.diff(e, t)) for e in self.first]
+        self._funcs = [sp.lambdify(t, group, modules="numpy") for group in (self.exprs, self.first, self.second)]
+
+    def evaluate(self, times: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """Values, first and second derivatives on ``times``: three arrays of shape ``(len(times), k)``."""
+        times = np.asarray(times, dtype=float)
+        out = []
+        for func in self._funcs:
+            columns = [np.broadcast_to(np.asarray(v, dtype=float), times.shape) for v in func(times)]
+            out.append(np.stack(columns, axis=-1) if columns else np.zeros(times.shape + (0,)))
+        return out[0], out[1], out[2]
+
+
+class StateFunction:
+    """A vector of expressions of ``(t, q1..qn, qd1..qn)`` compiled into one scalar-math function.
+
+    Called once per physics step on the true state, so it is compiled for Python floats (``math``), which
+    is several times faster than NumPy on three-element inputs.
+    """
+
+    def __init__(self, exprs: Sequence[sp.Expr], n_joints: int):
+        self.exprs = list(exprs)
+        names = state_variables(n_joints)
+        self._func = sp.lambdify([symbol(v) for v in names], self.exprs, modules=_SCALAR_MODULES)
+
+    def __call__(self, t: float, q: Sequence[float], qd: Sequence[float]) -> list[float]:
+        return self._func(t, *q, *qd)
+
+
+def state_variables(n_joints: int) -> list[str]:
+    """Variable names of a state-dependent field: ``t, q1..qn, qd1..qn``."""
+    return ["t"] + [f"q{i + 1}" for i in range(n_joints)] + [f"qd{i + 1}" for i in range(n_joints)]

@@ -1,0 +1,10 @@
+"""Observer plugins. Built-ins are listed here; third-party packages add theirs through the
+``ftc_mj.observers`` entry-point group (see :mod:`ftc_mj.registry`)."""
+
+from ftc_mj.observers.base import Observer
+from ftc_mj.observers.sosmo import SOSMO
+from ftc_mj.observers.tosmo import TOSMO, HighSpeedTOSMO
+
+BUILTIN: dict[str, type[Observer]] = {cls.name: cls for cls in (SOSMO, TOSMO, HighSpeedTOSMO)}
+
+__all__ = ["BUILTIN", "HighSpeedTOSMO", "Observer", "SOSMO", "TOSMO"]

@@ -1,0 +1,69 @@
+"""The observer plugin protocol.
+
+An observer sees what a real one would: time, the measured joint positions and the command it applied, plus
+the nominal model. It never receives MjData. Each control period the runner calls
+
+1. :meth:`Observer.update` with the new measurement: the observer forms its output injection at this instant;
+2. the controller, which reads ``qd_hat``, ``luaf_hat`` and ``injection``;
+3. :meth:`Observer.advance` with the torque just commanded: the observer integrates over one period.
+
+The split lets a controller cancel exactly the injection the observer applies in the same period, which is
+what the equivalent controls of Chapters 3-5 do (e.g. the terms of eq. (5.26) that come from (5.6)).
+
+All method math is written over arrays whose last axis is the joint, so it also runs on ``(batch, n)``.
+"""
+
+from __future__ import annotations
+
+from abc import ABC, abstractmethod
+from typing import ClassVar
+
+import numpy as np
+
+from ftc_mj.gains import GainConfig
+from ftc_mj.nominal import StepModel
+
+
+def signed_power(x: np.ndarray, exponent: float) -> np.ndarray:
+    """|x|^exponent sign(x), the building block of every sliding-mode term in the dissertation."""
+    return np.abs(x) ** exponent * np.sign(x)
+
+
+class Observer(ABC):
+    """Estimates joint velocity and the lumped uncertainty and fault (LUaF) from positions.
+
+    Attributes after :meth:`update`:
+        q_hat, qd_hat: state estimate x1_hat, x2_hat.
+        luaf_hat: estimate of the lumped uncertainty and fault, in acceleration units.
+        injection: the whole output injection into the observer's velocity equation (the estimate plus the
+            correction terms); Chapter 3-5 controllers compensate this, Appendix-D-type ones ``luaf_hat``.
+    """
+
+    name: ClassVar[str]
+    Config: ClassVar[type[GainConfig]]
+    #: Sensors the method needs, checked when a scenario loads.
+    requires: ClassVar[frozenset[str]] = frozenset({"position"})
+
+    def __init__(self, config: GainConfig, n_joints: int, dt: float):
+        self.config = config
+        self.n = n_joints
+        self.dt = dt
+        self.q_hat = np.zeros(n_joints)
+        self.qd_hat = np.zeros(n_joints)
+        self.luaf_hat = np.zeros(n_joints)
+        self.injection = np.zeros(n_joints)
+
+    def reset(self, q_hat: np.ndarray, qd_hat: np.ndarray) -> None:
+        """Start from the given estimate, with a zero LUaF estimate."""
+        self.q_hat[:] = q_hat
+        self.qd_hat[:] = qd_hat
+        self.luaf_hat[:] = 0.0
+        self.injection[:] = 0.0
+
+    @abstractmethod
+    def update(self, t: float, q_meas: np.ndarray, model: StepModel) -> None:
+        """Take the measurement of time ``t`` and form this period's injection."""
+
+    @abstractmethod
+    def advance(self, tau: np.ndarray, model: StepModel) -> None:
+        """Integrate the observer over one control period with the applied torque ``tau``."""

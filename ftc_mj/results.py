@@ -1,0 +1,85 @@
+"""What one simulated variant leaves behind: time series of estimates beside the ground truth.
+
+Every array is sampled once per control period, at the instant the controller runs (before its command acts).
+Shapes: ``(N,)`` for time, ``(N, n)`` for per-joint series, ``(N, nbody, 3|4)`` for body poses.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+
+
+@dataclass
+class VariantResult:
+    """Recorded signals of one controller-observer variant.
+
+    Attributes:
+        name: variant name from the scenario.
+        observer: observer plugin name.
+        controller: controller plugin name.
+        t: sample times [s].
+        q_ref, qd_ref, qdd_ref: reference position, velocity, acceleration.
+        q_meas: position measured by the sensors (what the controller saw).
+        q_true, qd_true, qdd_true: true joint state and acceleration (qdd over the following control period).
+        qd_hat: observer's velocity estimate.
+        luaf_hat: observer's lumped-uncertainty-and-fault estimate, in acceleration units (rad/s^2).
+        luaf_true: true lumped uncertainty qdd - (Psi(q, qd) + M(q)^-1 tau), nominal Psi and M.
+        tau: commanded torque [N m].
+        sliding: the controller's sliding variable.
+        fault: the injected fault signal (sum of fault terms, in the space each was declared in).
+        fault_active: whether any fault term is on.
+        body_xpos, body_xquat: world pose of every body (MuJoCo order, quaternion wxyz); may be empty.
+        status: "ok" or "diverged".
+        diverged_at: time of divergence [s], or None.
+        extras: further per-joint series a plugin chose to expose (name -> (N, n)).
+    """
+
+    name: str
+    observer: str
+    controller: str
+    t: np.ndarray
+    q_ref: np.ndarray
+    qd_ref: np.ndarray
+    qdd_ref: np.ndarray
+    q_meas: np.ndarray
+    q_true: np.ndarray
+    qd_true: np.ndarray
+    qdd_true: np.ndarray
+    qd_hat: np.ndarray
+    luaf_hat: np.ndarray
+    luaf_true: np.ndarray
+    tau: np.ndarray
+    sliding: np.ndarray
+    fault: np.ndarray
+    fault_active: np.ndarray
+    body_xpos: np.ndarray = field(default_factory=lambda: np.zeros((0, 0, 3)))
+    body_xquat: np.ndarray = field(default_factory=lambda: np.zeros((0, 0, 4)))
+    status: str = "ok"
+    diverged_at: float | None = None
+    extras: dict[str, np.ndarray] = field(default_factory=dict)
+
+    @property
+    def tracking_error(self) -> np.ndarray:
+        """e = q - q_d on the true position (5.3)."""
+        return self.q_true - self.q_ref
+
+    @property
+    def velocity_error(self) -> np.ndarray:
+        """Velocity estimation error x2 - x2_hat."""
+        return self.qd_true - self.qd_hat
+
+    @property
+    def luaf_error(self) -> np.ndarray:
+        """Lumped-uncertainty estimation error, truth minus estimate."""
+        return self.luaf_true - self.luaf_hat
+
+    def truncated(self, n_samples: int) -> "VariantResult":
+        """The first ``n_samples`` rows of every series (used when a variant diverges)."""
+        cut = {}
+        for name, value in vars(self).items():
+            if isinstance(value, np.ndarray) and value.ndim >= 1 and len(value) > n_samples:
+                cut[name] = value[:n_samples]
+        extras = {k: v[:n_samples] for k, v in self.extras.items()}
+        return VariantResult(**{**vars(self), **cut, "extras": extras})

@@ -1,0 +1,198 @@
+"""The physics-in-the-loop closed loop: MuJoCo plant, observer and controller plugins, ground truth.
+
+Per control period k (time t_k, zero-order hold on the command):
+
+1. ``mj_step1`` brings positions, sensors and M(q) up to date for the current state (a plain ``mj_step``
+   would leave ``sensordata`` one step behind);
+2. the position sensors are read; the nominal model is evaluated once (M at the measurement, Psi at the
+   estimate); the observer takes the measurement; the controller computes tau; tau goes to ``ctrl``;
+3. friction, disturbance and fault terms are evaluated on the *true* state and their sum is written to
+   ``qfrc_applied`` (acceleration-space terms through the true M(q)); this happens at every physics step, which
+   is the control period itself when ``timestep == control_dt`` (the default);
+4. ``mj_step2`` integrates; the observer integrates over the period with the command it applied.
+
+Ground truth (q, qd, qdd, the fault signal) is copied from the simulation beside every estimate; the true
+lumped uncertainty qdd - (Psi(q, qd) + M(q)^-1 tau), in the nominal model's terms, is computed after the run.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+
+import mujoco
+import numpy as np
+
+from ftc_mj.nominal import NominalModel, StepModel
+from ftc_mj.results import VariantResult
+from ftc_mj.scenario import CompiledTerm, Scenario, Variant, position_sensor_addresses
+
+ProgressCallback = Callable[[int], None]
+PROGRESS_EVERY = 500
+
+
+class PlantTerms:
+    """Friction, disturbance and fault terms acting on the true plant through ``qfrc_applied``."""
+
+    def __init__(self, terms: list[CompiledTerm], n_joints: int):
+        self.terms = terms
+        self.torque = np.zeros(n_joints)
+        self.acceleration = np.zeros(n_joints)
+        self.fault = np.zeros(n_joints)
+        self.fault_active = False
+        self._mapped = np.zeros(n_joints)
+        self._has_acceleration = any(term.space == "acceleration" for term in terms)
+
+    def apply(self, model: mujoco.MjModel, data: mujoco.MjData) -> None:
+        """Write the sum of all terms at the current true state to ``data.qfrc_applied``.
+
+        Needs M(q) of the current state, i.e. call after ``mj_step1``.
+        """
+        self.torque[:] = 0.0
+        self.acceleration[:] = 0.0
+        self.fault[:] = 0.0
+        self.fault_active = False
+        if self.terms:
+            t, q, qd = data.time, data.qpos.tolist(), data.qvel.tolist()
+            for term in self.terms:
+                weight = term.profile(t)
+                if weight is None:
+                    continue
+                value = term.sign * weight * np.asarray(term.function(t, q, qd))
+                (self.acceleration if term.space == "acceleration" else self.torque)[:] += value
+                if term.kind == "fault":
+                    self.fault += value
+                    self.fault_active = True
+        data.qfrc_applied[:] = self.torque
+        if self._has_acceleration:
+            mujoco.mj_mulM(model, data, self._mapped, self.acceleration)
+            data.qfrc_applied[:] += self._mapped
+
+
+class Diverged(Exception):
+    """The state left the plausible range or stopped being finite."""
+
+
+def simulate_variant(
+    scenario: Scenario,
+    variant: Variant,
+    *,
+    record_poses: bool = False,
+    progress: ProgressCallback | None = None,
+) -> VariantResult:
+    """Run one controller-observer variant of a scenario and return its recorded signals."""
+    spec = scenario.spec
+    model = scenario.model
+    data = mujoco.MjData(model)
+    n = scenario.n_joints
+    dt = spec.control_dt
+    steps = int(round(spec.duration / dt))
+    times = np.arange(steps) * dt
+
+    data.qpos[:] = scenario.q0
+    data.qvel[:] = scenario.qd0
+    nominal = NominalModel(model, spec.nominal.mass_scale)
+    step_model = StepModel(nominal)
+    observer = variant.observer_type(variant.observer_config, n, dt)
+    controller = variant.controller_type(variant.controller_config, n, dt)
+    controller.reset()
+    plant = PlantTerms(scenario.terms, n)
+    sensor_addresses = position_sensor_addresses(model)
+
+    q_ref, qd_ref, qdd_ref = scenario.reference.evaluate(times)
+    series = {name: np.full((steps, n), np.nan) for name in _SERIES}
+    fault_active = np.zeros(steps, dtype=bool)
+    nbody = model.nbody if record_poses else 0
+    body_xpos = np.zeros((steps if record_poses else 0, nbody, 3))
+    body_xquat = np.zeros((steps if record_poses else 0, nbody, 4))
+    q_meas = np.zeros(n)
+    max_position, max_velocity = spec.divergence.max_position, spec.divergence.max_velocity
+
+    status, diverged_at, done = "ok", None, steps
+    for k in range(steps):
+        t = times[k]
+        try:
+            for substep in range(scenario.substeps):
+                mujoco.mj_step1(model, data)
+                if substep == 0:
+                    np.take(data.sensordata, sensor_addresses, out=q_meas)
+                    if k == 0:
+                        observer.reset(q_meas if variant.q_hat0 is None else variant.q_hat0, variant.qd_hat0)
+                    _check_state(data.qpos, data.qvel, max_position, max_velocity)
+                    step_model.update(q_meas, observer.q_hat, observer.qd_hat)
+                    observer.update(t, q_meas, step_model)
+                    tau = controller.compute(t, q_ref[k], qd_ref[k], qdd_ref[k], q_meas, observer, step_model)
+                    if not np.all(np.isfinite(tau)):
+                        raise Diverged
+                    data.ctrl[:] = tau
+                    _record(series, k, q_meas, data, observer, controller)
+                    if record_poses:
+                        body_xpos[k] = data.xpos
+                        body_xquat[k] = data.xquat
+                plant.apply(model, data)
+                if substep == 0:
+                    series["fault"][k] = plant.fault
+                    fault_active[k] = plant.fault_active
+                mujoco.mj_step2(model, data)
+                if substep == 0:
+                    series["qdd_true"][k] = data.qacc
+                    observer.advance(tau, step_model)
+        except (Diverged, FloatingPointError):
+            status, diverged_at, done = "diverged", float(t), k
+            break
+        if progress is not None and (k + 1) % PROGRESS_EVERY == 0:
+            progress(PROGRESS_EVERY)
+    if progress is not None:
+        progress(steps % PROGRESS_EVERY if status == "ok" else 0)
+
+    luaf_true = true_lumped_uncertainty(nominal, series["q_true"][:done], series["qd_true"][:done],
+                                        series["qdd_true"][:done], series["tau"][:done])
+    result = VariantResult(
+        name=variant.name,
+        observer=variant.observer_type.name,
+        controller=variant.controller_type.name,
+        t=times,
+        q_ref=q_ref,
+        qd_ref=qd_ref,
+        qdd_ref=qdd_ref,
+        luaf_true=np.concatenate([luaf_true, np.full((steps - done, n), np.nan)]),
+        fault_active=fault_active,
+        body_xpos=body_xpos,
+        body_xquat=body_xquat,
+        status=status,
+        diverged_at=diverged_at,
+        **series,
+    )
+    return result.truncated(done) if status != "ok" else result
+
+
+_SERIES = ("q_meas", "q_true", "qd_true", "qdd_true", "qd_hat", "luaf_hat", "tau", "sliding", "fault")
+
+
+def _record(series: dict[str, np.ndarray], k: int, q_meas, data, observer, controller) -> None:
+    series["q_meas"][k] = q_meas
+    series["q_true"][k] = data.qpos
+    series["qd_true"][k] = data.qvel
+    series["qd_hat"][k] = observer.qd_hat
+    series["luaf_hat"][k] = observer.luaf_hat
+    series["tau"][k] = controller.tau
+    series["sliding"][k] = controller.sliding
+
+
+def _check_state(qpos: np.ndarray, qvel: np.ndarray, max_position: float, max_velocity: float) -> None:
+    # abs().max() is NaN-propagating, so one comparison also catches NaN and inf.
+    if not (np.abs(qpos).max() <= max_position and np.abs(qvel).max() <= max_velocity):
+        raise Diverged
+
+
+def true_lumped_uncertainty(
+    nominal: NominalModel, q: np.ndarray, qd: np.ndarray, qdd: np.ndarray, tau: np.ndarray
+) -> np.ndarray:
+    """qdd - (Psi(q, qd) + M(q)^-1 tau) in the nominal model's terms, eq. (5.2), row by row."""
+    out = np.empty_like(qdd)
+    psi = np.empty(nominal.n)
+    mass = np.empty((nominal.n, nominal.n))
+    for k in range(len(qdd)):
+        nominal.psi(q[k], qd[k], out=psi)
+        nominal.mass_matrix(q[k], out=mass)
+        out[k] = qdd[k] - psi - np.linalg.solve(mass, tau[k])
+    return out

@@ -1,0 +1,251 @@
+"""write_recording: entity layout, exact values and timeline, blueprint and geometry, atomic writes."""
+
+from __future__ import annotations
+
+import shutil
+import subprocess
+from pathlib import Path
+
+import mujoco
+import numpy as np
+import pyarrow as pa
+import pytest
+import rerun as rr
+from rerun.chunk import RrdReader
+
+from ftc_mj.recording import SERIES, write_recording
+from ftc_mj.results import VariantResult
+
+N, NJ, STRIDE = 500, 2, 10
+VARIANTS = ("nftsmc_sosmo", "nftsmc_tosmo")
+
+# Two links on hinges, with one geom of every drawable kind plus a floor plane (skipped) and a hidden geom.
+MJCF = """
+<mujoco>
+  <asset><mesh name="tet" vertex="0 0 0  0.1 0 0  0 0.1 0  0 0 0.1"/></asset>
+  <worldbody>
+    <geom name="floor" type="plane" size="1 1 0.1"/>
+    <geom name="base" type="box" size="0.1 0.1 0.05" rgba="0.2 0.2 0.2 1"/>
+    <body name="link1" pos="0 0 0.1">
+      <joint name="j1" type="hinge" axis="0 0 1"/>
+      <geom name="upper" type="capsule" fromto="0 0 0 0.5 0 0" size="0.04" rgba="0.8 0.3 0.3 1"/>
+      <geom name="hub" type="cylinder" size="0.05 0.05"/>
+      <geom name="hidden" type="sphere" size="0.05" group="3"/>
+      <body name="link2" pos="0.5 0 0">
+        <joint name="j2" type="hinge" axis="0 1 0"/>
+        <geom name="lower" type="capsule" fromto="0 0 0 0.4 0 0" size="0.03"/>
+        <geom name="elbow" type="sphere" size="0.045"/>
+        <geom name="tool" type="ellipsoid" pos="0.4 0 0" size="0.03 0.02 0.01"/>
+        <geom name="tag" type="mesh" mesh="tet" pos="0.2 0 0"/>
+      </body>
+    </body>
+  </worldbody>
+</mujoco>
+"""
+
+
+@pytest.fixture(scope="module")
+def model() -> mujoco.MjModel:
+    return mujoco.MjModel.from_xml_string(MJCF)
+
+
+def make_result(model: mujoco.MjModel, name: str, k: int) -> VariantResult:
+    """Known signals (sin/cos of t, scaled by the variant number k) and body poses from forward kinematics."""
+    t = 1.0 + np.arange(N) * 1e-3  # 1.025 s etc. would truncate to ...999 ns: checks the ns rounding too
+    phase = np.arange(1, NJ + 1)
+    s, c = np.sin(np.outer(t, phase) + k), np.cos(np.outer(t, phase) + k)
+    q_ref = 0.5 * s
+    data = mujoco.MjData(model)
+    xpos, xquat = np.empty((N, model.nbody, 3)), np.empty((N, model.nbody, 4))
+    for i in range(N):
+        data.qpos[:] = q_ref[i]
+        mujoco.mj_kinematics(model, data)
+        xpos[i], xquat[i] = data.xpos, data.xquat
+    luaf_hat = (k + 1) * c * np.pi / 3  # values with full mantissas, for a bit-exact comparison
+    fault = np.where(t[:, None] >= 1.25, 2.0 + 0 * s, 0.0)
+    return VariantResult(
+        name=name, observer=f"obs{k}", controller="nftsmc", t=t,
+        q_ref=q_ref, qd_ref=0.5 * c * phase, qdd_ref=-0.5 * s * phase**2,
+        q_meas=q_ref + 1e-3 * k, q_true=q_ref + 2e-3, qd_true=0.5 * c * phase, qdd_true=-0.5 * s * phase**2,
+        qd_hat=0.5 * c * phase + 1e-2, luaf_hat=luaf_hat, luaf_true=(k + 1) * c,
+        tau=10 * s, sliding=0.1 * c, fault=fault, fault_active=t >= 1.25,
+        body_xpos=xpos, body_xquat=xquat,
+        extras={"gain": np.full((N, NJ), 3.0 + k)},
+    )
+
+
+@pytest.fixture(scope="module")
+def results(model: mujoco.MjModel) -> list[VariantResult]:
+    return [make_result(model, name, k) for k, name in enumerate(VARIANTS)]
+
+
+@pytest.fixture(scope="module")
+def rrd(tmp_path_factory: pytest.TempPathFactory, model: mujoco.MjModel, results: list[VariantResult]) -> Path:
+    path = tmp_path_factory.mktemp("rec") / "sub" / "demo.rrd"  # parent directory does not exist yet
+    write_recording(path, scenario="demo", model=model, results=results, fault_onsets=[1.25], seed=7,
+                    pose_stride=STRIDE)
+    return path
+
+
+@pytest.fixture(scope="module")
+def chunks(rrd: Path) -> list:
+    return RrdReader(rrd).stream().to_chunks()
+
+
+def column(chunks: list, entity: str, component: str = "Scalars:scalars") -> tuple[np.ndarray, list]:
+    """Timeline (int ns) and values of the temporal chunks of ``entity``, in time order."""
+    batches = [c.to_record_batch() for c in chunks if c.entity_path == entity and not c.is_static]
+    assert batches, f"no temporal data at {entity}"
+    table = pa.Table.from_batches(batches, schema=batches[0].schema).sort_by("sim_time")
+    times = table.column("sim_time").to_numpy().astype("timedelta64[ns]").astype(np.int64)
+    return times, table.column(component).to_pylist()
+
+
+def static_entities(chunks: list) -> set[str]:
+    return {c.entity_path for c in chunks if c.is_static}
+
+
+def no_temp_files(directory: Path) -> bool:
+    return not any(".tmp-" in p.name for p in directory.iterdir())
+
+
+def test_file_written_atomically(rrd: Path) -> None:
+    assert rrd.is_file() and rrd.stat().st_size > 0
+    assert no_temp_files(rrd.parent)
+
+
+def test_entities_per_variant(chunks: list) -> None:
+    temporal = {c.entity_path for c in chunks if not c.is_static}
+    for variant in VARIANTS:
+        for prefix, _, _ in SERIES:
+            assert f"/{prefix}/{variant}" in temporal
+        assert f"/extras/gain/{variant}" in temporal
+    assert "/events" in temporal
+    assert "/info" in static_entities(chunks)
+
+
+@pytest.mark.parametrize("prefix", [p for p, _, _ in SERIES])
+def test_series_rows_and_timeline(chunks: list, results: list[VariantResult], prefix: str) -> None:
+    for result in results:
+        times, values = column(chunks, f"/{prefix}/{result.name}")
+        assert len(times) == N
+        assert np.array_equal(times, np.round(result.t * 1e9).astype(np.int64))
+        width = 1 if prefix == "fault_active" else NJ  # fault_active is (N,) here: one line per variant
+        assert all(len(v) == width for v in values)
+
+
+def test_estimate_bit_exact(chunks: list, results: list[VariantResult]) -> None:
+    for result in results:
+        _, values = column(chunks, f"/luaf/estimate/{result.name}")
+        got = np.array(values, dtype=np.float64)
+        assert got.shape == (N, NJ)
+        assert np.array_equal(got.view(np.uint64), result.luaf_hat.view(np.uint64))
+        _, active = column(chunks, f"/fault_active/{result.name}")
+        assert np.array_equal(np.array(active)[:, 0], result.fault_active.astype(float))
+
+
+def test_line_names(chunks: list) -> None:
+    batch = next(c.to_record_batch() for c in chunks if c.entity_path == f"/q/{VARIANTS[0]}" and c.is_static)
+    assert batch.column("SeriesLines:names").to_pylist()[0] == [f"{VARIANTS[0]} joint{i + 1}" for i in range(NJ)]
+
+
+def test_events_and_info(chunks: list) -> None:
+    times, texts = column(chunks, "/events", "TextLog:text")
+    assert list(times) == [1_250_000_000] and "fault onset" in texts[0][0]
+    info = next(c.to_record_batch() for c in chunks if c.entity_path == "/info")
+    text = info.column("TextDocument:text").to_pylist()[0][0]
+    assert "demo" in text and "7" in text and all(v in text for v in VARIANTS)
+
+
+def test_blueprint_geometry_and_poses(rrd: Path, chunks: list, model: mujoco.MjModel,
+                                      results: list[VariantResult]) -> None:
+    assert RrdReader(rrd).blueprints(), "no blueprint stored"
+    geoms = {p.rsplit("/", 1)[-1] for p in static_entities(chunks) if "/geoms/" in p}
+    assert geoms == {"base", "upper", "hub", "lower", "elbow", "tool", "tag"}  # no plane, no group-3 geom
+    assert "/world/link1/geoms/upper" in static_entities(chunks)
+    rows = np.append(np.arange(0, N, STRIDE), N - 1)
+    for b, body in ((1, "link1"), (2, "link2")):
+        times, translation = column(chunks, f"/world/{body}", "Transform3D:translation")
+        assert np.array_equal(times, np.round(results[0].t[rows] * 1e9).astype(np.int64))
+        # Rerun stores transforms as float32.
+        got = np.array(translation, dtype=np.float32).reshape(-1, 3)
+        assert np.array_equal(got, results[0].body_xpos[rows, b].astype(np.float32))
+        _, quat = column(chunks, f"/world/{body}", "Transform3D:quaternion")
+        got = np.array(quat, dtype=np.float32).reshape(-1, 4)
+        assert np.array_equal(got, results[0].body_xquat[rows, b][:, [1, 2, 3, 0]].astype(np.float32))
+    assert not any(c.entity_path.startswith("/world/world") and not c.is_static for c in chunks)
+
+
+def test_capsule_is_centred_like_mujoco(chunks: list, model: mujoco.MjModel) -> None:
+    g = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_GEOM, "upper")
+    half = model.geom_size[g][1]
+    batch = next(c.to_record_batch() for c in chunks
+                 if c.entity_path == "/world/link1/geoms/upper" and "Capsules3D:translations" in c.to_record_batch().schema.names)
+    assert np.allclose(batch.column("Capsules3D:translations").to_pylist()[0][0], [0, 0, -half])
+    assert np.isclose(batch.column("Capsules3D:lengths").to_pylist()[0][0], 2 * half)
+
+
+def test_rerun_cli_verifies(rrd: Path) -> None:
+    exe = shutil.which("rerun")
+    if exe is None:
+        pytest.skip("rerun CLI not on PATH")
+    run = subprocess.run([exe, "rrd", "verify", str(rrd)], capture_output=True, text=True, timeout=120)
+    assert run.returncode == 0, run.stdout + run.stderr
+
+
+def test_non_finite_and_diverged_variant(tmp_path: Path, model: mujoco.MjModel, results: list[VariantResult]) -> None:
+    bad = results[1].truncated(123)
+    bad.luaf_hat = bad.luaf_hat.copy()
+    bad.luaf_hat[5] = [np.nan, np.inf]
+    bad.body_xpos = np.zeros((0, 0, 3))
+    bad.status, bad.diverged_at = "diverged", float(bad.t[-1])
+    path = tmp_path / "nan.rrd"
+    write_recording(path, scenario="nan", model=model, results=[bad], seed=None)
+    chunks = RrdReader(path).stream().to_chunks()
+    times, values = column(chunks, f"/luaf/estimate/{bad.name}")
+    assert len(times) == 123
+    assert np.array_equal(np.array(values, dtype=np.float64), bad.luaf_hat, equal_nan=True)
+    assert not any(c.entity_path.startswith("/world") for c in chunks)  # no variant has poses: no 3-D
+    _, texts = column(chunks, "/events", "TextLog:text")
+    assert "diverged" in texts[0][0]
+
+
+def test_separate_calls_do_not_mix(tmp_path: Path, model: mujoco.MjModel, results: list[VariantResult]) -> None:
+    for result in results:
+        write_recording(tmp_path / f"{result.name}.rrd", scenario="one", model=model, results=[result])
+    for result, other in zip(results, results[::-1]):
+        entities = {c.entity_path for c in RrdReader(tmp_path / f"{result.name}.rrd").stream().to_chunks()}
+        assert f"/q/{result.name}" in entities and f"/q/{other.name}" not in entities
+
+
+def test_shape_mismatch_leaves_nothing(tmp_path: Path, model: mujoco.MjModel, results: list[VariantResult]) -> None:
+    broken = results[0].truncated(N)
+    broken.tau = broken.tau[:-1]
+    path = tmp_path / "broken.rrd"
+    with pytest.raises(ValueError, match="tau"):
+        write_recording(path, scenario="broken", model=model, results=[results[1], broken])
+    assert not path.exists() and no_temp_files(tmp_path)
+
+
+def test_failure_midway_keeps_previous_file(tmp_path: Path, model: mujoco.MjModel, results: list[VariantResult],
+                                           monkeypatch: pytest.MonkeyPatch) -> None:
+    path = tmp_path / "keep.rrd"
+    write_recording(path, scenario="first", model=model, results=results[:1])
+    before = path.read_bytes()
+    calls = {"n": 0}
+    original = rr.RecordingStream.send_columns
+
+    def failing(self, *args, **kwargs):  # noqa: ANN001, ANN202
+        calls["n"] += 1
+        if calls["n"] == 5:
+            raise RuntimeError("disk on fire")
+        return original(self, *args, **kwargs)
+
+    monkeypatch.setattr(rr.RecordingStream, "send_columns", failing)
+    with pytest.raises(RuntimeError, match="disk on fire"):
+        write_recording(path, scenario="second", model=model, results=results)
+    with pytest.raises(RuntimeError, match="disk on fire"):
+        calls["n"] = 0
+        write_recording(tmp_path / "fresh.rrd", scenario="second", model=model, results=results)
+    assert path.read_bytes() == before
+    assert not (tmp_path / "fresh.rrd").exists() and no_temp_files(tmp_path)
