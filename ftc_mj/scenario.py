@@ -254,6 +254,7 @@ def load_scenario(
         raise InputError(file, where, f"invalid YAML: {problem}") from None
     if not isinstance(raw, dict):
         raise InputError(file, "", "a scenario must be a YAML mapping")
+    raw = _unshared(raw)
     for item in overrides:
         _apply_override(raw, item, file)
     if duration is not None:
@@ -268,6 +269,16 @@ def load_scenario(
             raise InputError(file, "variants", f"unknown variant {unknown[0]!r} (known: {', '.join(spec.variants)})")
         spec.variants = {name: spec.variants[name] for name in variants}
     return _compile(path, spec)
+
+
+def _unshared(node: Any) -> Any:
+    """A copy in which no two places share an object: YAML aliases (``*name``) load as one shared dict, and an
+    override of one variant must not change the others."""
+    if isinstance(node, dict):
+        return {key: _unshared(value) for key, value in node.items()}
+    if isinstance(node, list):
+        return [_unshared(value) for value in node]
+    return node
 
 
 def _apply_override(raw: dict, item: str, file: str) -> None:

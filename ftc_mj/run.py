@@ -1,0 +1,155 @@
+"""Run a scenario: ``python -m ftc_mj.run SCENARIO [options]``.
+
+Runs every controller-observer variant of the scenario, prints their metrics, and writes a Rerun recording
+(and optionally a JSON file of the metrics). Exit status: 0 on success, 1 if a variant diverged, 2 on bad
+input (one line on stderr naming the file, the field and the problem; nothing is written).
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import math
+import os
+import sys
+from collections.abc import Sequence
+from pathlib import Path
+
+import numpy as np
+from rich.console import Console
+from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn
+from rich.table import Table
+
+from ftc_mj.errors import InputError
+from ftc_mj.metrics import METRICS, UNITS, compute_metrics
+from ftc_mj.results import VariantResult
+from ftc_mj.scenario import Scenario, load_scenario
+from ftc_mj.simulation import simulate_variant
+
+
+class _ArgumentParser(argparse.ArgumentParser):
+    def error(self, message: str) -> None:  # one line and exit 2, as for every other bad input
+        self.exit(2, f"{self.prog}: error: {message}\n")
+
+
+def build_parser() -> argparse.ArgumentParser:
+    parser = _ArgumentParser(prog="python -m ftc_mj.run", description=__doc__.split("\n\n")[1])
+    parser.add_argument("scenario", type=Path, help="scenario YAML file")
+    parser.add_argument("--out", type=Path, help="recording path (default: the scenario's output)")
+    parser.add_argument("--variant", nargs="+", default=[], metavar="NAME", help="run only these variants")
+    parser.add_argument("--duration", type=float, metavar="S", help="override the scenario's duration [s]")
+    parser.add_argument("--set", action="append", default=[], metavar="KEY=VALUE", dest="overrides",
+                        help="override a scenario field, e.g. variants.proposed.controller.gains.mu=1.0")
+    parser.add_argument("--json", type=Path, metavar="PATH", help="write the metrics as JSON")
+    parser.add_argument("--no-record", action="store_true", help="do not write a Rerun recording")
+    parser.add_argument("--quiet", action="store_true", help="no progress display and no table")
+    return parser
+
+
+def run_scenario(scenario: Scenario, console: Console | None = None) -> list[VariantResult]:
+    """Simulate every variant (the first one with body poses for the 3-D view), with a progress display."""
+    steps = int(round(scenario.spec.duration / scenario.spec.control_dt))
+    results = []
+    with Progress(
+        TextColumn("{task.description:<16}"), BarColumn(), MofNCompleteColumn(), TimeElapsedColumn(),
+        console=console, disable=console is None, transient=False,
+    ) as progress:
+        for index, variant in enumerate(scenario.variants):
+            task = progress.add_task(variant.name, total=steps)
+            result = simulate_variant(
+                scenario, variant, record_poses=index == 0,
+                progress=lambda advance, task=task: progress.advance(task, advance),
+            )
+            if result.status != "ok":
+                progress.update(task, description=f"{variant.name} (diverged)")
+            results.append(result)
+    return results
+
+
+def metrics_table(scenario: Scenario, results: Sequence[VariantResult], metrics: dict[str, dict]) -> Table:
+    """Metric rows, variant columns, one value per joint in each cell."""
+    table = Table(title=f"{scenario.name}: metrics, one line per joint", show_lines=True)
+    table.add_column("metric", no_wrap=True)
+    table.add_column("unit", no_wrap=True)
+    for result in results:
+        status = "" if result.status == "ok" else f"\n[red]diverged at {result.diverged_at:.3f} s[/red]"
+        table.add_column(f"{result.name}{status}", justify="right")
+    for metric in METRICS:
+        cells = ["\n".join(_format(v) for v in metrics[r.name][metric]) for r in results]
+        table.add_row(metric, UNITS[metric], *cells)
+    return table
+
+
+def _format(value: float) -> str:
+    return "-" if not math.isfinite(value) else f"{value:.3g}"
+
+
+def metrics_document(scenario: Scenario, results: Sequence[VariantResult], metrics: dict[str, dict]) -> dict:
+    """The ``--json`` document; NaN (undefined) values become null."""
+    def clean(values: np.ndarray) -> list[float | None]:
+        return [float(v) if math.isfinite(v) else None for v in values]
+
+    return {
+        "scenario": scenario.name,
+        "seed": scenario.spec.seed,
+        "variants": {
+            r.name: {
+                "status": r.status,
+                "diverged_at": r.diverged_at,
+                "metrics": {name: clean(values) for name, values in metrics[r.name].items()},
+            }
+            for r in results
+        },
+    }
+
+
+def _write_json_atomically(path: Path, document: dict) -> None:
+    path.parent.mkdir(parents=True, exist_ok=True)
+    temporary = path.with_name(f"{path.name}.tmp-{os.getpid()}")
+    try:
+        temporary.write_text(json.dumps(document, indent=2) + "\n", encoding="utf-8")
+        os.replace(temporary, path)
+    finally:
+        temporary.unlink(missing_ok=True)
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    args = build_parser().parse_args(argv)
+    try:
+        scenario = load_scenario(args.scenario, overrides=args.overrides, duration=args.duration, variants=args.variant)
+        recording_path = args.out or scenario.output_path
+        for label, target in (("--out", None if args.no_record else recording_path), ("--json", args.json)):
+            if target is not None and target.is_dir():
+                raise InputError(str(args.scenario), label, f"{str(target)!r} is a directory")
+    except InputError as error:
+        print(f"error: {error}", file=sys.stderr)
+        return 2
+
+    console = None if args.quiet else Console(stderr=True)
+    results = run_scenario(scenario, console)
+    onsets = scenario.fault_onsets
+    metrics = {r.name: compute_metrics(r, scenario.spec.metrics, onsets) for r in results}
+    if not args.quiet:
+        # Wide enough for four variant columns even when the output is piped (rich then assumes 80).
+        table_console = Console()
+        table_console.width = max(table_console.width, 120)
+        table_console.print(metrics_table(scenario, results, metrics))
+
+    try:
+        if args.json is not None:
+            _write_json_atomically(args.json, metrics_document(scenario, results, metrics))
+        if not args.no_record:
+            from ftc_mj.recording import write_recording  # rerun is heavy to import; only when recording
+
+            write_recording(recording_path, scenario=scenario.name, model=scenario.model, results=results,
+                            fault_onsets=onsets, seed=scenario.spec.seed)
+            if not args.quiet:
+                print(f"recording: {recording_path}  (open with: rerun {recording_path})", file=sys.stderr)
+    except OSError as error:
+        print(f"error: cannot write {error.filename}: {error.strerror}", file=sys.stderr)
+        return 2
+    return 1 if any(r.status != "ok" for r in results) else 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
