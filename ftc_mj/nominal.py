@@ -48,6 +48,15 @@ class NominalModel:
         """G(q)."""
         return self.bias(q, self._zeros)
 
+    def lumped(self, q: np.ndarray, qd: np.ndarray, qdd: np.ndarray, tau: np.ndarray) -> np.ndarray:
+        """qdd - (Psi(q, qd) + M(q)^-1 tau) = qdd + M^-1 (C qd + G - tau): the lumped uncertainty (5.2)
+        that explains an observed acceleration, in this model's terms."""
+        self._set_state(q, qd)
+        rhs = (self.data.qfrc_bias - tau).reshape(1, -1)
+        solution = np.empty_like(rhs)
+        mujoco.mj_solveM(self.model, self.data, solution, rhs)
+        return qdd + solution[0]
+
     def psi(self, q: np.ndarray, qd: np.ndarray, out: np.ndarray | None = None) -> np.ndarray:
         """Psi(q, qd) = -M(q)^-1 (C(q, qd) qd + G(q)), eq. (5.2)."""
         out = np.empty(self.n) if out is None else out

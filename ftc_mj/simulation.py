@@ -133,6 +133,8 @@ def simulate_variant(
                     series["fault"][k] = plant.fault
                     fault_active[k] = plant.fault_active
                 mujoco.mj_step2(model, data)
+                if data.warning[_BAD_ACCELERATION].number:  # MuJoCo reset the state instead of failing
+                    raise Diverged
                 if substep == 0:
                     series["qdd_true"][k] = data.qacc
                     observer.advance(tau, step_model)
@@ -165,6 +167,7 @@ def simulate_variant(
     return result.truncated(done) if status != "ok" else result
 
 
+_BAD_ACCELERATION = int(mujoco.mjtWarning.mjWARN_BADQACC)
 _SERIES = ("q_meas", "q_true", "qd_true", "qdd_true", "qd_hat", "luaf_hat", "tau", "sliding", "fault")
 
 
@@ -179,8 +182,8 @@ def _record(series: dict[str, np.ndarray], k: int, q_meas, data, observer, contr
 
 
 def _check_state(qpos: np.ndarray, qvel: np.ndarray, max_position: float, max_velocity: float) -> None:
-    # abs().max() is NaN-propagating, so one comparison also catches NaN and inf.
-    if not (np.abs(qpos).max() <= max_position and np.abs(qvel).max() <= max_velocity):
+    # max() propagates NaN, so the comparison also catches NaN and inf.
+    if not (max(qpos.max(), -qpos.min()) <= max_position and max(qvel.max(), -qvel.min()) <= max_velocity):
         raise Diverged
 
 
@@ -189,10 +192,6 @@ def true_lumped_uncertainty(
 ) -> np.ndarray:
     """qdd - (Psi(q, qd) + M(q)^-1 tau) in the nominal model's terms, eq. (5.2), row by row."""
     out = np.empty_like(qdd)
-    psi = np.empty(nominal.n)
-    mass = np.empty((nominal.n, nominal.n))
     for k in range(len(qdd)):
-        nominal.psi(q[k], qd[k], out=psi)
-        nominal.mass_matrix(q[k], out=mass)
-        out[k] = qdd[k] - psi - np.linalg.solve(mass, tau[k])
+        out[k] = nominal.lumped(q[k], qd[k], qdd[k], tau[k])
     return out

@@ -1,0 +1,68 @@
+"""Cost of one closed-loop control step against a bare ``mj_step`` loop of the same model, in one process.
+
+    python benchmarks/step_cost.py [--scenario scenarios/puma_fault.yaml] [--variant proposed] [--duration 10]
+
+The closed loop is the scenario's variant with recording on: body poses kept for the 3-D view, ground truth
+computed, metrics evaluated, and the Rerun file written (to a temporary directory). The bare loop is
+``mujoco.mj_step`` on the same model with nothing else, as many steps. Prints microseconds per control step of
+each and their ratio.
+"""
+
+from __future__ import annotations
+
+import argparse
+import tempfile
+import time
+from pathlib import Path
+
+import mujoco
+
+from ftc_mj.metrics import compute_metrics
+from ftc_mj.recording import write_recording
+from ftc_mj.scenario import load_scenario
+from ftc_mj.simulation import simulate_variant
+
+ROOT = Path(__file__).resolve().parents[1]
+
+
+def bare_loop_seconds(model: mujoco.MjModel, steps: int) -> float:
+    data = mujoco.MjData(model)
+    start = time.perf_counter()
+    for _ in range(steps):
+        mujoco.mj_step(model, data)
+    return time.perf_counter() - start
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    parser.add_argument("--scenario", type=Path, default=ROOT / "scenarios" / "puma_fault.yaml")
+    parser.add_argument("--variant", default="proposed")
+    parser.add_argument("--duration", type=float, default=10.0)
+    args = parser.parse_args()
+
+    scenario = load_scenario(args.scenario, duration=args.duration, variants=[args.variant])
+    steps = int(round(args.duration / scenario.spec.control_dt))
+    physics_steps = steps * scenario.substeps
+
+    bare = min(bare_loop_seconds(scenario.model, physics_steps) for _ in range(3))
+
+    start = time.perf_counter()
+    result = simulate_variant(scenario, scenario.variants[0], record_poses=True)
+    loop_done = time.perf_counter()
+    compute_metrics(result, scenario.spec.metrics, scenario.fault_onsets)
+    with tempfile.TemporaryDirectory() as folder:
+        write_recording(Path(folder) / "bench.rrd", scenario=scenario.name, model=scenario.model,
+                        results=[result], fault_onsets=scenario.fault_onsets, seed=scenario.spec.seed)
+    end = time.perf_counter()
+
+    per_step = lambda seconds: seconds / steps * 1e6  # noqa: E731
+    print(f"scenario {scenario.name}, variant {args.variant}, {steps} control steps "
+          f"({scenario.substeps} physics step(s) each)")
+    print(f"bare mj_step loop:           {per_step(bare):8.2f} us per control step")
+    print(f"closed loop (sim only):      {per_step(loop_done - start):8.2f} us per control step")
+    print(f"closed loop (with record):   {per_step(end - start):8.2f} us per control step")
+    print(f"ratio closed loop / bare:    {(end - start) / bare:8.1f}")
+
+
+if __name__ == "__main__":
+    main()
