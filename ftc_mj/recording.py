@@ -114,6 +114,26 @@ def write_recording(
         raise
 
 
+def read_series(path: Path, entity: str, component: str = "Scalars:scalars") -> tuple[np.ndarray, np.ndarray]:
+    """Read one time series back from a recording: times [s] and values ``(N, k)``, in time order.
+
+    For analysis scripts and tests; e.g. ``read_series(path, "/luaf/estimate/proposed")``.
+    """
+    import pyarrow as pa
+    from rerun.chunk import RrdReader
+
+    batches = [
+        chunk.to_record_batch()
+        for chunk in RrdReader(path).stream().to_chunks()
+        if chunk.entity_path == entity and not chunk.is_static
+    ]
+    if not batches:
+        raise KeyError(f"no time series at {entity} in {path}")
+    table = pa.Table.from_batches(batches, schema=batches[0].schema).sort_by("sim_time")
+    nanoseconds = table.column("sim_time").to_numpy().astype("timedelta64[ns]").astype(np.int64)
+    return nanoseconds * 1e-9, np.array(table.column(component).to_pylist(), dtype=float)
+
+
 def _ep(*parts: str) -> str:
     """Entity path from raw parts (variant, body and geom names may hold '/', spaces, '+')."""
     return "/" + "/".join(rr.escape_entity_path_part(p) for p in parts)
