@@ -7,9 +7,12 @@ Per control period k (time t_k, zero-order hold on the command):
 2. the position sensors are read; the nominal model is evaluated once (M at the measurement, Psi at the
    estimate); the observer takes the measurement; the controller computes tau; tau goes to ``ctrl``;
 3. friction, disturbance and fault terms are evaluated on the *true* state and their sum is written to
-   ``qfrc_applied`` (acceleration-space terms through the true M(q)); this happens at every physics step, which
-   is the control period itself when ``timestep == control_dt`` (the default);
-4. ``mj_step2`` integrates; the observer integrates over the period with the command it applied.
+   ``qfrc_applied`` (acceleration-space terms through the true M(q)), held like the command over the period;
+4. ``mj_step2`` integrates, ``control_dt / timestep`` physics steps per period; the observer integrates over
+   the period with the command it applied.
+
+Holding the plant terms over the period instead of re-evaluating them at every physics step changes the
+Chapter 5 metrics by less than 0.5% (measured at timestep 0.25 ms), and keeps substeps cheap.
 
 Ground truth (q, qd, qdd, the fault signal) is copied from the simulation beside every estimate; the true
 lumped uncertainty qdd - (Psi(q, qd) + M(q)^-1 tau), in the nominal model's terms, is computed after the run.
@@ -128,8 +131,8 @@ def simulate_variant(
                     if record_poses:
                         body_xpos[k] = data.xpos
                         body_xquat[k] = data.xquat
-                plant.apply(model, data)
-                if substep == 0:
+                    # Held over the period's physics substeps, like the command (qfrc_applied persists).
+                    plant.apply(model, data)
                     series["fault"][k] = plant.fault
                     fault_active[k] = plant.fault_active
                 mujoco.mj_step2(model, data)
