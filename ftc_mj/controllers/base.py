@@ -14,31 +14,26 @@ never MjData. The math runs over arrays whose last axis is the joint.
 
 from __future__ import annotations
 
-from abc import ABC, abstractmethod
-from typing import ClassVar, Literal
+from abc import abstractmethod
+from typing import Literal
 
 import numpy as np
 
 from ftc_mj.gains import GainConfig
 from ftc_mj.nominal import StepModel
 from ftc_mj.observers.base import Observer
+from ftc_mj.plugin import Method
 
 #: What a law takes from the observer: the whole velocity-equation injection (Chapters 3-5), only the LUaF
 #: estimate (Appendix-D-type comparators), or nothing (the switching gain covers the whole LUaF).
 Compensation = Literal["injection", "estimate", "none"]
 
 
-class Controller(ABC):
+class Controller(Method):
     """Computes the joint torque command once per control period."""
 
-    name: ClassVar[str]
-    Config: ClassVar[type[GainConfig]]
-    requires: ClassVar[frozenset[str]] = frozenset({"position"})
-
     def __init__(self, config: GainConfig, n_joints: int, dt: float):
-        self.config = config
-        self.n = n_joints
-        self.dt = dt
+        super().__init__(config, n_joints, dt)
         #: The sliding variable, recorded beside the torque.
         self.sliding = np.zeros(n_joints)
         self.tau = np.zeros(n_joints)

@@ -15,13 +15,13 @@ All method math is written over arrays whose last axis is the joint, so it also 
 
 from __future__ import annotations
 
-from abc import ABC, abstractmethod
-from typing import ClassVar
+from abc import abstractmethod
 
 import numpy as np
 
 from ftc_mj.gains import GainConfig
 from ftc_mj.nominal import StepModel
+from ftc_mj.plugin import Method
 
 
 def signed_power(x: np.ndarray, exponent: float) -> np.ndarray:
@@ -29,7 +29,7 @@ def signed_power(x: np.ndarray, exponent: float) -> np.ndarray:
     return np.abs(x) ** exponent * np.sign(x)
 
 
-class Observer(ABC):
+class Observer(Method):
     """Estimates joint velocity and the lumped uncertainty and fault (LUaF) from positions.
 
     Attributes after :meth:`update`:
@@ -39,15 +39,8 @@ class Observer(ABC):
             correction terms); Chapter 3-5 controllers compensate this, Appendix-D-type ones ``luaf_hat``.
     """
 
-    name: ClassVar[str]
-    Config: ClassVar[type[GainConfig]]
-    #: Sensors the method needs, checked when a scenario loads.
-    requires: ClassVar[frozenset[str]] = frozenset({"position"})
-
     def __init__(self, config: GainConfig, n_joints: int, dt: float):
-        self.config = config
-        self.n = n_joints
-        self.dt = dt
+        super().__init__(config, n_joints, dt)
         self.q_hat = np.zeros(n_joints)
         self.qd_hat = np.zeros(n_joints)
         self.luaf_hat = np.zeros(n_joints)
