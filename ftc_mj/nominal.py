@@ -89,7 +89,10 @@ class StepModel:
         self.nominal.mass_matrix(q_meas, out=self.M)
 
     def solve_M(self, vector: np.ndarray) -> np.ndarray:
-        """M(x1)^-1 vector, with MuJoCo's sparse factorisation (no explicit inverse)."""
+        """M(x1)^-1 vector, with MuJoCo's sparse factorisation (no explicit inverse).
+
+        Returns a view of an internal buffer (no allocation in the per-step loop): valid until the next call.
+        """
         self._rhs[0] = vector
         mujoco.mj_solveM(self.nominal.model, self.nominal.data, self._sol, self._rhs)
         return self._sol[0]

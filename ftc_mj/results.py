@@ -22,13 +22,14 @@ class VariantResult:
         t: sample times [s].
         q_ref, qd_ref, qdd_ref: reference position, velocity, acceleration.
         q_meas: position measured by the sensors (what the controller saw).
-        q_true, qd_true, qdd_true: true joint state and acceleration (qdd over the following control period).
+        q_true, qd_true, qdd_true: true joint state and its acceleration at the sample instant.
         qd_hat: observer's velocity estimate.
         luaf_hat: observer's lumped-uncertainty-and-fault estimate, in acceleration units (rad/s^2).
         luaf_true: true lumped uncertainty qdd - (Psi(q, qd) + M(q)^-1 tau), nominal Psi and M.
         tau: commanded torque [N m].
         sliding: the controller's sliding variable.
-        fault: the injected fault signal (sum of fault terms, in the space each was declared in).
+        fault: the injected fault signal: the sum of the fault terms, each in the space it was declared in
+            (rad/s^2 for acceleration-space faults, N m for torque-space ones; mixing both mixes units).
         fault_active: whether any fault term is on.
         body_xpos, body_xquat: world pose of every body (MuJoCo order, quaternion wxyz); may be empty.
         status: "ok" or "diverged".

@@ -17,6 +17,7 @@ for t >= Tf (abrupt, i.e. a step, when ``rate`` is absent) and is zero before.
 
 from __future__ import annotations
 
+from collections.abc import Mapping
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Annotated, Any, Literal
@@ -29,7 +30,7 @@ from pydantic import BaseModel, ConfigDict, Field, ValidationError, field_valida
 from ftc_mj import expressions
 from ftc_mj.errors import InputError
 from ftc_mj.gains import GainConfig
-from ftc_mj.registry import controller_types, observer_types
+from ftc_mj.registry import PluginError, controller_types, observer_types
 
 PositiveFloat = Annotated[float, Field(gt=0, allow_inf_nan=False)]
 NonNegativeFloat = Annotated[float, Field(ge=0, allow_inf_nan=False)]
@@ -439,10 +440,13 @@ def _parse(text: ExpressionText, variables: list[str], file: str, field: str):
         raise InputError(file, field, str(exc)) from None
 
 
-def _plugin(file: str, field: str, method: MethodSpec, known: dict[str, type], kind: str, n: int):
-    plugin = known.get(method.type)
-    if plugin is None:
+def _plugin(file: str, field: str, method: MethodSpec, known: Mapping[str, type], kind: str, n: int):
+    if method.type not in known:
         raise InputError(file, f"{field}.type", f"unknown {kind} {method.type!r} (known: {', '.join(sorted(known))})")
+    try:
+        plugin = known[method.type]
+    except PluginError as exc:
+        raise InputError(file, f"{field}.type", str(exc)) from None
     try:
         config = plugin.Config.model_validate(method.gains, context={"n_joints": n})
     except ValidationError as exc:

@@ -45,9 +45,11 @@ class PlantTerms:
         self._mapped = np.zeros(n_joints)
         self._has_acceleration = any(term.space == "acceleration" for term in terms)
 
-    def apply(self, model: mujoco.MjModel, data: mujoco.MjData) -> None:
-        """Write the sum of all terms at the current true state to ``data.qfrc_applied``.
+    def apply(self, model: mujoco.MjModel, data: mujoco.MjData, t: float) -> None:
+        """Write the sum of all terms at time ``t`` and the current true state to ``data.qfrc_applied``.
 
+        ``t`` is the loop's k * control_dt: MuJoCo's ``data.time`` accumulates rounding (after 40000 steps
+        of 0.25 ms it is 9.99999999999937), which would start a fault due at 10 s one period late.
         Needs M(q) of the current state, i.e. call after ``mj_step1``.
         """
         self.torque[:] = 0.0
@@ -55,7 +57,7 @@ class PlantTerms:
         self.fault[:] = 0.0
         self.fault_active = False
         if self.terms:
-            t, q, qd = data.time, data.qpos.tolist(), data.qvel.tolist()
+            q, qd = data.qpos.tolist(), data.qvel.tolist()
             for term in self.terms:
                 weight = term.profile(t)
                 if weight is None:
@@ -132,7 +134,7 @@ def simulate_variant(
                         body_xpos[k] = data.xpos
                         body_xquat[k] = data.xquat
                     # Held over the period's physics substeps, like the command (qfrc_applied persists).
-                    plant.apply(model, data)
+                    plant.apply(model, data, t)
                     series["fault"][k] = plant.fault
                     fault_active[k] = plant.fault_active
                 mujoco.mj_step2(model, data)

@@ -89,6 +89,6 @@ class SlidingModeController(Controller):
         surface_terms = self.surface(e, e_dot)
         u_eq = model.psi_hat + surface_terms - qdd_ref
         u = u_eq + self.observer_compensation(observer) + self.switching()
-        np.matmul(model.M, u, out=self.tau)
+        np.matmul(u, model.M.T, out=self.tau)  # M u, row-wise so that u may be (batch, n)
         np.negative(self.tau, out=self.tau)
         return self.tau

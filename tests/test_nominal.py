@@ -1,0 +1,161 @@
+"""The controller's nominal model (``NominalModel``) and the per-period quantities (``StepModel``) on the PUMA560.
+
+The reference values are computed independently, each on a fresh MjData with ``mj_forward`` and ``mj_fullM``:
+M(q), and C(q, qd) qd + G(q) = qfrc_bias. The check values of shared/reference/puma560.md give Psi at the
+check states to 4 decimals.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import mujoco
+import numpy as np
+import pytest
+
+from ftc_mj.nominal import NominalModel, StepModel
+
+PUMA = Path(__file__).resolve().parents[1] / "models" / "puma560.xml"
+CHECK_QD = np.array([0.4, -0.3, 0.9])
+
+# shared/reference/puma560.md: q, M(q) rows, G(q), C(q, qd) qd for qd = (0.4, -0.3, 0.9).
+CHECK_VALUES = [
+    (
+        (0.0, 0.0, 0.0),
+        [(3.96863, -0.16266, -0.13891), (-0.16266, 4.45662, 0.37274), (-0.13891, 0.37274, 0.93865)],
+        (0.0, 37.48367, 0.24893),
+        (-0.25258, -0.03952, 0.09834),
+    ),
+    (
+        (-0.5, -0.5, -0.5),
+        [(4.40134, 0.2383, -0.07185), (0.2383, 4.82417, 0.55651), (-0.07185, 0.55651, 0.93865)],
+        (0.0, 40.68362, 7.51605),
+        (-0.44862, -0.17222, 0.08047),
+    ),
+    (
+        (0.3, -1.1, 0.7),
+        [(2.88224, 0.47804, -0.12647), (0.47804, 3.95398, 0.12141), (-0.12647, 0.12141, 0.93865)],
+        (0.0, 21.44761, 3.64533),
+        (-0.37678, -0.16373, 0.07229),
+    ),
+]
+
+
+def load() -> mujoco.MjModel:
+    return mujoco.MjModel.from_xml_path(str(PUMA))
+
+
+@pytest.fixture(scope="module")
+def model() -> mujoco.MjModel:
+    return load()
+
+
+def reference_dynamics(m: mujoco.MjModel, q, qd) -> tuple[np.ndarray, np.ndarray]:
+    """(M(q), C(q, qd) qd + G(q)) on a fresh MjData."""
+    d = mujoco.MjData(m)
+    d.qpos[:] = q
+    d.qvel[:] = qd
+    mujoco.mj_forward(m, d)
+    M = np.zeros((m.nv, m.nv))
+    mujoco.mj_fullM(m, d, M)
+    return M, d.qfrc_bias.copy()
+
+
+def random_states(count: int, seed: int = 0):
+    rng = np.random.default_rng(seed)
+    return [(rng.uniform(-np.pi, np.pi, 3), rng.uniform(-2.0, 2.0, 3)) for _ in range(count)]
+
+
+def test_psi_equals_minus_M_inverse_bias(model):
+    nominal = NominalModel(model)
+    for q, qd in random_states(10) + [(np.array(row[0]), CHECK_QD) for row in CHECK_VALUES]:
+        M, bias = reference_dynamics(model, q, qd)
+        np.testing.assert_allclose(nominal.psi(q, qd), -np.linalg.solve(M, bias), rtol=0, atol=1e-10)
+        np.testing.assert_allclose(nominal.mass_matrix(q), M, rtol=0, atol=1e-10)
+        np.testing.assert_allclose(nominal.bias(q, qd), bias, rtol=0, atol=1e-10)
+        np.testing.assert_allclose(nominal.gravity(q), reference_dynamics(model, q, np.zeros(3))[1], atol=1e-10)
+
+
+def test_psi_writes_into_out(model):
+    nominal = NominalModel(model)
+    q, qd = random_states(1, seed=3)[0]
+    out = np.full(3, np.nan)
+    assert nominal.psi(q, qd, out=out) is out
+    np.testing.assert_allclose(out, nominal.psi(q, qd), rtol=0, atol=0)
+
+
+@pytest.mark.parametrize("q, M_rows, G, Cqd", CHECK_VALUES)
+def test_psi_matches_the_reference_check_values(model, q, M_rows, G, Cqd):
+    """Psi from the toolbox's check values (rounded to 5 decimals) agrees to 4 decimals.
+
+    Measured max deviation: 1.9e-5, 1.2e-5, 1.5e-5 at the three check states."""
+    expected = -np.linalg.solve(np.array(M_rows), np.array(G) + np.array(Cqd))
+    np.testing.assert_allclose(NominalModel(model).psi(np.array(q), CHECK_QD), expected, rtol=0, atol=5e-5)
+
+
+def test_mass_scale_doubles_M_armature_included_and_G(model):
+    nominal, doubled = NominalModel(model), NominalModel(model, mass_scale=2.0)
+    np.testing.assert_array_equal(doubled.model.dof_armature, 2.0 * model.dof_armature)
+    assert np.all(model.dof_armature > 0)  # so the check above is not vacuous
+    for q, qd in random_states(5, seed=1):
+        np.testing.assert_allclose(doubled.mass_matrix(q), 2.0 * nominal.mass_matrix(q), rtol=1e-12, atol=1e-12)
+        np.testing.assert_allclose(doubled.gravity(q), 2.0 * nominal.gravity(q), rtol=1e-12, atol=1e-10)
+        np.testing.assert_allclose(doubled.bias(q, qd), 2.0 * nominal.bias(q, qd), rtol=1e-12, atol=1e-10)
+        # Psi = -M^-1 (C qd + G) is invariant under a uniform mass scale.
+        np.testing.assert_allclose(doubled.psi(q, qd), nominal.psi(q, qd), rtol=0, atol=1e-10)
+
+
+def test_nominal_never_modifies_the_callers_model():
+    m = load()
+    fields = ("body_mass", "body_inertia", "dof_armature", "body_ipos", "qpos0", "opt.gravity")
+
+    def snapshot():
+        out = {}
+        for field in fields:
+            obj = m
+            for part in field.split("."):
+                obj = getattr(obj, part)
+            out[field] = np.array(obj, copy=True)
+        return out
+
+    before = snapshot()
+    nominal = NominalModel(m, mass_scale=2.0)
+    step = StepModel(nominal)
+    for q, qd in random_states(3, seed=2):
+        nominal.psi(q, qd)
+        nominal.mass_matrix(q)
+        step.update(q, q + 0.1, qd)
+        step.solve_M(qd)
+    assert nominal.model is not m
+    after = snapshot()
+    for field in fields:
+        np.testing.assert_array_equal(after[field], before[field], err_msg=field)
+    # And the copy is private in the other direction too: changing the caller's model changes nothing.
+    q, qd = random_states(1, seed=5)[0]
+    psi_before = nominal.psi(q, qd).copy()
+    m.body_mass[:] *= 3.0
+    np.testing.assert_array_equal(nominal.psi(q, qd), psi_before)
+
+
+def test_step_model_solves_with_M_at_the_measured_position(model):
+    """psi_hat is evaluated at (q_hat, qd_hat) but M and solve_M must be those of q_meas."""
+    step = StepModel(NominalModel(model))
+    rng = np.random.default_rng(4)
+    for _ in range(5):
+        q_meas, q_hat = rng.uniform(-np.pi, np.pi, 3), rng.uniform(-np.pi, np.pi, 3)
+        qd_hat = rng.uniform(-2.0, 2.0, 3)
+        step.update(q_meas, q_hat, qd_hat)
+        M_meas, _ = reference_dynamics(model, q_meas, np.zeros(3))
+        M_hat, bias_hat = reference_dynamics(model, q_hat, qd_hat)
+        assert np.abs(M_meas - M_hat).max() > 1e-2  # the two states really differ
+        np.testing.assert_allclose(step.M, M_meas, rtol=0, atol=1e-10)
+        np.testing.assert_allclose(step.psi_hat, -np.linalg.solve(M_hat, bias_hat), rtol=0, atol=1e-10)
+        for v in rng.normal(size=(3, 3)):
+            np.testing.assert_allclose(step.solve_M(v), np.linalg.solve(M_meas, v), rtol=0, atol=1e-10)
+
+
+def test_step_model_update_is_in_place(model):
+    step = StepModel(NominalModel(model))
+    M, psi_hat = step.M, step.psi_hat
+    step.update(np.zeros(3), np.zeros(3), CHECK_QD)
+    assert step.M is M and step.psi_hat is psi_hat
