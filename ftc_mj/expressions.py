@@ -91,9 +91,26 @@ def parse(source: str | int | float, variables: Sequence[str]) -> sp.Expr:
         raise ExpressionError(f"syntax error in {source!r}: {exc.msg}") from None
     allowed = {name: symbol(name) for name in variables}
     expr = _convert(tree.body, allowed, depth=0)
-    if any(not math.isfinite(float(number)) for number in expr.atoms(sp.Number)):
+    if any(number.is_finite and not math.isfinite(float(number)) for number in expr.atoms(sp.Float)):
         raise ExpressionError(f"a number in {source!r} is outside the double-precision range")
+    if expr.has(sp.zoo, sp.oo, -sp.oo, sp.nan, sp.I):
+        raise ExpressionError(f"{source!r} is infinite, undefined or complex")
     return expr
+
+
+def _number_power(base: float, exponent: float) -> sp.Expr:
+    """A constant power, computed in doubles: SymPy would try huge exact powers (9**9**9**9 never returns)."""
+    try:
+        value = base**exponent
+    except OverflowError:
+        raise ExpressionError(f"{base!r}**{exponent!r} is outside the double-precision range") from None
+    except ZeroDivisionError:
+        raise ExpressionError(f"{base!r}**{exponent!r} divides by zero") from None
+    if isinstance(value, complex):
+        raise ExpressionError(f"{base!r}**{exponent!r} is not a real number")
+    if not math.isfinite(value):
+        raise ExpressionError(f"{base!r}**{exponent!r} is outside the double-precision range")
+    return sp.Float(value)
 
 
 def _convert(node: ast.AST, allowed: dict[str, sp.Symbol], depth: int) -> sp.Expr:
@@ -104,6 +121,8 @@ def _convert(node: ast.AST, allowed: dict[str, sp.Symbol], depth: int) -> sp.Exp
         value = node.value
         if isinstance(value, bool) or not isinstance(value, (int, float)):
             raise ExpressionError(f"constant {value!r} is not a real number")
+        if not math.isfinite(value):
+            raise ExpressionError(f"number {ast.unparse(node)!r} is outside the double-precision range")
         # Floats keep SymPy from building huge exact integers (e.g. 9**9**9).
         return sp.Float(value)
     if isinstance(node, ast.Name):
@@ -118,7 +137,12 @@ def _convert(node: ast.AST, allowed: dict[str, sp.Symbol], depth: int) -> sp.Exp
     if isinstance(node, ast.BinOp) and type(node.op) in _BINARY:
         left = _convert(node.left, allowed, depth)
         right = _convert(node.right, allowed, depth)
-        return _BINARY[type(node.op)](left, right)
+        if isinstance(node.op, ast.Pow) and left.is_Number and right.is_Number:
+            return _number_power(float(left), float(right))
+        try:
+            return _BINARY[type(node.op)](left, right)
+        except (ZeroDivisionError, OverflowError, ValueError, TypeError) as exc:
+            raise ExpressionError(f"cannot compute {ast.unparse(node)!r}: {exc}") from None
     if isinstance(node, ast.UnaryOp) and isinstance(node.op, (ast.USub, ast.UAdd)):
         operand = _convert(node.operand, allowed, depth)
         return -operand if isinstance(node.op, ast.USub) else operand

@@ -25,7 +25,7 @@ from typing import Annotated, Any, Literal
 import mujoco
 import numpy as np
 import yaml
-from pydantic import BaseModel, ConfigDict, Field, ValidationError, field_validator
+from pydantic import BaseModel, ConfigDict, Field, StrictFloat, StrictInt, StrictStr, ValidationError, field_validator
 
 from ftc_mj import expressions
 from ftc_mj.errors import InputError
@@ -35,7 +35,8 @@ from ftc_mj.registry import PluginError, controller_types, observer_types
 PositiveFloat = Annotated[float, Field(gt=0, allow_inf_nan=False)]
 NonNegativeFloat = Annotated[float, Field(ge=0, allow_inf_nan=False)]
 FiniteFloat = Annotated[float, Field(allow_inf_nan=False)]
-ExpressionText = str | float | int
+# Strict: a YAML boolean must not pass as the number 1.
+ExpressionText = StrictStr | StrictInt | StrictFloat
 
 REPO_ROOT = Path(__file__).resolve().parents[1]
 
@@ -214,6 +215,8 @@ class _UniqueKeyLoader(yaml.SafeLoader):
 def _construct_mapping(loader: yaml.SafeLoader, node: yaml.MappingNode, deep: bool = False) -> dict:
     seen = set()
     for key_node, _ in node.value:
+        if key_node.tag == "tag:yaml.org,2002:merge":  # "<<: *anchor": merged keys may be overridden
+            continue
         key = loader.construct_object(key_node, deep=deep)
         if key in seen:
             raise yaml.constructor.ConstructorError(
@@ -245,7 +248,8 @@ def load_scenario(
     try:
         text = path.read_text(encoding="utf-8")
     except (OSError, UnicodeDecodeError) as exc:
-        raise InputError(file, "", f"cannot read the file: {exc.strerror or exc}") from None
+        reason = "not UTF-8 text" if isinstance(exc, UnicodeDecodeError) else exc.strerror or str(exc)
+        raise InputError(file, "", f"cannot read the file: {reason}") from None
     try:
         raw = yaml.load(text, Loader=_UniqueKeyLoader)  # noqa: S506 - a SafeLoader subclass
     except yaml.YAMLError as exc:
@@ -311,18 +315,32 @@ def _apply_override(raw: dict, item: str, file: str) -> None:
             node = node[index]
 
 
+def _is_union_tag(part: Any) -> bool:
+    """pydantic puts the union member it tried into an error's location ('constrained-float',
+    'list[constrained-float]', 'str', 'function-after[...]'); those are not fields a user can write."""
+    return isinstance(part, str) and ("[" in part or "-" in part or part in {"str", "int", "float", "bool", "list"})
+
+
 def _input_error(file: str, prefix: str, exc: ValidationError) -> InputError:
-    errors = exc.errors()
-    first = errors[0]
-    loc = ".".join(str(part) for part in first["loc"])
+    # Group the errors by the value they concern (the location up to the first union tag): a value that fits
+    # no member of a union gives one error per member, and counts as one problem.
+    groups: dict[tuple, list[dict]] = {}
+    for error in exc.errors():
+        loc = error["loc"]
+        cut = next((i for i, part in enumerate(loc) if _is_union_tag(part)), len(loc))
+        groups.setdefault(tuple(loc[:cut]), []).append(error)
+    first_group = next(iter(groups.values()))
+    # The member error that got furthest into the value (e.g. a bad list element) says the most.
+    best = max(first_group, key=lambda error: len(error["loc"]))
+    loc = ".".join(str(part) for part in best["loc"] if not _is_union_tag(part))
     field = ".".join(p for p in (prefix, loc) if p)
-    message = first["msg"].removeprefix("Value error, ")
-    if first["type"] == "extra_forbidden":
+    message = best["msg"].removeprefix("Value error, ")
+    if best["type"] == "extra_forbidden":
         message = "unknown key"
-    elif first["type"] == "missing":
+    elif best["type"] == "missing":
         message = "required field is missing"
-    if len(errors) > 1:
-        message += f" (and {len(errors) - 1} more problem{'s' if len(errors) > 2 else ''})"
+    if len(groups) > 1:
+        message += f" (and {len(groups) - 1} more problem{'s' if len(groups) > 2 else ''})"
     return InputError(file, field, message)
 
 
@@ -404,6 +422,7 @@ def _compile(path: Path, spec: ScenarioSpec) -> Scenario:
             if missing:
                 raise InputError(file, f"{field}.{kind}.type", f"{plugin.name} needs {', '.join(sorted(missing))} sensors, robot.sensors has {sorted(sensors)}")
         initial = variant.observer_initial or spec.observer_initial
+        initial_field = f"{field}.observer_initial" if variant.observer_initial else "observer_initial"
         variants.append(
             Variant(
                 name=name,
@@ -411,8 +430,8 @@ def _compile(path: Path, spec: ScenarioSpec) -> Scenario:
                 observer_config=observer_config,
                 controller_type=controller_type,
                 controller_config=controller_config,
-                q_hat0=vector(initial.q_hat, f"{field}.observer_initial.q_hat", default=None),
-                qd_hat0=vector(initial.qd_hat, f"{field}.observer_initial.qd_hat"),
+                q_hat0=vector(initial.q_hat, f"{initial_field}.q_hat", default=None),
+                qd_hat0=vector(initial.qd_hat, f"{initial_field}.qd_hat"),
             )
         )
 
