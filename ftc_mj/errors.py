@@ -14,4 +14,9 @@ class InputError(Exception):
         self.field = field
         self.problem = problem
         location = f"{file}: {field}" if field else file
-        super().__init__(f"{location}: {problem}")
+        super().__init__(_one_line(f"{location}: {problem}"))
+
+
+def _one_line(text: str) -> str:
+    """Escape line breaks and other control characters (a YAML key may contain them)."""
+    return "".join(c if c.isprintable() else c.encode("unicode_escape").decode("ascii") for c in text)

@@ -113,14 +113,27 @@ def _write_json_atomically(path: Path, document: dict) -> None:
         temporary.unlink(missing_ok=True)
 
 
+def _check_writable(file: str, option: str, target: Path) -> None:
+    """Refuse, before running, an output path that cannot become a file: a directory, or below a file."""
+    if target.is_dir():
+        raise InputError(file, option, f"{str(target)!r} is a directory")
+    for parent in target.parents:
+        if parent.exists():
+            if not parent.is_dir():
+                raise InputError(file, option, f"{str(parent)!r} is not a directory")
+            if not os.access(parent, os.W_OK):
+                raise InputError(file, option, f"{str(parent)!r} is not writable")
+            return
+
+
 def main(argv: Sequence[str] | None = None) -> int:
     args = build_parser().parse_args(argv)
     try:
         scenario = load_scenario(args.scenario, overrides=args.overrides, duration=args.duration, variants=args.variant)
         recording_path = args.out or scenario.output_path
         for label, target in (("--out", None if args.no_record else recording_path), ("--json", args.json)):
-            if target is not None and target.is_dir():
-                raise InputError(str(args.scenario), label, f"{str(target)!r} is a directory")
+            if target is not None:
+                _check_writable(str(args.scenario), label, target)
     except InputError as error:
         print(f"error: {error}", file=sys.stderr)
         return 2
@@ -135,19 +148,25 @@ def main(argv: Sequence[str] | None = None) -> int:
         table_console.width = max(table_console.width, 120)
         table_console.print(metrics_table(scenario, results, metrics))
 
+    # Recording first, JSON second; if the JSON cannot be written, the new recording goes too (exit 2 writes
+    # nothing). Both are written to a temporary file and renamed, so neither is ever left half-written.
+    written: list[Path] = []
     try:
-        if args.json is not None:
-            _write_json_atomically(args.json, metrics_document(scenario, results, metrics))
         if not args.no_record:
             from ftc_mj.recording import write_recording  # rerun is heavy to import; only when recording
 
             write_recording(recording_path, scenario=scenario.name, model=scenario.model, results=results,
                             fault_onsets=onsets, seed=scenario.spec.seed)
-            if not args.quiet:
-                print(f"recording: {recording_path}  (open with: rerun {recording_path})", file=sys.stderr)
+            written.append(recording_path)
+        if args.json is not None:
+            _write_json_atomically(args.json, metrics_document(scenario, results, metrics))
     except OSError as error:
+        for path in written:
+            path.unlink(missing_ok=True)
         print(f"error: cannot write {error.filename}: {error.strerror}", file=sys.stderr)
         return 2
+    if written and not args.quiet:
+        print(f"recording: {recording_path}  (open with: rerun {recording_path})", file=sys.stderr)
     return 1 if any(r.status != "ok" for r in results) else 0
 
 

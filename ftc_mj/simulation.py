@@ -143,7 +143,7 @@ def simulate_variant(
                 if substep == 0:
                     series["qdd_true"][k] = data.qacc
                     observer.advance(tau, step_model)
-        except (Diverged, FloatingPointError):
+        except (Diverged, ArithmeticError, ValueError):  # ValueError: e.g. a term's sqrt of a negative number
             status, diverged_at, done = "diverged", float(t), k
             break
         if progress is not None and (k + 1) % PROGRESS_EVERY == 0:

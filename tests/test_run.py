@@ -9,7 +9,7 @@
 Every subprocess takes about a second (imports), so all of them start together in one module fixture and
 the tests only look at the results.
 
-Tests named ``test_BUG_*`` document bugs found while writing this file; they fail until the bug is fixed.
+``test_regression_*`` pin bugs found while writing this file, now fixed.
 """
 
 from __future__ import annotations
@@ -386,28 +386,25 @@ def run_bug_case(name: str, tmp_path: Path, monkeypatch, capsys) -> Outcome:
         pytest.fail(f"BUG: ftc_mj.run.main raised {type(exc).__name__}: {exc}")
 
 
-def test_BUG_runtime_math_error_in_a_term_is_not_a_traceback(tmp_path, monkeypatch, capsys):
-    """BUG (ftc_mj/simulation.py, simulate_variant catches only Diverged and FloatingPointError): a term
-    evaluated with the ``math`` module outside its domain (sqrt(q1) at q1 = -0.5; likewise 1/(q1 + 0.5),
-    log(q1), exp(1000*qd1)) raises ValueError/ZeroDivisionError/OverflowError and the run ends in a traceback.
-    Expected: the variant is reported as diverged (exit 1) or the input is rejected (exit 2, one line)."""
+def test_regression_runtime_math_error_in_a_term_is_not_a_traceback(tmp_path, monkeypatch, capsys):
+    """Was a bug (ftc_mj/simulation.py): a term evaluated with the ``math`` module outside its domain
+    (sqrt(q1) at q1 = -0.5; likewise 1/(q1 + 0.5), log(q1), exp(1000*qd1)) ended the run in a traceback.
+    Now that variant is reported as diverged (exit 1)."""
     outcome = run_bug_case("runtime_domain_error", tmp_path, monkeypatch, capsys)
-    assert outcome.returncode in (1, 2)
+    assert outcome.returncode == 1
 
 
-def test_BUG_division_by_zero_in_an_expression_is_an_input_error(tmp_path, monkeypatch, capsys):
-    """BUG (ftc_mj/expressions.py, parse): "1/0" raises ZeroDivisionError from SymPy, which is not turned
-    into an InputError: the command line prints a traceback instead of one line."""
+def test_regression_division_by_zero_in_an_expression_is_an_input_error(tmp_path, monkeypatch, capsys):
+    """Was a bug (ftc_mj/expressions.py, parse): "1/0" raised ZeroDivisionError from SymPy, which was not
+    turned into an InputError: the command line printed a traceback instead of one line."""
     outcome = run_bug_case("division_by_zero_in_reference", tmp_path, monkeypatch, capsys)
     check_bad_input(BUGS["division_by_zero_in_reference"], outcome)
 
 
-def test_BUG_failed_recording_leaves_no_json(tmp_path, monkeypatch, capsys):
-    """BUG (ftc_mj/run.py, main): when the recording cannot be written (here --out a_file/rec.rrd with a_file a
-    regular file) the exit status is 2 but out.json has already been written; the module docstring promises
-    that nothing is written on exit 2. The message, "cannot write a_file: File exists", does not name --out
-    either."""
+def test_regression_failed_recording_leaves_no_json(tmp_path, monkeypatch, capsys):
+    """Was a bug (ftc_mj/run.py, main): with --out a_file/rec.rrd (a_file a regular file) the exit status was
+    2 but out.json had been written. Now the output paths are checked before the run, naming --out."""
     outcome = run_bug_case("recording_fails_after_json", tmp_path, monkeypatch, capsys)
     assert outcome.returncode == 2, outcome.stderr
-    assert len(outcome.lines) == 1
+    assert len(outcome.lines) == 1 and "--out" in outcome.lines[0]
     assert outcome.after == outcome.before, "exit status 2 but files were written"

@@ -4,7 +4,7 @@ Remark 5.3 gains, and invalid files, each rejected with an InputError naming the
 Invalid files are written to tmp_path from the reference scenario (scenarios/puma_fault.yaml) with one
 mutation each and ``robot.model`` made absolute so that it resolves from tmp_path.
 
-Tests named ``test_BUG_*`` document bugs found while writing this file; they fail until the bug is fixed.
+Tests named ``test_regression_*`` pin bugs found while writing this file (fixed in commit b37582f).
 """
 
 from __future__ import annotations
@@ -602,23 +602,22 @@ def test_expression_errors_do_not_leak_as_expression_error(tmp_path):
     assert not isinstance(info.value, ExpressionError)
 
 
-# ---------------------------------------------------------------------------- BUGs in ftc_mj/scenario.py
+# ------------------------------------------------------------------------------------ regressions
 
 
-def test_BUG_non_utf8_file_is_an_input_error(tmp_path):
-    """BUG (ftc_mj/scenario.py, load_scenario, the ``except (OSError, UnicodeDecodeError)`` branch):
-    ``exc.strerror`` does not exist on UnicodeDecodeError, so a Latin-1 file raises AttributeError (traceback)
-    instead of InputError."""
+def test_regression_non_utf8_file_is_an_input_error(tmp_path):
+    """Was a bug (load_scenario, the ``except (OSError, UnicodeDecodeError)`` branch): ``exc.strerror`` does
+    not exist on UnicodeDecodeError, so a Latin-1 file raised AttributeError (a traceback)."""
     path = tmp_path / "latin1.yaml"
     path.write_bytes(yaml.safe_dump(base_dict()).encode("utf-8") + "# caf\xe9\n".encode("latin-1"))
     error = load_error(path)
     assert_names(error, path, "")
 
 
-def test_BUG_yaml_merge_keys_are_accepted(tmp_path):
-    """BUG (ftc_mj/scenario.py, _construct_mapping): the duplicate-key check constructs every key node,
-    including YAML merge keys (``<<: *anchor``), which SafeLoader only handles in flatten_mapping, so a valid
-    file is rejected with "could not determine a constructor for the tag 'tag:yaml.org,2002:merge'"."""
+def test_regression_yaml_merge_keys_are_accepted(tmp_path):
+    """Was a bug (_construct_mapping): the duplicate-key check constructed every key node, including YAML
+    merge keys (``<<: *anchor``), which SafeLoader only handles in flatten_mapping, so a valid file was
+    rejected with "could not determine a constructor for the tag 'tag:yaml.org,2002:merge'"."""
     # Build the file from data so the merge key sits inside 'variants' whatever the file's layout.
     data = base_dict()
     variants = data.pop("variants")
@@ -637,9 +636,9 @@ def _indent(text: str, spaces: int) -> str:
     return "".join(" " * spaces + line + "\n" for line in text.splitlines())
 
 
-def test_BUG_boolean_expression_value_is_rejected(tmp_path):
-    """BUG (ftc_mj/scenario.py, ``ExpressionText = str | float | int``): pydantic coerces a YAML boolean to
-    1, so ``value: [true, ...]`` loads although expressions.parse explicitly rejects booleans."""
+def test_regression_boolean_expression_value_is_rejected(tmp_path):
+    """Was a bug (``ExpressionText = str | float | int``): pydantic coerced a YAML boolean to 1, so
+    ``value: [true, ...]`` loaded although expressions.parse explicitly rejects booleans."""
     path = write(tmp_path, mutate(base_dict(), "terms.1.value.0", True))
     error = load_error(path)
     assert error.field == "terms.1.value.0"
@@ -663,9 +662,9 @@ def test_non_positive_per_joint_values_are_rejected(tmp_path, field, value):
 
 
 @pytest.mark.parametrize(("field", "value"), UNION_FIELDS)
-def test_BUG_union_gain_error_names_the_plain_field(tmp_path, field, value):
-    """BUG (ftc_mj/scenario.py, _input_error): for values typed ``float | list[float]`` (per-joint gains,
-    rate) pydantic's union member tag leaks into the field path and the same problem is counted twice:
+def test_regression_union_gain_error_names_the_plain_field(tmp_path, field, value):
+    """Was a bug (_input_error): for values typed ``float | list[float]`` (per-joint gains, rate) pydantic's
+    union member tag leaked into the field path and the same problem was counted twice:
     "variants.nftsmc.controller.gains.beta2.constrained-float: Input should be greater than 0 (and 1 more
     problem)". That field is not a path the user can write (e.g. with --set)."""
     path = write(tmp_path, mutate(base_dict(), field, value))
@@ -674,9 +673,8 @@ def test_BUG_union_gain_error_names_the_plain_field(tmp_path, field, value):
     assert "more problem" not in error.problem
 
 
-def test_BUG_top_level_observer_initial_error_names_its_own_field(tmp_path):
-    """BUG (ftc_mj/scenario.py, _compile, ``q_hat0=vector(initial.q_hat, f"{field}.observer_initial.q_hat")``):
-    a wrong-length top-level ``observer_initial.qd_hat`` is reported as
+def test_regression_top_level_observer_initial_error_names_its_own_field(tmp_path):
+    """Was a bug (_compile): a wrong-length top-level ``observer_initial.qd_hat`` was reported as
     "variants.proposed.observer_initial.qd_hat", a field that does not exist in the file."""
     path = write(tmp_path, mutate(base_dict(), "observer_initial.qd_hat", [0.5, 0.5]))
     error = load_error(path)
