@@ -18,65 +18,11 @@ import numpy as np
 import pytest
 from pydantic import ValidationError
 
+from double_integrator import DT, FAST, SLOW, FakeStepModel, simulate
+
 from ftc_mj.observers import SOSMO, TOSMO
 
-DT = 1e-3
-MASS = 2.0
 L_BOUND = 10.0  # k2 = 11 > max |d| = 3
-
-
-class FakeStepModel:
-    """What the observers read from a StepModel: ``M``, ``psi_hat`` and ``solve_M``."""
-
-    def __init__(self, M, psi_hat=None):
-        self.M = np.asarray(M, dtype=float)
-        self.psi_hat = np.zeros(len(self.M)) if psi_hat is None else np.asarray(psi_hat, dtype=float)
-
-    def solve_M(self, v):
-        return np.linalg.solve(self.M, np.asarray(v, dtype=float))
-
-
-class Sinusoid:
-    """d(t) = amp sin(w t) + offset with its first and second integrals from 0."""
-
-    def __init__(self, amp: float, w: float, offset: float):
-        self.amp, self.w, self.offset = amp, w, offset
-
-    def __call__(self, t):
-        return self.amp * np.sin(self.w * t) + self.offset
-
-    def int1(self, t):
-        return self.amp * (1.0 - np.cos(self.w * t)) / self.w + self.offset * t
-
-    def int2(self, t):
-        return self.amp * (t - np.sin(self.w * t) / self.w) / self.w + 0.5 * self.offset * t * t
-
-
-SLOW = Sinusoid(2.0, 1.0, 1.0)
-FAST = Sinusoid(1.0, 10.0, 1.0)
-
-
-def simulate(observer, d: Sinusoid, *, T: float = 5.0, qd_error: float = 1.0) -> dict:
-    """Run the protocol on the exact double integrator; return time, d, velocity error and LUaF estimate."""
-    step = FakeStepModel(MASS * np.eye(1))
-    q, v = 0.3, -0.2
-    observer.reset(np.array([q]), np.array([v + qd_error]))
-    n = int(round(T / DT))
-    t_all = np.arange(n) * DT
-    vel_err = np.empty(n)
-    luaf = np.empty(n)
-    for k, t in enumerate(t_all):
-        observer.update(t, np.array([q]), step)
-        vel_err[k] = v - observer.qd_hat[0]
-        luaf[k] = observer.luaf_hat[0]
-        tau = MASS * 0.5 * np.sin(2.0 * t)  # known, non-zero
-        a, h = tau / MASS, DT
-        q, v = (
-            q + v * h + 0.5 * a * h * h + d.int2(t + h) - d.int2(t) - d.int1(t) * h,
-            v + a * h + d.int1(t + h) - d.int1(t),
-        )
-        observer.advance(np.array([tau]), step)
-    return {"t": t_all, "d": d(t_all), "vel_err": vel_err, "luaf": luaf}
 
 
 def sinusoid_fit(t, y, w):

@@ -15,12 +15,12 @@ import numpy as np
 import pytest
 from pydantic import ValidationError
 
+from double_integrator import DT, MASS, FakeStepModel, simulate
+
 from ftc_mj.nominal import NominalModel, StepModel
 from ftc_mj.observers import HighSpeedTOSMO, TOSMO
 from ftc_mj.observers.base import signed_power
 
-DT = 1e-3
-MASS = 2.0
 D_BOUND = 10.0
 GAMMA = 5.0  # the scenario's Gamma (scenarios/puma_fault.yaml)
 VEL_TOL = 0.02  # rad/s, the scenario's velocity_tolerance
@@ -41,62 +41,6 @@ HINGE_XML = """
 
 # --------------------------------------------------------------------------------------------------
 # plant and helpers
-
-
-class FakeStepModel:
-    """What the observers read from a StepModel: ``M``, ``psi_hat`` and ``solve_M``."""
-
-    def __init__(self, M: np.ndarray, psi_hat: np.ndarray | None = None):
-        self.M = np.asarray(M, dtype=float)
-        self.psi_hat = np.zeros(len(self.M)) if psi_hat is None else np.asarray(psi_hat, dtype=float)
-
-    def solve_M(self, v: np.ndarray) -> np.ndarray:
-        # Works on (n,) and on (batch, n).
-        return np.linalg.solve(self.M, np.asarray(v, dtype=float).T).T
-
-
-def d(t: float) -> float:
-    return 2.0 * np.sin(t) + 1.0
-
-
-def d_int1(t: float) -> float:
-    """Integral of d from 0 to t."""
-    return 2.0 * (1.0 - np.cos(t)) + t
-
-
-def d_int2(t: float) -> float:
-    """Double integral of d from 0 to t."""
-    return 2.0 * (t - np.sin(t)) + 0.5 * t * t
-
-
-def tau_of(t: float, mass: float) -> float:
-    """A known, non-zero applied torque, so that a wrong use of M^-1 u shows."""
-    return mass * 0.5 * np.sin(2.0 * t)
-
-
-def simulate(observer, step, *, mass: float = MASS, T: float = 6.0, qd_error: float = 1.0) -> dict:
-    """Run the protocol on the exact double integrator; return time, velocity and LUaF errors."""
-    q, v = 0.3, -0.2
-    observer.reset(np.array([q]), np.array([v + qd_error]))
-    n = int(round(T / DT))
-    t_all = np.arange(n) * DT
-    vel_err = np.empty(n)
-    luaf_err = np.empty(n)
-    for k, t in enumerate(t_all):
-        q_meas = np.array([q])
-        if hasattr(step, "update"):  # the real StepModel
-            step.update(q_meas, observer.q_hat, observer.qd_hat)
-        observer.update(t, q_meas, step)
-        vel_err[k] = v - observer.qd_hat[0]
-        luaf_err[k] = d(t) - observer.luaf_hat[0]
-        tau = tau_of(t, mass)
-        a, h = tau / mass, DT
-        q, v = (
-            q + v * h + 0.5 * a * h * h + d_int2(t + h) - d_int2(t) - d_int1(t) * h,
-            v + a * h + d_int1(t + h) - d_int1(t),
-        )
-        observer.advance(np.array([tau]), step)
-    return {"t": t_all, "vel_err": vel_err, "luaf_err": luaf_err}
 
 
 def settling_time(t: np.ndarray, err: np.ndarray, tol: float) -> float:
@@ -221,8 +165,8 @@ def test_reset_zeroes_luaf_and_injection():
 
 
 def test_gamma_zero_high_speed_equals_tosmo_exactly():
-    a = simulate(make(TOSMO, D=D_BOUND), fake_step(), T=2.0)
-    b = simulate(make(HighSpeedTOSMO, D=D_BOUND, gamma=0.0), fake_step(), T=2.0)
+    a = simulate(make(TOSMO, D=D_BOUND), step=fake_step(), T=2.0)
+    b = simulate(make(HighSpeedTOSMO, D=D_BOUND, gamma=0.0), step=fake_step(), T=2.0)
     np.testing.assert_array_equal(a["vel_err"], b["vel_err"])
     np.testing.assert_array_equal(a["luaf_err"], b["luaf_err"])
 
@@ -233,7 +177,7 @@ def test_gamma_zero_high_speed_equals_tosmo_exactly():
     ids=["tosmo", "hs_tosmo"],
 )
 def test_reaches_true_velocity_and_unknown_input(cls, gains):
-    run = simulate(make(cls, **gains), fake_step())
+    run = simulate(make(cls, **gains), step=fake_step(), T=6.0)
     after = run["t"] >= 2.0
     # Measured after 2 s: max |velocity error| 1.25e-3 rad/s (both); RMS LUaF error 0.0125 (TOSMO), 0.0126
     # (high-speed); max |LUaF error| 0.030 (both).
@@ -249,7 +193,7 @@ def test_converges_with_the_real_step_model():
     mass = nominal.mass_matrix(np.zeros(1))[0, 0]  # 2 kg at 1 m plus the sphere's own 8e-5 kg m^2
     assert mass == pytest.approx(2.00008, rel=1e-9)
     np.testing.assert_allclose(nominal.psi(np.array([0.4]), np.array([3.0])), 0.0, atol=1e-12)
-    run = simulate(make(HighSpeedTOSMO, D=D_BOUND, gamma=GAMMA), step, mass=mass)
+    run = simulate(make(HighSpeedTOSMO, D=D_BOUND, gamma=GAMMA), step=step, mass=mass, T=6.0)
     after = run["t"] >= 2.0
     # Measured: as with the fake model, 1.25e-3 rad/s and RMS 0.0126.
     assert np.abs(run["vel_err"][after]).max() < 3e-3
@@ -260,7 +204,7 @@ def test_high_speed_tosmo_converges_faster():
     """Same initial velocity error (1 rad/s): the linear terms of (5.6) shorten the settling time."""
     times = {}
     for gamma in (0.0, GAMMA, 20.0):
-        run = simulate(make(HighSpeedTOSMO, D=D_BOUND, gamma=gamma), fake_step(), T=2.0)
+        run = simulate(make(HighSpeedTOSMO, D=D_BOUND, gamma=gamma), step=fake_step(), T=2.0)
         times[gamma] = settling_time(run["t"], run["vel_err"], VEL_TOL)
     # Measured settling times to 0.02 rad/s: 0.967 s (Gamma = 0, the TOSMO), 0.505 s (Gamma = 5),
     # 0.241 s (Gamma = 20); the TOSMO / high-speed ratio at Gamma = 5 is 1.91.
