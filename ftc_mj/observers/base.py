@@ -26,7 +26,7 @@ from ftc_mj.plugin import Method
 
 def signed_power(x: np.ndarray, exponent: float) -> np.ndarray:
     """|x|^exponent sign(x), the building block of every sliding-mode term in the dissertation."""
-    return np.abs(x) ** exponent * np.sign(x)
+    return np.copysign(np.abs(x) ** exponent, x)  # sign(0) = 0 still: |0|^p = 0
 
 
 class Observer(Method):
