@@ -7,6 +7,8 @@ copy, which gives a controlled model mismatch.
 
 from __future__ import annotations
 
+import copy
+
 import mujoco
 import numpy as np
 
@@ -15,7 +17,7 @@ class NominalModel:
     """Rigid-body terms of a robot model, evaluated on a private MjData."""
 
     def __init__(self, model: mujoco.MjModel, mass_scale: float = 1.0):
-        self.model = _copy_model(model)
+        self.model = copy.deepcopy(model)
         if mass_scale != 1.0:
             self.model.body_mass[:] *= mass_scale
             self.model.body_inertia[:] *= mass_scale
@@ -23,6 +25,8 @@ class NominalModel:
         self.data = mujoco.MjData(self.model)
         self.n = self.model.nv
         self._zeros = np.zeros(self.n)
+        self._rhs = np.zeros((1, self.n))
+        self._solution = np.zeros((1, self.n))
 
     def _set_state(self, q: np.ndarray, qd: np.ndarray) -> None:
         self.data.qpos[:] = q
@@ -48,22 +52,24 @@ class NominalModel:
         """G(q)."""
         return self.bias(q, self._zeros)
 
+    def solve_M(self, vector: np.ndarray) -> np.ndarray:
+        """M(q)^-1 vector at the last position evaluated, with MuJoCo's factorisation from mj_fwdPosition
+        (no explicit inverse). Returns a view of an internal buffer, valid until the next call."""
+        self._rhs[0] = vector
+        mujoco.mj_solveM(self.model, self.data, self._solution, self._rhs)
+        return self._solution[0]
+
     def lumped(self, q: np.ndarray, qd: np.ndarray, qdd: np.ndarray, tau: np.ndarray) -> np.ndarray:
         """qdd - (Psi(q, qd) + M(q)^-1 tau) = qdd + M^-1 (C qd + G - tau): the lumped uncertainty (5.2)
         that explains an observed acceleration, in this model's terms."""
         self._set_state(q, qd)
-        rhs = (self.data.qfrc_bias - tau).reshape(1, -1)
-        solution = np.empty_like(rhs)
-        mujoco.mj_solveM(self.model, self.data, solution, rhs)
-        return qdd + solution[0]
+        return qdd + self.solve_M(self.data.qfrc_bias - tau)
 
     def psi(self, q: np.ndarray, qd: np.ndarray, out: np.ndarray | None = None) -> np.ndarray:
         """Psi(q, qd) = -M(q)^-1 (C(q, qd) qd + G(q)), eq. (5.2)."""
         out = np.empty(self.n) if out is None else out
         self._set_state(q, qd)
-        out[:] = -self.data.qfrc_bias
-        # Solve with MuJoCo's own factorisation of M computed by mj_fwdPosition.
-        mujoco.mj_solveM(self.model, self.data, out.reshape(1, -1), out.reshape(1, -1).copy())
+        np.negative(self.solve_M(self.data.qfrc_bias), out=out)
         return out
 
 
@@ -79,8 +85,6 @@ class StepModel:
         self.nominal = nominal
         self.M = np.eye(nominal.n)
         self.psi_hat = np.zeros(nominal.n)
-        self._rhs = np.zeros((1, nominal.n))
-        self._sol = np.zeros((1, nominal.n))
 
     def update(self, q_meas: np.ndarray, q_hat: np.ndarray, qd_hat: np.ndarray) -> None:
         """Refresh in place for this control period."""
@@ -93,12 +97,4 @@ class StepModel:
 
         Returns a view of an internal buffer (no allocation in the per-step loop): valid until the next call.
         """
-        self._rhs[0] = vector
-        mujoco.mj_solveM(self.nominal.model, self.nominal.data, self._sol, self._rhs)
-        return self._sol[0]
-
-
-def _copy_model(model: mujoco.MjModel) -> mujoco.MjModel:
-    import copy
-
-    return copy.deepcopy(model)
+        return self.nominal.solve_M(vector)
