@@ -49,7 +49,7 @@ def main() -> None:
     start = time.perf_counter()
     result = simulate_variant(scenario, scenario.variants[0], record_poses=True)
     loop_done = time.perf_counter()
-    compute_metrics(result, scenario.spec.metrics, scenario.fault_onsets)
+    compute_metrics(result, scenario.spec.metrics, scenario.fault_onsets, scenario.joint_fault_onsets)
     with tempfile.TemporaryDirectory() as folder:
         write_recording(Path(folder) / "bench.rrd", scenario=scenario.name, model=scenario.model,
                         results=[result], fault_onsets=scenario.fault_onsets, seed=scenario.spec.seed)

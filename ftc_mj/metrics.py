@@ -9,6 +9,13 @@
   window (from ``estimation_window_start``, without the settle intervals after fault onsets).
 * ``observer_convergence_time``: as ``convergence_time`` for the velocity estimation error with
   ``velocity_tolerance``.
+* ``reaching_time``: as ``convergence_time`` for the controller's sliding variable with ``sliding_tolerance``:
+  when the sliding motion is reached for good (Fig. 3.12, 4.11).
+* ``fault_peak_error``: per faulty joint, the largest |e| from the joint's first fault onset to the next fault
+  onset of the scenario (or the end); NaN on a healthy joint.
+* ``recovery_time``: per faulty joint, how long after its first fault onset |e| comes back within
+  ``tracking_tolerance`` for good (up to the next fault onset, or the end); NaN on a healthy joint or if it
+  never does.
 * ``rms_torque``: RMS of the commanded torque over the whole run [N m].
 * ``chattering``: total variation of the commanded torque per second over the evaluation window,
   sum |tau[k+1] - tau[k]| / window length [N m / s]. A smooth torque that follows the reference scores low;
@@ -33,6 +40,9 @@ METRICS: tuple[str, ...] = (
     "rms_velocity_error",
     "rms_luaf_error",
     "observer_convergence_time",
+    "reaching_time",
+    "fault_peak_error",
+    "recovery_time",
     "rms_torque",
     "chattering",
 )
@@ -47,6 +57,9 @@ UNITS: dict[str, str] = {
     "rms_velocity_error": "rad/s",
     "rms_luaf_error": "rad/s^2",
     "observer_convergence_time": "s",
+    "reaching_time": "s",
+    "fault_peak_error": "rad",
+    "recovery_time": "s",
     "rms_torque": "N m",
     "chattering": "N m/s",
 }
@@ -87,14 +100,49 @@ def _max_abs(x: np.ndarray, mask: np.ndarray) -> np.ndarray:
     return np.max(np.abs(x[mask]), axis=0)
 
 
-def compute_metrics(result: VariantResult, spec: MetricsSpec, fault_onsets: Sequence[float]) -> dict[str, np.ndarray]:
-    """All metrics of one variant, each an array with one value per joint."""
+def fault_response(
+    t: np.ndarray, error: np.ndarray, joint_onsets: np.ndarray, fault_onsets: Sequence[float], tolerance: float
+) -> tuple[np.ndarray, np.ndarray]:
+    """Per joint: (peak |error|, recovery time) from the joint's first fault onset to the next onset of any
+    fault (or the end); NaN for joints without a fault."""
+    n = error.shape[1]
+    peak, recovery = np.full(n, np.nan), np.full(n, np.nan)
+    for joint in range(n):
+        onset = joint_onsets[joint]
+        if not np.isfinite(onset):
+            continue
+        until = min((o for o in fault_onsets if o > onset), default=np.inf)
+        inside = (t >= onset) & (t < until)
+        if not inside.any():
+            continue
+        column = error[inside, joint : joint + 1]
+        peak[joint] = np.max(np.abs(column))
+        recovery[joint] = settling_time(t[inside], column, tolerance, until)[0] - onset
+    return peak, recovery
+
+
+def compute_metrics(
+    result: VariantResult,
+    spec: MetricsSpec,
+    fault_onsets: Sequence[float],
+    joint_onsets: np.ndarray | None = None,
+) -> dict[str, np.ndarray]:
+    """All metrics of one variant, each an array with one value per joint.
+
+    ``fault_onsets`` are all onsets of the scenario (they shape the windows); ``joint_onsets`` the first
+    onset per joint, NaN for healthy joints (:attr:`~ftc_mj.scenario.Scenario.joint_fault_onsets`); without
+    it every joint counts as faulty from the first onset.
+    """
     t = result.t
     everything = np.ones(t.shape, dtype=bool)
     window = evaluation_mask(t, spec.window_start, fault_onsets, spec.fault_settle)
     estimation = evaluation_mask(t, spec.estimation_window_start, fault_onsets, spec.fault_settle)
     first_fault = min(fault_onsets, default=np.inf)
     error = result.tracking_error
+    n = error.shape[1]
+    if joint_onsets is None:
+        joint_onsets = np.full(n, first_fault if np.isfinite(first_fault) else np.nan)
+    fault_peak, recovery = fault_response(t, error, joint_onsets, fault_onsets, spec.tracking_tolerance)
 
     # Total variation inside the window: only differences between two consecutive samples that are both in it.
     pairs = window[1:] & window[:-1]
@@ -111,6 +159,9 @@ def compute_metrics(result: VariantResult, spec: MetricsSpec, fault_onsets: Sequ
         "rms_velocity_error": _rms(result.velocity_error, estimation),
         "rms_luaf_error": _rms(result.luaf_error, estimation),
         "observer_convergence_time": settling_time(t, result.velocity_error, spec.velocity_tolerance, first_fault),
+        "reaching_time": settling_time(t, result.sliding, spec.sliding_tolerance, first_fault),
+        "fault_peak_error": fault_peak,
+        "recovery_time": recovery,
         "rms_torque": _rms(result.tau, everything),
         "chattering": chattering,
     }

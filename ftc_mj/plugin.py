@@ -5,6 +5,8 @@ from __future__ import annotations
 from abc import ABC
 from typing import ClassVar
 
+import numpy as np
+
 from ftc_mj.gains import GainConfig
 
 
@@ -25,3 +27,6 @@ class Method(ABC):
         self.config = config
         self.n = n_joints
         self.dt = dt
+        #: Internal per-joint signals worth plotting (e.g. an adaptive gain, Fig. 2.8): name -> array that the
+        #: method updates in place. The runner records each one every period beside the estimates.
+        self.signals: dict[str, np.ndarray] = {}

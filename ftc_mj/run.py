@@ -141,7 +141,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     console = None if args.quiet else Console(stderr=True)
     results = run_scenario(scenario, console)
     onsets = scenario.fault_onsets
-    metrics = {r.name: compute_metrics(r, scenario.spec.metrics, onsets) for r in results}
+    metrics = {r.name: compute_metrics(r, scenario.spec.metrics, onsets, scenario.joint_fault_onsets) for r in results}
     if not args.quiet:
         # Wide enough for four variant columns even when the output is piped (rich then assumes 80).
         table_console = Console()

@@ -48,8 +48,9 @@ class _Strict(BaseModel):
 class RobotSpec(_Strict):
     #: MJCF file, relative to the scenario file.
     model: str
-    #: Sensors the robot has; position sensing is always there.
-    sensors: list[Literal["position"]] = ["position"]
+    #: Sensors the controller may read: joint encoders always; tachometers only where the chapter assumes
+    #: them (Chapter 2). A method whose ``requires`` names a sensor not listed here is refused at load time.
+    sensors: list[Literal["position", "velocity"]] = ["position"]
 
 
 class InitialState(_Strict):
@@ -104,6 +105,8 @@ class MetricsSpec(_Strict):
     tracking_tolerance: PositiveFloat = 0.01
     #: |velocity error| tolerance of observer_convergence_time [rad/s].
     velocity_tolerance: PositiveFloat = 0.05
+    #: |sliding variable| tolerance of reaching_time (units of the surface, rad/s for every built-in law).
+    sliding_tolerance: PositiveFloat = 0.01
 
 
 class DivergenceSpec(_Strict):
@@ -151,6 +154,8 @@ class CompiledTerm:
     function: expressions.StateFunction
     onset: float | None
     rate: np.ndarray | None  # per joint; None = abrupt
+    #: Joints whose value is not identically zero (a fault "on joint 1" has zeros elsewhere).
+    joints: np.ndarray
 
     def profile(self, t: float) -> np.ndarray | float | None:
         """The time profile omega(t - Tf) per joint (5.1): None (off) before the onset, then
@@ -197,8 +202,23 @@ class Scenario:
         return self.spec.name
 
     @property
+    def measures_velocity(self) -> bool:
+        """Whether the controller side may read the tachometers."""
+        return "velocity" in self.spec.robot.sensors
+
+    @property
     def fault_onsets(self) -> list[float]:
         return sorted({term.onset for term in self.terms if term.kind == "fault" and term.onset is not None})
+
+    @property
+    def joint_fault_onsets(self) -> np.ndarray:
+        """Per joint, the earliest onset of a fault term acting on it; NaN for a healthy joint."""
+        onsets = np.full(self.n_joints, np.inf)
+        for term in self.terms:
+            if term.kind == "fault" and term.onset is not None:
+                onsets[term.joints] = np.minimum(onsets[term.joints], term.onset)
+        onsets[np.isinf(onsets)] = np.nan
+        return onsets
 
     @property
     def output_path(self) -> Path:
@@ -362,6 +382,8 @@ def _compile(path: Path, spec: ScenarioSpec) -> Scenario:
         raise InputError(file, "robot.model", f"needs one hinge/slide joint and one actuator per DOF (nq={model.nq}, nv={n}, nu={model.nu})")
     if position_sensor_addresses(model) is None:
         raise InputError(file, "robot.model", "needs one jointpos sensor per joint")
+    if "velocity" in spec.robot.sensors and velocity_sensor_addresses(model) is None:
+        raise InputError(file, "robot.sensors", "velocity sensing needs one jointvel sensor per joint in the model")
 
     timestep = spec.timestep if spec.timestep is not None else spec.control_dt
     ratio = spec.control_dt / timestep
@@ -408,6 +430,7 @@ def _compile(path: Path, spec: ScenarioSpec) -> Scenario:
                 function=expressions.StateFunction(exprs, n),
                 onset=term.onset,
                 rate=rate,
+                joints=np.array([expr != 0 for expr in exprs]),
             )
         )
 
@@ -475,9 +498,18 @@ def _plugin(file: str, field: str, method: MethodSpec, known: Mapping[str, type]
 
 def position_sensor_addresses(model: mujoco.MjModel) -> np.ndarray | None:
     """sensordata addresses of the jointpos sensors, in joint order, or None if a joint has none."""
+    return _joint_sensor_addresses(model, mujoco.mjtSensor.mjSENS_JOINTPOS)
+
+
+def velocity_sensor_addresses(model: mujoco.MjModel) -> np.ndarray | None:
+    """sensordata addresses of the jointvel sensors (tachometers), in joint order, or None if a joint has none."""
+    return _joint_sensor_addresses(model, mujoco.mjtSensor.mjSENS_JOINTVEL)
+
+
+def _joint_sensor_addresses(model: mujoco.MjModel, sensor_type: mujoco.mjtSensor) -> np.ndarray | None:
     addresses = {}
     for sensor in range(model.nsensor):
-        if model.sensor_type[sensor] == mujoco.mjtSensor.mjSENS_JOINTPOS:
+        if model.sensor_type[sensor] == sensor_type:
             joint = model.sensor_objid[sensor]
             addresses[int(model.jnt_dofadr[joint])] = int(model.sensor_adr[sensor])
     if sorted(addresses) != list(range(model.nv)):

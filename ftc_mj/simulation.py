@@ -4,8 +4,9 @@ Per control period k (time t_k, zero-order hold on the command):
 
 1. ``mj_step1`` brings positions, sensors and M(q) up to date for the current state (a plain ``mj_step``
    would leave ``sensordata`` one step behind);
-2. the position sensors are read; the nominal model is evaluated once (M at the measurement, Psi at the
-   estimate); the observer takes the measurement; the controller computes tau; tau goes to ``ctrl``;
+2. the position sensors (and the tachometers, if the scenario declares them) are read; the nominal model is
+   evaluated once (M at the measurement, Psi at the estimate); the observer takes the measurement; the
+   controller computes tau; tau goes to ``ctrl``;
 3. friction, disturbance and fault terms are evaluated on the *true* state and their sum is written to
    ``qfrc_applied`` (acceleration-space terms through the true M(q)), held like the command over the period;
 4. ``mj_step2`` integrates, ``control_dt / timestep`` physics steps per period; the observer integrates over
@@ -27,7 +28,13 @@ import numpy as np
 
 from ftc_mj.nominal import NominalModel, StepModel
 from ftc_mj.results import VariantResult
-from ftc_mj.scenario import CompiledTerm, Scenario, Variant, position_sensor_addresses
+from ftc_mj.scenario import (
+    CompiledTerm,
+    Scenario,
+    Variant,
+    position_sensor_addresses,
+    velocity_sensor_addresses,
+)
 
 ProgressCallback = Callable[[int], None]
 PROGRESS_EVERY = 500
@@ -102,6 +109,7 @@ def simulate_variant(
     controller.reset()
     plant = PlantTerms(scenario.terms, n)
     sensor_addresses = position_sensor_addresses(model)
+    velocity_addresses = velocity_sensor_addresses(model) if scenario.measures_velocity else None
 
     q_ref, qd_ref, qdd_ref = scenario.reference.evaluate(times)
     series = {name: np.full((steps, n), np.nan) for name in _SERIES}
@@ -110,6 +118,10 @@ def simulate_variant(
     body_xpos = np.zeros((steps if record_poses else 0, nbody, 3))
     body_xquat = np.zeros((steps if record_poses else 0, nbody, 4))
     q_meas = np.zeros(n)
+    qd_meas = np.zeros(n) if velocity_addresses is not None else None
+    # Plugin-specific signals (e.g. an adaptive switching gain), recorded beside the estimates.
+    signals = {**observer.signals, **controller.signals}
+    extras = {name: np.full((steps, n), np.nan) for name in signals}
     max_position, max_velocity = spec.divergence.max_position, spec.divergence.max_velocity
 
     status, diverged_at, done = "ok", None, steps
@@ -119,14 +131,19 @@ def simulate_variant(
         try:
             mujoco.mj_step1(model, data)  # positions, sensors and M(q) of the current state
             np.take(data.sensordata, sensor_addresses, out=q_meas)
+            if qd_meas is not None:
+                np.take(data.sensordata, velocity_addresses, out=qd_meas)
             if k == 0:
                 observer.reset(q_meas if variant.q_hat0 is None else variant.q_hat0, variant.qd_hat0)
+            observer.measure(q_meas, qd_meas)
             _check_state(data.qpos.tolist(), data.qvel.tolist(), max_position, max_velocity)
             step_model.update(q_meas, observer.q_hat, observer.qd_hat)
             observer.update(t, q_meas, step_model)
             tau = controller.compute(t, q_ref[k], qd_ref[k], qdd_ref[k], q_meas, observer, step_model)
             data.ctrl[:] = tau
             _record(series, k, q_meas, data, observer, controller)
+            for name, signal in signals.items():
+                extras[name][k] = signal
             if record_poses:
                 body_xpos[k] = data.xpos
                 body_xquat[k] = data.xquat
@@ -165,6 +182,7 @@ def simulate_variant(
         body_xquat=body_xquat,
         status=status,
         diverged_at=diverged_at,
+        extras=extras,
         **series,
     )
     return result.truncated(done) if status != "ok" else result

@@ -269,3 +269,41 @@ def test_degenerate_lengths_do_not_raise(n_samples: int) -> None:
     assert np.all(np.isnan(m["chattering"]))
     if n_samples == 0:
         assert all(np.all(np.isnan(value)) for value in m.values())
+
+
+# ------------------------------------------------------------------------------ sliding and fault response
+
+
+def test_reaching_time_is_when_the_sliding_variable_stays_within_tolerance() -> None:
+    sliding = np.zeros((N, NJ))
+    sliding[: index(0.25), 0] = 1.0       # joint 1 reaches the surface at 0.25 s
+    sliding[index(0.5), 1] = -0.02        # joint 2 leaves the band once at 0.5 s
+    m = compute_metrics(make_result(sliding=sliding), metrics_spec(sliding_tolerance=0.01), [])
+    np.testing.assert_array_equal(m["reaching_time"], [0.25, 0.5 + DT])
+
+
+def test_fault_peak_and_recovery_per_faulty_joint() -> None:
+    error = np.zeros((N, NJ))
+    # Joint 1 faulty from 1.0 s: the error jumps to 0.3 and is back within 0.01 at 1.25 s.
+    error[index(1.0) : index(1.25), 0] = 0.3
+    error[index(1.0) : index(1.125), 1] = 0.5   # joint 2 is healthy: no value whatever its error
+    m = compute_metrics(make_result(error=error), metrics_spec(), [1.0], np.array([1.0, np.nan]))
+    assert m["fault_peak_error"][0] == pytest.approx(0.3)
+    assert m["recovery_time"][0] == pytest.approx(0.25)
+    assert np.isnan(m["fault_peak_error"][1]) and np.isnan(m["recovery_time"][1])
+
+
+def test_fault_response_stops_at_the_next_onset_and_can_fail() -> None:
+    error = np.zeros((N, NJ))
+    error[index(0.5) :, 0] = 0.2                 # never recovers
+    error[index(1.5) :, 1] = 0.9                 # after the next onset: not counted for joint 2's first fault
+    m = compute_metrics(make_result(error=error), metrics_spec(), [0.5, 1.5], np.array([0.5, 0.5]))
+    assert m["fault_peak_error"][0] == pytest.approx(0.2) and np.isnan(m["recovery_time"][0])
+    assert m["fault_peak_error"][1] == 0.0 and m["recovery_time"][1] == 0.0
+
+
+def test_without_joint_onsets_every_joint_counts_from_the_first_fault() -> None:
+    m = compute_metrics(make_result(), metrics_spec(), [1.0])
+    np.testing.assert_array_equal(m["recovery_time"], [0.0, 0.0])
+    m = compute_metrics(make_result(), metrics_spec(), [])
+    assert np.isnan(m["recovery_time"]).all()

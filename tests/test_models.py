@@ -20,16 +20,6 @@ MODELS = Path(__file__).resolve().parents[1] / "models"
 
 DOF = {"two_link": 2, "puma560": 3}
 
-VELOCITY_SENSOR_TYPES = {
-    mujoco.mjtSensor.mjSENS_JOINTVEL,
-    mujoco.mjtSensor.mjSENS_ACTUATORVEL,
-    mujoco.mjtSensor.mjSENS_VELOCIMETER,
-    mujoco.mjtSensor.mjSENS_GYRO,
-    mujoco.mjtSensor.mjSENS_FRAMELINVEL,
-    mujoco.mjtSensor.mjSENS_FRAMEANGVEL,
-    mujoco.mjtSensor.mjSENS_SUBTREELINVEL,
-    mujoco.mjtSensor.mjSENS_SUBTREEANGMOM,
-}
 
 # --------------------------------------------------------------------------------------------------
 # helpers
@@ -70,7 +60,7 @@ def test_models_load(named_model):
     name, m = named_model
     n = DOF[name]
     assert m.nq == m.nv == m.nu == m.njnt == n
-    assert m.nsensor == n
+    assert m.nsensor == 2 * n  # an encoder and a tachometer per joint
 
 
 def test_names(named_model):
@@ -78,7 +68,9 @@ def test_names(named_model):
     n = DOF[name]
     assert [m.joint(i).name for i in range(m.njnt)] == [f"joint{k}" for k in range(1, n + 1)]
     assert [m.actuator(i).name for i in range(m.nu)] == [f"motor{k}" for k in range(1, n + 1)]
-    assert [m.sensor(i).name for i in range(m.nsensor)] == [f"joint{k}_pos" for k in range(1, n + 1)]
+    assert [m.sensor(i).name for i in range(m.nsensor)] == (
+        [f"joint{k}_pos" for k in range(1, n + 1)] + [f"joint{k}_vel" for k in range(1, n + 1)]
+    )
     bodies = [m.body(i).name for i in range(m.nbody)]
     for k in range(1, n + 1):
         assert f"link{k}" in bodies
@@ -115,19 +107,22 @@ def test_actuators_are_unit_torque_motors(named_model):
     np.testing.assert_array_equal(d.qfrc_actuator, d.ctrl)
 
 
-def test_sensors_are_joint_positions_only(named_model):
+def test_sensors_are_exact_joint_encoders_and_tachometers(named_model):
     _, m = named_model
-    assert np.all(m.sensor_type == mujoco.mjtSensor.mjSENS_JOINTPOS)
-    assert not any(int(t) in {int(v) for v in VELOCITY_SENSOR_TYPES} for t in m.sensor_type)
+    n = m.nq
+    assert np.all(m.sensor_type[:n] == mujoco.mjtSensor.mjSENS_JOINTPOS)
+    assert np.all(m.sensor_type[n:] == mujoco.mjtSensor.mjSENS_JOINTVEL)
     for i in range(m.nsensor):
         assert m.sensor_objtype[i] == mujoco.mjtObj.mjOBJ_JOINT
-        assert m.sensor_objid[i] == m.joint(f"joint{i + 1}").id
+        assert m.sensor_objid[i] == m.joint(f"joint{i % n + 1}").id
         assert m.sensor_noise[i] == 0.0
-    assert m.nsensordata == m.nq
+    assert m.nsensordata == 2 * n
     d = mujoco.MjData(m)
-    d.qpos[:] = np.linspace(-0.7, 0.9, m.nq)
-    mujoco.mj_forward(m, d)
-    np.testing.assert_array_equal(d.sensordata, d.qpos)
+    d.qpos[:] = np.linspace(-0.7, 0.9, n)
+    d.qvel[:] = np.linspace(1.3, -0.4, n)
+    mujoco.mj_step1(m, d)  # the loop's split step computes both stages' sensors
+    np.testing.assert_array_equal(d.sensordata[:n], d.qpos)
+    np.testing.assert_array_equal(d.sensordata[n:], d.qvel)
 
 
 def test_no_contacts_possible(named_model):

@@ -94,6 +94,9 @@ def test_reference_scenario_structure(puma):
     assert puma.n_joints == 3
     assert [v.name for v in puma.variants] == VARIANTS
     assert puma.fault_onsets == [10.0]
+    # (5.38) has no fault on joint 3: its value there is 0, so joint 3 counts as healthy.
+    np.testing.assert_array_equal(puma.joint_fault_onsets, [10.0, 10.0, np.nan])
+    assert not puma.measures_velocity
     assert puma.model_path == PUMA_MODEL
     assert puma.model.nv == 3
     np.testing.assert_array_equal(puma.q0, [-0.5, -0.5, -0.5])
@@ -467,7 +470,7 @@ INVALID = [
     ("name", "puma fault", "name", "pattern"),
     ("name", "", "name", "at least 1"),
     ("variants", {}, "variants", "at least 1"),
-    ("robot.sensors", ["velocity"], "robot.sensors.0", "'position'"),
+    ("robot.sensors", ["torque"], "robot.sensors.0", "'position' or 'velocity'"),
     ("robot.model", "/nonexistent/robot.xml", "robot.model", "not found"),
     ("robot.model", "no_such_model.xml", "robot.model", "not found"),
     ("nominal.mass_scale", 0, "nominal.mass_scale", "greater than 0"),
@@ -593,6 +596,17 @@ def test_model_without_position_sensors(tmp_path):
     error = load_error(path)
     assert_names(error, path, "robot.model")
     assert "jointpos sensor" in error.problem
+
+
+def test_velocity_sensing_needs_tachometers_in_the_model(tmp_path):
+    source = (Path(__file__).resolve().parents[1] / "models" / "puma560.xml").read_text(encoding="utf-8")
+    without = "\n".join(line for line in source.splitlines() if "<jointvel" not in line)
+    (tmp_path / "encoders_only.xml").write_text(without, encoding="utf-8")
+    data = mutate(mutate(base_dict(), "robot.model", "encoders_only.xml"), "robot.sensors", ["position", "velocity"])
+    path = write(tmp_path, data)
+    error = load_error(path)
+    assert_names(error, path, "robot.sensors")
+    assert "jointvel sensor per joint" in error.problem
 
 
 def test_expression_errors_do_not_leak_as_expression_error(tmp_path):

@@ -1,8 +1,10 @@
 """The observer plugin protocol.
 
-An observer sees what a real one would: time, the measured joint positions and the command it applied, plus
-the nominal model. It never receives MjData. Each control period the runner calls
+An observer sees what a real one would: time, the measured joint positions (and velocities, where the robot
+has tachometers) and the command it applied, plus the nominal model. It never receives MjData. Each control
+period the runner calls
 
+0. :meth:`Observer.measure` with the raw readings, before the nominal model is evaluated;
 1. :meth:`Observer.update` with the new measurement: the observer forms its output injection at this instant;
 2. the controller, which reads ``qd_hat``, ``luaf_hat`` and ``injection``;
 3. :meth:`Observer.advance` with the torque just commanded: the observer integrates over one period.
@@ -52,6 +54,14 @@ class Observer(Method):
         self.qd_hat[:] = qd_hat
         self.luaf_hat[:] = 0.0
         self.injection[:] = 0.0
+
+    def measure(self, q_meas: np.ndarray, qd_meas: np.ndarray | None) -> None:
+        """Take this period's raw readings (``qd_meas`` is None without tachometers).
+
+        Called before the nominal model is evaluated at ``(q_hat, qd_hat)``. Observers built on measured
+        states (the DO of Chapter 2) set ``q_hat`` and ``qd_hat`` to the readings here, so that Psi is the
+        measured-state H(x) of (2.6) and (2.25). The default does nothing.
+        """
 
     @abstractmethod
     def update(self, t: float, q_meas: np.ndarray, model: StepModel) -> None:
