@@ -430,7 +430,7 @@ def _compile(path: Path, spec: ScenarioSpec) -> Scenario:
                 function=expressions.StateFunction(exprs, n),
                 onset=term.onset,
                 rate=rate,
-                joints=np.array([expr != 0 for expr in exprs]),
+                joints=np.array([expr.is_zero is not True for expr in exprs]),
             )
         )
 
