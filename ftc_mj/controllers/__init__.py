@@ -2,8 +2,14 @@
 ``ftc_mj.controllers`` entry-point group (see :mod:`ftc_mj.registry`)."""
 
 from ftc_mj.controllers.base import Controller, SlidingModeController
-from ftc_mj.controllers.nftsmc import NFTSMC
+from ftc_mj.controllers.nftsmc import NFTSMC, AdaptiveNFTSMC
+from ftc_mj.controllers.ntsmc import NTSMC
+from ftc_mj.controllers.sigmoid_nftsmc import SigmoidNFTSMC
+from ftc_mj.controllers.smc import SMC
 
-BUILTIN: dict[str, type[Controller]] = {cls.name: cls for cls in (NFTSMC,)}
+BUILTIN: dict[str, type[Controller]] = {
+    cls.name: cls for cls in (SMC, NTSMC, NFTSMC, AdaptiveNFTSMC, SigmoidNFTSMC)
+}
 
-__all__ = ["BUILTIN", "Controller", "NFTSMC", "SlidingModeController"]
+__all__ = ["BUILTIN", "AdaptiveNFTSMC", "Controller", "NFTSMC", "NTSMC", "SMC", "SigmoidNFTSMC",
+           "SlidingModeController"]

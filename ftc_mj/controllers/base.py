@@ -2,11 +2,24 @@
 
 Every law of Chapters 2-5 has the form
 
-    u = -M(x1) (u_eq + u_c + u_sw)                    e.g. (5.25), (4.43), (4.50), (4.58)
+    u = -M(x1) (u_eq + u_c + u_sw)          (2.24), (2.32), (3.26), (3.47), (3.51), (4.16), (4.43), (5.25) ...
 
 with a sliding surface s, an equivalent control u_eq = Psi(x_hat) + (surface terms) - xdd_d, a compensation
-u_c taken from the observer, and a switching law u_sw. :class:`SlidingModeController` implements that frame;
-a concrete law supplies the surface, the compensation choice and the switching gain.
+u_c taken from the observer, and a switching law u_sw = K sign(s). :class:`SlidingModeController` implements
+that frame; a concrete law supplies only the surface (and its terms in u_eq) and the switching gain K:
+
+=====================  ==========================================  ==================  =====================
+law                    surface                                     compensation        K
+=====================  ==========================================  ==================  =====================
+``smc``                e_dot + c e  (3.46)                         any                 bound + mu
+``ntsmc``              (3.50), time-varying terminal term          any                 bound + mu
+``nftsmc``             integral NFTSM (2.22), (4.15), (5.15)       any                 bound + mu
+``a_nftsmc``           as ``nftsmc``                               any                 K_hat + mu, (2.36)
+``sigmoid_nftsmc``     (3.18), sigmoid-blended linear/terminal     any                 bound + mu
+=====================  ==========================================  ==================  =====================
+
+The printed laws write M(x) or g(x_hat)^-1 and Psi(x); we use M at the measured position (M depends only on
+x1, which is measured) and Psi at the observer's state (the measured state where the robot has tachometers).
 
 A controller sees the reference, the measured positions, the observer's estimates and the nominal model;
 never MjData. The math runs over arrays whose last axis is the joint.
@@ -65,13 +78,13 @@ class SlidingModeController(Controller):
     compensation: Compensation = "injection"
 
     @abstractmethod
-    def surface(self, e: np.ndarray, e_dot: np.ndarray) -> np.ndarray:
+    def surface(self, t: float, e: np.ndarray, e_dot: np.ndarray) -> np.ndarray:
         """Update ``self.sliding`` from the tracking errors and return the surface's terms in u_eq
-        (the part of ds/dt that is not e_ddot)."""
+        (the part of ds/dt that is not e_ddot). ``e_dot`` is the observer's velocity minus the reference's."""
 
     @abstractmethod
     def switching_gain(self) -> np.ndarray:
-        """The gain of the switching law K sign(s)."""
+        """The gain of the switching law K sign(s), called once per period after :meth:`surface`."""
 
     def switching(self) -> np.ndarray:
         return self.switching_gain() * np.sign(self.sliding)
@@ -86,7 +99,7 @@ class SlidingModeController(Controller):
     def compute(self, t, q_ref, qd_ref, qdd_ref, q_meas, observer, model):
         e = q_meas - q_ref
         e_dot = observer.qd_hat - qd_ref
-        surface_terms = self.surface(e, e_dot)
+        surface_terms = self.surface(t, e, e_dot)
         u_eq = model.psi_hat + surface_terms - qdd_ref
         u = u_eq + self.observer_compensation(observer) + self.switching()
         np.matmul(u, model.M.T, out=self.tau)  # M u, row-wise so that u may be (batch, n)

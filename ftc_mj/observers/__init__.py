@@ -2,9 +2,13 @@
 ``ftc_mj.observers`` entry-point group (see :mod:`ftc_mj.registry`)."""
 
 from ftc_mj.observers.base import Observer
+from ftc_mj.observers.disturbance import DisturbanceObserver
+from ftc_mj.observers.eso import ESO
 from ftc_mj.observers.sosmo import SOSMO
 from ftc_mj.observers.tosmo import TOSMO, HighSpeedTOSMO
 
-BUILTIN: dict[str, type[Observer]] = {cls.name: cls for cls in (SOSMO, TOSMO, HighSpeedTOSMO)}
+BUILTIN: dict[str, type[Observer]] = {
+    cls.name: cls for cls in (DisturbanceObserver, ESO, SOSMO, TOSMO, HighSpeedTOSMO)
+}
 
-__all__ = ["BUILTIN", "HighSpeedTOSMO", "Observer", "SOSMO", "TOSMO"]
+__all__ = ["BUILTIN", "DisturbanceObserver", "ESO", "HighSpeedTOSMO", "Observer", "SOSMO", "TOSMO"]

@@ -132,11 +132,20 @@ def test_config_errors_raise_validation_error(change):
         NFTSMC.Config.model_validate({**GAINS, **change}, context={"n_joints": 3})
 
 
-def test_missing_gain_raises_validation_error():
+@pytest.mark.parametrize("required", ["beta1", "beta2", "gamma1", "bound", "mu"])
+def test_missing_gain_raises_validation_error(required):
     gains = dict(GAINS)
-    del gains["beta4"]
+    del gains[required]
     with pytest.raises(ValidationError):
         NFTSMC.Config.model_validate(gains, context={"n_joints": 3})
+
+
+def test_chapter_4_surface_has_no_linear_and_cubic_terms():
+    """beta3, beta4 default to 0: the surface (4.15) with kappa1 |e|^alpha1 + kappa2 |e_hat|^alpha2 only."""
+    gains = {k: v for k, v in GAINS.items() if k not in ("beta3", "beta4")}
+    config = NFTSMC.Config.model_validate(gains, context={"n_joints": 3})
+    np.testing.assert_array_equal(config.beta3, np.zeros(3))
+    np.testing.assert_array_equal(config.beta4, np.zeros(3))
 
 
 # --------------------------------------------------------------------------------------------------
