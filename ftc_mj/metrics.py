@@ -9,6 +9,11 @@
   window (from ``estimation_window_start``, without the settle intervals after fault onsets).
 * ``observer_convergence_time``: as ``convergence_time`` for the velocity estimation error with
   ``velocity_tolerance``.
+* ``luaf_convergence_time``: as ``convergence_time`` for the LUaF estimation error with ``luaf_tolerance``.
+* ``peak_luaf_error_transient``: the largest |LUaF estimation error| before ``estimation_window_start``: the
+  initial error, or more if the estimate overshoots while it converges (Fig. 2.3's ESO).
+* ``rms_luaf_error_fault``: ``rms_luaf_error`` restricted to the samples after the first fault onset (outside
+  the settle intervals); NaN without faults. With ``rms_luaf_error`` it separates accuracy before and after.
 * ``reaching_time``: as ``convergence_time`` for the controller's sliding variable with ``sliding_tolerance``:
   when the sliding motion is reached for good (Fig. 3.12, 4.11).
 * ``fault_peak_error``: per faulty joint, the largest |e| from the joint's first fault onset to the next fault
@@ -40,6 +45,9 @@ METRICS: tuple[str, ...] = (
     "rms_velocity_error",
     "rms_luaf_error",
     "observer_convergence_time",
+    "luaf_convergence_time",
+    "peak_luaf_error_transient",
+    "rms_luaf_error_fault",
     "reaching_time",
     "fault_peak_error",
     "recovery_time",
@@ -57,6 +65,9 @@ UNITS: dict[str, str] = {
     "rms_velocity_error": "rad/s",
     "rms_luaf_error": "rad/s^2",
     "observer_convergence_time": "s",
+    "luaf_convergence_time": "s",
+    "peak_luaf_error_transient": "rad/s^2",
+    "rms_luaf_error_fault": "rad/s^2",
     "reaching_time": "s",
     "fault_peak_error": "rad",
     "recovery_time": "s",
@@ -159,6 +170,9 @@ def compute_metrics(
         "rms_velocity_error": _rms(result.velocity_error, estimation),
         "rms_luaf_error": _rms(result.luaf_error, estimation),
         "observer_convergence_time": settling_time(t, result.velocity_error, spec.velocity_tolerance, first_fault),
+        "luaf_convergence_time": settling_time(t, result.luaf_error, spec.luaf_tolerance, first_fault),
+        "peak_luaf_error_transient": _max_abs(result.luaf_error, t < spec.estimation_window_start),
+        "rms_luaf_error_fault": _rms(result.luaf_error, estimation & (t >= first_fault)),
         "reaching_time": settling_time(t, result.sliding, spec.sliding_tolerance, first_fault),
         "fault_peak_error": fault_peak,
         "recovery_time": recovery,

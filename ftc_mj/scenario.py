@@ -105,6 +105,8 @@ class MetricsSpec(_Strict):
     tracking_tolerance: PositiveFloat = 0.01
     #: |velocity error| tolerance of observer_convergence_time [rad/s].
     velocity_tolerance: PositiveFloat = 0.05
+    #: |LUaF estimation error| tolerance of luaf_convergence_time [rad/s^2].
+    luaf_tolerance: PositiveFloat = 0.5
     #: |sliding variable| tolerance of reaching_time (units of the surface, rad/s for every built-in law).
     sliding_tolerance: PositiveFloat = 0.01
 

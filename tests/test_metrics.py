@@ -307,3 +307,21 @@ def test_without_joint_onsets_every_joint_counts_from_the_first_fault() -> None:
     np.testing.assert_array_equal(m["recovery_time"], [0.0, 0.0])
     m = compute_metrics(make_result(), metrics_spec(), [])
     assert np.isnan(m["recovery_time"]).all()
+
+
+def test_luaf_convergence_overshoot_and_accuracy_after_the_fault() -> None:
+    luaf_true = np.ones((N, NJ))
+    luaf_hat = np.zeros((N, NJ))
+    ramp = np.minimum(T / 0.125, 1.0)
+    luaf_hat[:, 0] = ramp                          # joint 1: converges monotonically at 0.125 s
+    luaf_hat[:, 1] = ramp + 2.0 * (T < 0.0625)     # joint 2: overshoots to 2.5 (error -1.5) before settling
+    luaf_hat[index(1.5) :, 0] = 0.8                # joint 1: error 0.2 after the fault (settle ends 1.25 s)
+    result = make_result(luaf_true=luaf_true, luaf_hat=luaf_hat)
+    m = compute_metrics(result, metrics_spec(luaf_tolerance=0.1), [1.0])
+    assert m["luaf_convergence_time"][0] == pytest.approx(0.125 - 0.1 * 0.125, abs=DT)
+    np.testing.assert_allclose(m["peak_luaf_error_transient"], [1.0, 1.5], atol=DT / 0.125 * 2)
+    after = (T >= 1.25)
+    expected = np.sqrt(np.mean(np.where(T[after] >= 1.5, 0.2, 0.0) ** 2))
+    assert m["rms_luaf_error_fault"][0] == pytest.approx(expected)
+    assert m["rms_luaf_error_fault"][1] == 0.0
+    assert np.isnan(compute_metrics(result, metrics_spec(), [])["rms_luaf_error_fault"]).all()
