@@ -24,14 +24,17 @@ import os
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 from pathlib import Path
+from typing import TYPE_CHECKING
 from urllib.parse import unquote
 
 import mujoco
 import numpy as np
-import yourdfpy
 from lxml import etree
 
 from ftc_mj.errors import InputError
+
+if TYPE_CHECKING:  # imported when a URDF is read: it takes about 1 s (trimesh), which MJCF runs need not pay
+    import yourdfpy
 
 #: URDF joint types the testbed simulates (a fixed-base arm); floating and planar joints are refused.
 SUPPORTED_JOINTS = ("revolute", "continuous", "prismatic", "fixed")
@@ -76,6 +79,9 @@ def read_urdf(path: Path) -> UrdfRobot:
     path = Path(path)
     file = str(path)
     root = _parse_xml(path)
+    _check_xml(file, root)
+    import yourdfpy
+
     try:
         # yourdfpy's own loader falls back to a recovering parser on broken XML; it is only given a tree
         # that parsed strictly.
@@ -119,6 +125,42 @@ def _parse_xml(path: Path) -> etree._Element:
     if not root.get("name"):
         raise InputError(file, "<robot>", "has no name attribute")
     return root
+
+
+#: Numeric attributes of URDF elements and how many numbers each holds.
+_NUMBERS = {"xyz": 3, "rpy": 3, "size": 3, "scale": 3, "rgba": 4, "value": 1, "radius": 1, "length": 1,
+            "ixx": 1, "ixy": 1, "ixz": 1, "iyy": 1, "iyz": 1, "izz": 1, "lower": 1, "upper": 1, "effort": 1,
+            "velocity": 1, "damping": 1, "friction": 1, "multiplier": 1, "offset": 1}
+_NUMBER_WORDS = {1: "a number", 3: "three numbers", 4: "four numbers"}
+
+
+def _check_xml(file: str, root: etree._Element) -> None:
+    """What yourdfpy would fail on without saying where: names, joint parts, geometry, numbers."""
+    for kind in ("link", "joint", "material"):
+        for element in root.findall(kind):
+            name = element.get("name")
+            where = f"{kind} {name!r}" if name else f"<{kind}> (line {element.sourceline})"
+            if not name and kind != "material":
+                raise InputError(file, where, "has no name attribute")
+            if kind == "joint":
+                if not element.get("type"):
+                    raise InputError(file, where, "has no type attribute")
+                for part in ("parent", "child"):
+                    if element.find(part) is None or not element.find(part).get("link"):
+                        raise InputError(file, where, f"needs a <{part} link=...>")
+            for shape in element.findall("visual") + element.findall("collision"):
+                if shape.find("geometry") is None:
+                    raise InputError(file, f"{where}: <{shape.tag}> (line {shape.sourceline})", "has no <geometry>")
+            for sub in element.iter():
+                for attribute in set(_NUMBERS) & set(sub.attrib):
+                    text = sub.get(attribute)
+                    try:
+                        count = len([float(v) for v in text.split()])
+                    except ValueError:
+                        count = -1
+                    if count != _NUMBERS[attribute]:
+                        raise InputError(file, f"{where}: <{sub.tag} {attribute}> (line {sub.sourceline})",
+                                         f"{text!r} is not {_NUMBER_WORDS[_NUMBERS[attribute]]}")
 
 
 def _check_tree(file: str, urdf: yourdfpy.URDF) -> list[str]:
@@ -174,7 +216,7 @@ def _check_joint(file: str, joint: yourdfpy.Joint) -> None:
         return
     axis = np.asarray(joint.axis, dtype=float)
     if axis.shape != (3,) or not np.all(np.isfinite(axis)) or np.linalg.norm(axis) < 1e-9:
-        raise InputError(file, f"{element}: axis", f"{joint.axis} is not a direction (three finite numbers, not all 0)")
+        raise InputError(file, f"{element}: axis", f"{axis.tolist()} is not a direction (three finite numbers, not all 0)")
     limit = joint.limit
     if limit is None:
         if joint.type != "continuous":
@@ -237,7 +279,7 @@ def _check_geometry(file: str, element: str, geometry: yourdfpy.Geometry | None,
                  [geometry.cylinder.radius, geometry.cylinder.length] if geometry.cylinder is not None else
                  [geometry.sphere.radius])
         if not all(_finite(v) and v > 0 for v in sizes):
-            raise InputError(file, element, f"sizes must be numbers > 0, got {sizes}")
+            raise InputError(file, element, f"sizes must be numbers > 0, got {[float(v) for v in sizes]}")
         return
     filename = geometry.mesh.filename or ""
     target = resolve_mesh(filename, base)
@@ -419,27 +461,25 @@ def _first_lines(exc: Exception) -> str:
 
 
 def _lock(spec: mujoco.MjSpec, name: str, value: float) -> None:
-    """Remove joint ``name``, its body frozen where the joint at ``value`` would put it (exact, no constraint)."""
+    """Remove joint ``name``, its body frozen where the joint at ``value`` puts it (exact, no constraint).
+
+    A URDF joint sits at its child link's origin, so the body turns about (or slides along) the axis through
+    its own origin: the lock is a change of the body's frame only.
+    """
     joint = spec.joint(name)
     body = joint.parent
     offset = value - joint.ref
     axis = np.asarray(joint.axis, dtype=float) / np.linalg.norm(joint.axis)
     frame = np.asarray(body.quat, dtype=float) / np.linalg.norm(body.quat)
-    shift = np.zeros(3)  # the body origin's move, in the body frame
     if joint.type == mujoco.mjtJoint.mjJNT_HINGE:
-        rotation = np.zeros(4)
-        mujoco.mju_axisAngle2Quat(rotation, axis, offset)
-        pivot, rotated = np.asarray(joint.pos, dtype=float), np.zeros(3)
-        mujoco.mju_rotVecQuat(rotated, pivot, rotation)
-        shift = pivot - rotated  # a rotation about an axis through the joint's anchor, not the body origin
-        quat = np.zeros(4)
-        mujoco.mju_mulQuat(quat, frame, rotation)
+        turn, quat = np.zeros(4), np.zeros(4)
+        mujoco.mju_axisAngle2Quat(turn, axis, offset)
+        mujoco.mju_mulQuat(quat, frame, turn)
         body.quat = quat
-    else:  # slide
-        shift = axis * offset
-    moved = np.zeros(3)
-    mujoco.mju_rotVecQuat(moved, shift, frame)
-    body.pos = np.asarray(body.pos, dtype=float) + moved
+    else:  # slide: the origin moves along the axis, given in the body frame
+        shift = np.zeros(3)
+        mujoco.mju_rotVecQuat(shift, axis * offset, frame)
+        body.pos = np.asarray(body.pos, dtype=float) + shift
     spec.delete(joint)
 
 
