@@ -216,7 +216,8 @@ def _check_joint(file: str, joint: yourdfpy.Joint) -> None:
         return
     axis = np.asarray(joint.axis, dtype=float)
     if axis.shape != (3,) or not np.all(np.isfinite(axis)) or np.linalg.norm(axis) < 1e-9:
-        raise InputError(file, f"{element}: axis", f"{axis.tolist()} is not a direction (three finite numbers, not all 0)")
+        raise InputError(file, f"{element}: axis",
+                         f"{axis.tolist()} is not a direction (three finite numbers, not all 0)")
     limit = joint.limit
     if limit is None:
         if joint.type != "continuous":

@@ -27,6 +27,7 @@ import numpy as np
 import pytest
 import yaml
 from rerun.chunk import RrdReader
+from test_models import dynamics  # M(q), G(q), C(q, qd) qd on fresh MjData, as the MJCF models are checked
 
 from ftc_mj.errors import InputError
 from ftc_mj.metrics import compute_metrics
@@ -45,21 +46,6 @@ ARM_URDF = DATA / "arm.urdf"
 ARM_YAML = DATA / "arm.yaml"
 PUMA_LOCK = {"joint4": 0.0, "joint5": 0.0, "joint6": 0.0}
 PUMA_ARMATURE = [0.784029, 2.324805, 0.576866]
-
-
-def dynamics(m: mujoco.MjModel, q: np.ndarray, qd: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """M(q), G(q) and C(q, qd) qd, each on a fresh MjData (as tests/test_models.py)."""
-    d = mujoco.MjData(m)
-    d.qpos[:] = q
-    mujoco.mj_forward(m, d)
-    M = np.zeros((m.nv, m.nv))
-    mujoco.mj_fullM(m, d, M)
-    G = d.qfrc_bias.copy()
-    d = mujoco.MjData(m)
-    d.qpos[:] = q
-    d.qvel[:] = qd
-    mujoco.mj_forward(m, d)
-    return M, G, d.qfrc_bias - G
 
 
 # ------------------------------------------------------------------------------------ PUMA560 from URDF
@@ -101,7 +87,7 @@ def test_puma_urdf_reproduces_mjcf_dynamics(puma_pair):
     worst = np.zeros(3)
     for _ in range(100):
         q, qd = rng.uniform(-np.pi, np.pi, 3), rng.uniform(-3.0, 3.0, 3)
-        for k, (a, b) in enumerate(zip(dynamics(m, q, qd), dynamics(mjcf, q, qd))):
+        for k, (a, b) in enumerate(zip(dynamics(m, q, qd), dynamics(mjcf, q, qd), strict=True)):
             worst[k] = max(worst[k], np.abs(a - b).max())
     assert np.all(worst < 1e-9), f"max |difference| of M, G, C qd: {worst}"
 
@@ -125,7 +111,10 @@ def test_puma_urdf_scenario_is_puma_fault_but_for_the_robot():
     """puma_fault_urdf.yaml is a copy of puma_fault.yaml except its robot, name, description and output."""
     differing = {"robot", "name", "description", "output"}
     mjcf, urdf = (yaml.safe_load(p.read_text(encoding="utf-8")) for p in (PUMA_YAML, PUMA_URDF_YAML))
-    assert {k: v for k, v in urdf.items() if k not in differing} == {k: v for k, v in mjcf.items() if k not in differing}
+    def common(data: dict) -> dict:
+        return {key: value for key, value in data.items() if key not in differing}
+
+    assert common(urdf) == common(mjcf)
     assert urdf["robot"]["lock"] == PUMA_LOCK
     assert urdf["robot"]["armature"] == PUMA_ARMATURE
 
@@ -478,8 +467,8 @@ def test_recording_draws_the_urdf_meshes_and_primitives(outcomes):
     rotation = np.zeros(9)
     mujoco.mju_quat2Mat(rotation, np.array([w, x, y, z]))
     placed = vertices @ rotation.reshape(3, 3).T + np.array(bracket["Transform3D:translation"], dtype=float).ravel()
-    obj = np.array([[float(v) for v in line.split()[1:]] for line in
-                    (DATA / "meshes" / "bracket.obj").read_text(encoding="utf-8").splitlines() if line.startswith("v ")])
+    obj_lines = (DATA / "meshes" / "bracket.obj").read_text(encoding="utf-8").splitlines()
+    obj = np.array([[float(v) for v in line.split()[1:]] for line in obj_lines if line.startswith("v ")])
     expected = obj + [0.12, 0.0, 0.0]
     assert len(placed) == len(expected)
     for vertex in expected:
