@@ -369,8 +369,8 @@ def run_cli(directory: Path, scenario: Path, *args: str) -> subprocess.Completed
 
 
 @pytest.fixture(scope="module")
-def outcomes(tmp_path_factory) -> dict[str, tuple[subprocess.CompletedProcess, list[str], list[str]]]:
-    """Every subprocess at once: the broken cases and the good end-to-end run."""
+def outcomes(tmp_path_factory) -> dict:
+    """Every subprocess at once: name -> (process, files before, files after); "_dirs": name -> directory."""
     cases = {**BROKEN, "good": Case()}
     directories = {name: tmp_path_factory.mktemp(name) for name in cases}
 
