@@ -27,7 +27,7 @@ import numpy as np
 import yaml
 from pydantic import BaseModel, ConfigDict, Field, StrictFloat, StrictInt, StrictStr, ValidationError, field_validator
 
-from ftc_mj import expressions
+from ftc_mj import expressions, urdf
 from ftc_mj.errors import InputError
 from ftc_mj.gains import GainConfig
 from ftc_mj.registry import PluginError, controller_types, observer_types
@@ -45,8 +45,19 @@ class _Strict(BaseModel):
     model_config = ConfigDict(extra="forbid")
 
 
-class RobotSpec(_Strict):
-    #: MJCF file, relative to the scenario file.
+class UrdfOptions(_Strict):
+    """Options of a URDF robot (``ftc_mj/urdf.py``); an MJCF model states them in its own file."""
+
+    #: Joints to lock, by name: angle [rad] (position [m] for a prismatic joint).
+    lock: dict[str, FiniteFloat] = {}
+    #: |torque| limit of the free joints' motors, one value or one per free joint; overrides URDF efforts.
+    torque_limits: PositiveFloat | list[PositiveFloat] | None = None
+    #: Reflected rotor inertia of the free joints [kg m^2], one value or one per free joint (URDF has none).
+    armature: NonNegativeFloat | list[NonNegativeFloat] | None = None
+
+
+class RobotSpec(UrdfOptions):
+    #: MJCF or URDF file (``.urdf``), relative to the scenario file.
     model: str
     #: Sensors the controller may read: joint encoders always; tachometers only where the chapter assumes
     #: them (Chapter 2). A method whose ``requires`` names a sensor not listed here is refused at load time.
@@ -374,11 +385,7 @@ def _compile(path: Path, spec: ScenarioSpec) -> Scenario:
     model_path = (path.parent / spec.robot.model).resolve()
     if not model_path.is_file():
         raise InputError(file, "robot.model", f"model file {spec.robot.model!r} not found")
-    try:
-        model = mujoco.MjModel.from_xml_path(str(model_path))
-    except ValueError as exc:
-        first_line = str(exc).strip().splitlines()[0] if str(exc).strip() else "cannot compile"
-        raise InputError(file, "robot.model", f"MuJoCo cannot load {spec.robot.model!r}: {first_line}") from None
+    model = _load_model(model_path, spec.robot, file)
     n = model.nv
     if model.nq != n or model.nu != n:
         raise InputError(file, "robot.model", f"needs one hinge/slide joint and one actuator per DOF (nq={model.nq}, nv={n}, nu={model.nu})")
@@ -475,6 +482,21 @@ def _compile(path: Path, spec: ScenarioSpec) -> Scenario:
         terms=terms,
         variants=variants,
     )
+
+
+def _load_model(model_path: Path, robot: RobotSpec, file: str) -> mujoco.MjModel:
+    """The robot's MjModel: a URDF through ftc_mj.urdf, anything else as MJCF."""
+    if urdf.is_urdf(model_path):
+        return urdf.load_model(model_path, lock=robot.lock, torque_limits=robot.torque_limits,
+                               armature=robot.armature, source=file, field="robot")
+    for option in UrdfOptions.model_fields:
+        if getattr(robot, option) not in (None, {}):
+            raise InputError(file, f"robot.{option}", "is for URDF models only; an MJCF model sets it in its file")
+    try:
+        return mujoco.MjModel.from_xml_path(str(model_path))
+    except ValueError as exc:
+        first_line = str(exc).strip().splitlines()[0] if str(exc).strip() else "cannot compile"
+        raise InputError(file, "robot.model", f"MuJoCo cannot load {robot.model!r}: {first_line}") from None
 
 
 def _parse(text: ExpressionText, variables: list[str], file: str, field: str):
