@@ -8,7 +8,8 @@ testbed's conventions, those of ``models/*.xml``:
 
 * locked joints removed, their angle baked into the child body's frame (exact, no constraint);
 * per free joint, in kinematic order: a ``<motor>`` ``motor<k>`` (gear 1; ``ctrlrange`` = +-torque limit when
-  one is known) and a ``<jointpos>`` sensor ``<joint>_pos``; optional armature (URDF has none);
+  one is known), a ``<jointpos>`` sensor ``<joint>_pos`` and, after all of those, a ``<jointvel>`` sensor
+  ``<joint>_vel`` (read only with ``robot.sensors: [position, velocity]``); optional armature (URDF has none);
 * contacts disabled (``<collision>`` elements are not used), inertia only from ``<inertial>``,
   ``implicitfast`` integrator, 1 ms timestep (the scenario sets its own).
 
@@ -365,6 +366,10 @@ def load_model(
         if limits[k] is not None:
             motor.ctrlrange = [-limits[k], limits[k]]
         spec.add_sensor(name=f"{name}_pos", type=mujoco.mjtSensor.mjSENS_JOINTPOS, objtype=mujoco.mjtObj.mjOBJ_JOINT,
+                        objname=name)
+    # Tachometers after all encoders, as in models/*.xml; read only if the scenario declares velocity sensing.
+    for name in free:
+        spec.add_sensor(name=f"{name}_vel", type=mujoco.mjtSensor.mjSENS_JOINTVEL, objtype=mujoco.mjtObj.mjOBJ_JOINT,
                         objname=name)
     for geom in spec.geoms:  # visual only: contacts are off in this testbed
         geom.contype = geom.conaffinity = 0

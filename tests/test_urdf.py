@@ -60,10 +60,11 @@ def puma_pair() -> tuple[mujoco.MjModel, mujoco.MjModel]:
 
 def test_puma_urdf_structure(puma_pair):
     mjcf, m = puma_pair
-    assert m.nq == m.nv == m.nu == m.njnt == m.nsensor == 3
+    assert m.nq == m.nv == m.nu == m.njnt == 3 and m.nsensor == 6
     assert [m.joint(i).name for i in range(3)] == ["joint1", "joint2", "joint3"]
     assert [m.actuator(i).name for i in range(3)] == ["motor1", "motor2", "motor3"]
-    assert [m.sensor(i).name for i in range(3)] == ["joint1_pos", "joint2_pos", "joint3_pos"]
+    assert [m.sensor(i).name for i in range(m.nsensor)] == (
+        ["joint1_pos", "joint2_pos", "joint3_pos", "joint1_vel", "joint2_vel", "joint3_vel"])
     for i in range(3):
         assert m.actuator_trnid[i, 0] == i and m.actuator_gear[i, 0] == 1.0
         assert not m.actuator_ctrllimited[i] and not m.jnt_actfrclimited[i]  # no efforts in the URDF
@@ -182,7 +183,7 @@ def test_kinematic_order_is_depth_first_in_file_order(tmp_path):
     m = load_model(path, source="test")
     assert [m.joint(i).name for i in range(m.njnt)] == ["b", "a", "a2"]
     assert [m.actuator(i).name for i in range(m.nu)] == ["motor1", "motor2", "motor3"]
-    assert [m.sensor(i).name for i in range(m.nsensor)] == ["b_pos", "a_pos", "a2_pos"]
+    assert [m.sensor(i).name for i in range(m.nsensor)] == ["b_pos", "a_pos", "a2_pos", "b_vel", "a_vel", "a2_vel"]
 
 
 # --------------------------------------------------------------------------------- meshes and geometry
