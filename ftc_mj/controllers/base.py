@@ -32,7 +32,7 @@ from typing import Literal
 
 import numpy as np
 
-from ftc_mj.gains import GainConfig
+from ftc_mj.gains import GainConfig, NonNegativeJoints, PositiveJoints
 from ftc_mj.nominal import StepModel
 from ftc_mj.observers.base import Observer
 from ftc_mj.plugin import Method
@@ -40,6 +40,21 @@ from ftc_mj.plugin import Method
 #: What a law takes from the observer: the whole velocity-equation injection (Chapters 3-5), only the LUaF
 #: estimate (Appendix-D-type comparators), or nothing (the switching gain covers the whole LUaF).
 Compensation = Literal["injection", "estimate", "none"]
+
+
+class SwitchingConfig(GainConfig):
+    """What every law's switching part takes: mu (the margin of every reaching condition) and the
+    compensation. Laws with a fixed gain add ``bound`` (:class:`BoundedSwitchingConfig`)."""
+
+    mu: PositiveJoints
+    compensation: Compensation = "injection"
+
+
+class BoundedSwitchingConfig(SwitchingConfig):
+    """A fixed switching gain bound + mu: Delta_d of (3.28), K of (2.27), Xi of (4.18), Lambda of (4.45),
+    Delta_delta of (5.27): the bound the switching term must dominate."""
+
+    bound: NonNegativeJoints
 
 
 class Controller(Method):
@@ -72,19 +87,23 @@ class Controller(Method):
 class SlidingModeController(Controller):
     """u = -M(x1) (u_eq + u_c + u_sw) with u_eq = Psi(x_hat) + surface terms - xdd_d.
 
-    Subclasses define :meth:`surface`, ``compensation`` and :meth:`switching_gain`.
+    Subclasses define :meth:`surface`; the switching gain is ``bound + mu`` unless they override
+    :meth:`switching_gain` (the adaptive law does).
     """
 
-    compensation: Compensation = "injection"
+    def __init__(self, config: SwitchingConfig, n_joints: int, dt: float):
+        super().__init__(config, n_joints, dt)
+        self.compensation: Compensation = config.compensation
+        self._gain = getattr(config, "bound", 0.0) + config.mu
 
     @abstractmethod
     def surface(self, t: float, e: np.ndarray, e_dot: np.ndarray) -> np.ndarray:
         """Update ``self.sliding`` from the tracking errors and return the surface's terms in u_eq
         (the part of ds/dt that is not e_ddot). ``e_dot`` is the observer's velocity minus the reference's."""
 
-    @abstractmethod
     def switching_gain(self) -> np.ndarray:
-        """The gain of the switching law K sign(s), called once per period after :meth:`surface`."""
+        """The gain K of the switching law K sign(s), called once per period after :meth:`surface`."""
+        return self._gain
 
     def switching(self) -> np.ndarray:
         return self.switching_gain() * np.sign(self.sliding)

@@ -32,12 +32,12 @@ from typing import ClassVar
 import numpy as np
 from pydantic import model_validator
 
-from ftc_mj.controllers.base import Compensation, SlidingModeController
-from ftc_mj.gains import Exponent, GainConfig, NonNegativeFloat, NonNegativeJoints, PositiveJoints
+from ftc_mj.controllers.base import SlidingModeController, SwitchingConfig
+from ftc_mj.gains import Exponent, NonNegativeFloat, NonNegativeJoints, PositiveJoints
 from ftc_mj.observers.base import signed_power
 
 
-class NFTSMCSurfaceConfig(GainConfig):
+class NFTSMCSurfaceConfig(SwitchingConfig):
     """Gains of the surface (2.22)/(5.15); ``gamma2`` defaults to 2 gamma1 / (1 + gamma1), as (2.23)
     prescribes. ``beta3``, ``beta4`` default to 0, which is Chapter 4's surface (4.15)."""
 
@@ -47,8 +47,6 @@ class NFTSMCSurfaceConfig(GainConfig):
     beta4: NonNegativeJoints | None = None
     gamma1: Exponent
     gamma2: Exponent | None = None
-    mu: PositiveJoints
-    compensation: Compensation = "injection"
 
     @model_validator(mode="after")
     def _defaults(self) -> "NFTSMCSurfaceConfig":
@@ -75,8 +73,6 @@ class NFTSMC(SlidingModeController):
 
     def __init__(self, config: NFTSMCSurfaceConfig, n_joints: int, dt: float):
         super().__init__(config, n_joints, dt)
-        self.compensation = config.compensation
-        self._gain = getattr(config, "bound", 0.0) + config.mu
         self._integral = np.zeros(n_joints)
 
     def reset(self) -> None:
@@ -94,9 +90,6 @@ class NFTSMC(SlidingModeController):
         self.sliding[:] = e_dot + self._integral
         self._integral += self.dt * a
         return a
-
-    def switching_gain(self) -> np.ndarray:
-        return self._gain
 
 
 class AdaptiveNFTSMCConfig(NFTSMCSurfaceConfig):
@@ -118,7 +111,8 @@ class AdaptiveNFTSMC(NFTSMC):
 
     def __init__(self, config: AdaptiveNFTSMCConfig, n_joints: int, dt: float):
         super().__init__(config, n_joints, dt)
-        self._initial = np.zeros(n_joints) if config.initial_gain is None else config.initial_gain
+        initial = 0.0 if config.initial_gain is None else config.initial_gain
+        self._initial = np.broadcast_to(initial, np.shape(np.zeros(n_joints))).copy()  # (n,) or (batch, n)
         self.gain_estimate = self._initial.copy()
         self._gain = np.zeros(n_joints)
         self.signals["switching_gain"] = self.gain_estimate

@@ -18,19 +18,17 @@ from typing import ClassVar
 
 import numpy as np
 
-from ftc_mj.controllers.base import Compensation, SlidingModeController
-from ftc_mj.gains import Exponent, GainConfig, NonNegativeJoints, PositiveFloat, PositiveJoints
+from ftc_mj.controllers.base import BoundedSwitchingConfig, Compensation, SlidingModeController
+from ftc_mj.gains import Exponent, PositiveFloat, PositiveJoints
 
 
-class NTSMCConfig(GainConfig):
+class NTSMCConfig(BoundedSwitchingConfig):
     """beta1, beta2, lambda, alpha of (3.50) (Table 3.2: 1.5, 0.4, 0.7, 0.3), Delta_d and mu of (3.53)."""
 
     beta1: PositiveJoints
     beta2: PositiveJoints
     decay: PositiveFloat  # lambda
     alpha: Exponent
-    bound: NonNegativeJoints
-    mu: PositiveJoints
     compensation: Compensation = "estimate"
 
 
@@ -39,11 +37,6 @@ class NTSMC(SlidingModeController):
 
     name: ClassVar[str] = "ntsmc"
     Config: ClassVar[type[NTSMCConfig]] = NTSMCConfig
-
-    def __init__(self, config: NTSMCConfig, n_joints: int, dt: float):
-        super().__init__(config, n_joints, dt)
-        self.compensation = config.compensation
-        self._gain = config.bound + config.mu
 
     def surface(self, t: float, e: np.ndarray, e_dot: np.ndarray) -> np.ndarray:
         c = self.config
@@ -55,6 +48,3 @@ class NTSMC(SlidingModeController):
         a = weight * (-c.decay * e - 2.0 * c.alpha * (inner / safe) * e + e_dot)
         self.sliding[:] = e_dot + c.beta1 * e + c.beta2 * weight * e
         return c.beta1 * e_dot + c.beta2 * a
-
-    def switching_gain(self) -> np.ndarray:
-        return self._gain

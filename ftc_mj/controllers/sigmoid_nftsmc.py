@@ -31,11 +31,11 @@ from typing import ClassVar
 import numpy as np
 from pydantic import model_validator
 
-from ftc_mj.controllers.base import Compensation, SlidingModeController
-from ftc_mj.gains import Exponent, GainConfig, NonNegativeJoints, PositiveJoints
+from ftc_mj.controllers.base import BoundedSwitchingConfig, SlidingModeController
+from ftc_mj.gains import Exponent, PositiveJoints
 
 
-class SigmoidNFTSMCConfig(GainConfig):
+class SigmoidNFTSMCConfig(BoundedSwitchingConfig):
     """kappa1, kappa2, mu1, mu2, alpha of (3.18) (Table 3.2: mu1 = 1.2, mu2 = 1.4, alpha = 0.6; the kappas are
     not given), Delta_d and mu of (3.28)."""
 
@@ -44,9 +44,6 @@ class SigmoidNFTSMCConfig(GainConfig):
     mu1: PositiveJoints
     mu2: PositiveJoints
     alpha: Exponent
-    bound: NonNegativeJoints
-    mu: PositiveJoints
-    compensation: Compensation = "injection"
 
     @model_validator(mode="after")
     def _finite_phi(self) -> "SigmoidNFTSMCConfig":
@@ -68,9 +65,7 @@ class SigmoidNFTSMC(SlidingModeController):
 
     def __init__(self, config: SigmoidNFTSMCConfig, n_joints: int, dt: float):
         super().__init__(config, n_joints, dt)
-        self.compensation = config.compensation
         self.phi = config.phi()
-        self._gain = config.bound + config.mu
 
     def surface(self, t: float, e: np.ndarray, e_dot: np.ndarray) -> np.ndarray:
         c = self.config
@@ -91,6 +86,3 @@ class SigmoidNFTSMC(SlidingModeController):
             - 2.0 * c.kappa2 * c.mu2 * e2 / (1.0 + e2) ** 2 * terminal
         )
         return e_dot * slope
-
-    def switching_gain(self) -> np.ndarray:
-        return self._gain

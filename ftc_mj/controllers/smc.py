@@ -13,16 +13,14 @@ from typing import ClassVar
 
 import numpy as np
 
-from ftc_mj.controllers.base import Compensation, SlidingModeController
-from ftc_mj.gains import GainConfig, NonNegativeJoints, PositiveJoints
+from ftc_mj.controllers.base import BoundedSwitchingConfig, Compensation, SlidingModeController
+from ftc_mj.gains import PositiveJoints
 
 
-class SMCConfig(GainConfig):
+class SMCConfig(BoundedSwitchingConfig):
     """Slope c of (3.46), the bound Delta_d (delta in Table 2.2) and mu of (3.49)."""
 
     c: PositiveJoints
-    bound: NonNegativeJoints
-    mu: PositiveJoints
     compensation: Compensation = "estimate"
 
 
@@ -32,15 +30,7 @@ class SMC(SlidingModeController):
     name: ClassVar[str] = "smc"
     Config: ClassVar[type[SMCConfig]] = SMCConfig
 
-    def __init__(self, config: SMCConfig, n_joints: int, dt: float):
-        super().__init__(config, n_joints, dt)
-        self.compensation = config.compensation
-        self._gain = config.bound + config.mu
-
     def surface(self, t: float, e: np.ndarray, e_dot: np.ndarray) -> np.ndarray:
         c = self.config.c
         self.sliding[:] = e_dot + c * e
         return c * e_dot
-
-    def switching_gain(self) -> np.ndarray:
-        return self._gain

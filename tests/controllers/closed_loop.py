@@ -13,21 +13,18 @@ is the true velocity and the injection (and the LUaF estimate) the true d(t) at 
 
 from __future__ import annotations
 
+from types import SimpleNamespace
+
 import numpy as np
 
 DT = 1e-3
 MASS = 2.0
 
 
-class FakeStepModel:
-    """What a controller reads from a StepModel: ``M`` and ``psi_hat`` (and ``solve_M``)."""
-
-    def __init__(self, M, psi_hat=None):
-        self.M = np.asarray(M, dtype=float)
-        self.psi_hat = np.zeros(len(self.M)) if psi_hat is None else np.asarray(psi_hat, dtype=float)
-
-    def solve_M(self, v):
-        return np.linalg.solve(self.M, v)
+def fake_step(M, psi_hat=None) -> SimpleNamespace:
+    """What a controller reads from a StepModel: ``M`` and ``psi_hat`` (zero unless given)."""
+    M = np.asarray(M, dtype=float)
+    return SimpleNamespace(M=M, psi_hat=np.zeros(len(M)) if psi_hat is None else np.asarray(psi_hat, dtype=float))
 
 
 class FakeObserver:
@@ -52,7 +49,7 @@ class Period:
                  qd_ref=(0.2, 0.3), qdd_ref=(-0.4, 1.0), hide_unread=True):
         self.t = t
         self.q, self.q_ref, self.qd_ref, self.qdd_ref = (np.array(x, dtype=float) for x in (q, q_ref, qd_ref, qdd_ref))
-        self.step = FakeStepModel(self.M, psi_hat=[0.3, -1.7])
+        self.step = fake_step(self.M, psi_hat=[0.3, -1.7])
         self.observer = FakeObserver(2)
         self.observer.qd_hat[:] = qd_hat
         self.e, self.e_dot = self.q - self.q_ref, self.observer.qd_hat - self.qd_ref
@@ -95,7 +92,7 @@ def simulate(controller, *, T=2.5, e0=0.2, ed0=1.0, injection=None, luaf_hat=Non
     observer reports (default: the true d(t)). Returns arrays of shape (steps, n); ``signals`` holds each of the
     controller's signals as recorded after ``compute`` (as the runner does)."""
     n = controller.n
-    observer, step = FakeObserver(n), FakeStepModel(MASS * np.eye(n))
+    observer, step = FakeObserver(n), fake_step(MASS * np.eye(n))
     q_ref, qd_ref, _ = reference(0.0)
     q, v = q_ref + np.broadcast_to(e0, n), qd_ref + np.broadcast_to(ed0, n)
     steps = int(round(T / DT))
