@@ -89,6 +89,20 @@ def metrics_document(scenario: Scenario, results: Sequence[VariantResult], metri
     def clean(values: np.ndarray) -> list[float | None]:
         return [float(v) if math.isfinite(v) else None for v in values]
 
+    first_onset = min(scenario.fault_onsets, default=math.inf)
+
+    def diagnosis(result: VariantResult) -> dict | None:
+        found = result.diagnosis
+        if found is None:
+            return None
+        return {
+            "space": found.space,
+            "alarms": found.alarm_times(),
+            "isolated_joints": [int(j) + 1 for j in np.flatnonzero(found.isolated(first_onset))],
+            "baseline_mean": clean(found.mean),
+            "baseline_std": clean(found.std),
+        }
+
     return {
         "scenario": scenario.name,
         "seed": scenario.spec.seed,
@@ -97,6 +111,7 @@ def metrics_document(scenario: Scenario, results: Sequence[VariantResult], metri
                 "status": r.status,
                 "diverged_at": r.diverged_at,
                 "metrics": {name: clean(values) for name, values in metrics[r.name].items()},
+                "diagnosis": diagnosis(r),
             }
             for r in results
         },
