@@ -94,6 +94,13 @@ UNITS: dict[str, str] = {
 DIAGNOSIS_METRICS = METRICS[METRICS.index("detection_delay"):]
 
 
+def unit(metric: str, diagnosis_space: str | None = None) -> str:
+    """The unit of ``metric``; the fault-estimate error takes the diagnosis space's."""
+    if metric == "fault_estimate_rms" and diagnosis_space is not None:
+        return "N m" if diagnosis_space == "torque" else "rad/s^2"
+    return UNITS[metric]
+
+
 def evaluation_mask(t: np.ndarray, start: float, fault_onsets: Sequence[float], settle: float) -> np.ndarray:
     """Samples from ``start`` on, minus ``[onset, onset + settle)`` for every fault onset."""
     mask = t >= start

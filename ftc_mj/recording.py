@@ -7,7 +7,8 @@ the same quantity of all variants (as in a paper's comparison figures)::
     /velocity/true/<variant>   /velocity/estimate/<variant>   /velocity_error/<variant>
     /luaf/true/<variant>   /luaf/estimate/<variant>   /luaf_error/<variant>
     /torque/<variant>   /sliding/<variant>   /fault/<variant>   /fault_active/<variant>
-    /torque_delivered/<variant>   /fault_torque/<variant>   /fault_acceleration/<variant>   (when recorded)
+    /velocity/measured/<variant>   /torque_delivered/<variant>   (when recorded)
+    /fault_torque/<variant>   /fault_acceleration/<variant>   (when recorded)
     /diagnosis/residual/<variant>   /diagnosis/threshold/<variant>   /diagnosis/alarm/<variant>
     /diagnosis/fault_estimate/<variant>   /diagnosis/injected/<variant>   (with a diagnosis section)
     /extras/<name>/<variant>
@@ -55,6 +56,7 @@ SERIES: tuple[tuple[str, str, str], ...] = (
 )
 #: Ground truth a result may lack (results built without it): logged when present.
 OPTIONAL_SERIES: tuple[tuple[str, str, str], ...] = (
+    ("velocity/measured", "qd_meas", " meas"),
     ("torque_delivered", "tau_delivered", " delivered"),
     ("fault_torque", "fault_torque", ""),
     ("fault_acceleration", "fault_acceleration", ""),

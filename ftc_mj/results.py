@@ -26,6 +26,7 @@ class VariantResult:
         t: sample times [s].
         q_ref, qd_ref, qdd_ref: reference position, velocity, acceleration.
         q_meas: position measured by the sensors (what the controller saw).
+        qd_meas: velocity measured by the tachometers (what the controller saw); None without them.
         q_true, qd_true, qdd_true: true joint state and its acceleration at the sample instant.
         qd_hat: observer's velocity estimate.
         luaf_hat: observer's lumped-uncertainty-and-fault estimate, in acceleration units (rad/s^2).
@@ -70,6 +71,7 @@ class VariantResult:
     status: str = "ok"
     diverged_at: float | None = None
     extras: dict[str, np.ndarray] = field(default_factory=dict)
+    qd_meas: np.ndarray | None = None
     tau_delivered: np.ndarray | None = None
     fault_torque: np.ndarray | None = None
     fault_acceleration: np.ndarray | None = None

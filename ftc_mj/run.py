@@ -21,7 +21,7 @@ from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, T
 from rich.table import Table
 
 from ftc_mj.errors import InputError
-from ftc_mj.metrics import METRICS, UNITS, compute_metrics
+from ftc_mj.metrics import METRICS, compute_metrics, unit
 from ftc_mj.results import VariantResult
 from ftc_mj.scenario import Scenario, load_scenario
 from ftc_mj.simulation import simulate_variant
@@ -74,9 +74,10 @@ def metrics_table(scenario: Scenario, results: Sequence[VariantResult], metrics:
     for result in results:
         status = "" if result.status == "ok" else f"\n[red]diverged at {result.diverged_at:.3f} s[/red]"
         table.add_column(f"{result.name}{status}", justify="right")
+    space = scenario.diagnoser.space if scenario.diagnoser is not None else None
     for metric in METRICS:
         cells = ["\n".join(_format(v) for v in metrics[r.name][metric]) for r in results]
-        table.add_row(metric, UNITS[metric], *cells)
+        table.add_row(metric, unit(metric, space), *cells)
     return table
 
 

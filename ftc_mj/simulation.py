@@ -149,6 +149,7 @@ def simulate_variant(
     qd_meas = np.zeros(n) if velocity_addresses is not None else None
     q_true_reading, qd_true_reading = np.zeros(n), np.zeros(n)  # what perfect sensors would read
     fault_rhs, fault_acceleration = np.zeros((1, n)), np.zeros((1, n))  # for mj_solveM
+    qd_measured = np.full((steps, n), np.nan) if qd_meas is not None else None
     # Plugin-specific signals (e.g. an adaptive switching gain), recorded beside the estimates.
     signals = {**observer.signals, **controller.signals}
     extras = {name: np.full((steps, n), np.nan) for name in signals}
@@ -180,6 +181,8 @@ def simulate_variant(
             tau = controller.compute(t, q_ref[k], qd_ref[k], qdd_ref[k], q_meas, observer, step_model)
             data.ctrl[:] = tau
             _record(series, k, q_meas, data, observer, controller)
+            if qd_meas is not None:
+                qd_measured[k] = qd_meas
             for name, signal in signals.items():
                 extras[name][k] = signal
             if record_poses:
@@ -240,6 +243,7 @@ def simulate_variant(
         status=status,
         diverged_at=diverged_at,
         extras=extras,
+        qd_meas=qd_measured,
         **series,
     )
     if status != "ok":
