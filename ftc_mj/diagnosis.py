@@ -91,9 +91,12 @@ class DiagnosisSpec(Strict):
     start: NonNegativeFloat | None = None
 
     @model_validator(mode="after")
-    def _sigma_needs_baseline(self) -> "DiagnosisSpec":
+    def _baseline_first(self) -> "DiagnosisSpec":
         if self.threshold.k > 0 and self.baseline is None:
             raise ValueError("threshold.k needs a baseline window")
+        if self.baseline is not None and self.start is not None and self.start < self.baseline.end:
+            # Causality: an alarm at t may only use a baseline learned before t.
+            raise ValueError(f"start {self.start} is before the baseline's end {self.baseline.end}")
         return self
 
 

@@ -8,7 +8,7 @@ Kinds (per faulty joint, u the command, w(t) in [0, 1] the fault's time profile,
 * ``float``:                 delivers nothing;
 * ``saturation``:            delivers u clipped to [-limit, limit] [N m].
 
-The profile blends the healthy and the faulty actuator: delivered = u + w(t) (faulty(u) - u), so an
+The profile blends the healthy and the faulty actuator: delivered = (1 - w(t)) u + w(t) faulty(u), so an
 incipient or ramped loss of effectiveness grows smoothly, and any kind can be abrupt, intermittent or end.
 Several faults may act on one joint: they are applied in the scenario's order, each to what the previous
 one delivers. The additive faults of the dissertation are plant ``terms`` with ``kind: fault``.
@@ -168,15 +168,20 @@ class _Offset(_Action):
 
 
 class _Blend(_Action):
-    """u <- u + w (faulty(u) - u), for the kinds whose faulty output depends on the torque they receive."""
+    """u <- (1 - w) u + w faulty(u), for the kinds whose faulty output depends on the torque they receive.
+    Written so, w = 1 gives faulty(u) exactly and w = 0 gives u exactly."""
+
+    def __init__(self, fault: ActuatorFault, times: np.ndarray):
+        super().__init__(fault, times)
+        self.keep = 1.0 - self.weights
 
     def faulty(self, k: int, u: np.ndarray, out: np.ndarray) -> None:
         raise NotImplementedError
 
     def __call__(self, k: int, u: np.ndarray) -> None:
         self.faulty(k, u, self._scratch)
-        np.subtract(self._scratch, u, out=self._scratch)
         np.multiply(self._scratch, self.weights[k], out=self._scratch)
+        np.multiply(u, self.keep[k], out=u)
         np.add(u, self._scratch, out=u)
 
 

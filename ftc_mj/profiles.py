@@ -22,6 +22,7 @@ from pydantic import Field, Tag, model_validator
 from ftc_mj.schema import NonNegativeFloat, PositiveFloat, Strict, tagged_union
 
 SHAPES = ("abrupt", "incipient", "ramp", "intermittent")
+_PHASE_TOLERANCE = 1e-9
 
 
 class _ProfileSpec(Strict):
@@ -100,9 +101,16 @@ class Profile:
             return 1.0 - np.exp(-self.rate * elapsed)
         if self.shape == "ramp":
             return min(1.0, elapsed / self.ramp_time)
-        if self.shape == "intermittent" and elapsed % self.period >= self.duty * self.period:
+        if self.shape == "intermittent" and not self._in_duty(np.float64(elapsed)):
             return None
         return 1.0
+
+    def _in_duty(self, elapsed: np.ndarray) -> np.ndarray:
+        """Within the on fraction of the period. Sample times k * dt carry rounding (0.6 - 0.5 is
+        0.09999999999999998): within 1e-9 of a period, a boundary counts as reached."""
+        cycles = elapsed / self.period
+        phase = cycles - np.floor(cycles + _PHASE_TOLERANCE)
+        return phase < self.duty - _PHASE_TOLERANCE
 
     def active(self, times: np.ndarray) -> np.ndarray:
         """Whether the fault is on at each time of a grid (an incipient fault is on from its onset, where its
@@ -112,7 +120,7 @@ class Profile:
         if self.end is not None:
             on &= times < self.end
         if self.shape == "intermittent":
-            on &= np.maximum(times - self.onset, 0.0) % self.period < self.duty * self.period
+            on &= self._in_duty(np.maximum(times - self.onset, 0.0))
         return on
 
     def evaluate(self, times: np.ndarray, n_joints: int) -> np.ndarray:

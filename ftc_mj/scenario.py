@@ -642,8 +642,6 @@ def _diagnoser(spec: DiagnosisSpec, scenario: ScenarioSpec, file: str, n: int, f
     baseline = None
     if spec.baseline is not None:
         baseline = (spec.baseline.start, spec.baseline.end)
-        if spec.baseline.end > scenario.duration:
-            raise InputError(file, "diagnosis.baseline.end", f"{spec.baseline.end} is after the end of the run ({scenario.duration:g} s)")
         if fault_onsets and spec.baseline.end > fault_onsets[0]:
             raise InputError(file, "diagnosis.baseline.end", f"the baseline must be fault-free: it ends after the first fault onset ({fault_onsets[0]:g} s)")
     persistence = spec.persistence.samples or math.ceil(spec.persistence.time / dt - 1e-9)
