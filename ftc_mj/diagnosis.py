@@ -110,7 +110,7 @@ class Diagnosis:
         signal: the (filtered) LUaF estimate in the diagnosis space.
         fault_estimate: signal - baseline mean.
         residual: |fault_estimate|.
-        threshold: per sample and joint.
+        threshold: per sample and joint; NaN before the diagnoser is armed.
         alarm: per sample and joint.
         armed: per sample.
         mean, std: the baseline per joint (0 without one).
@@ -188,9 +188,9 @@ class Diagnoser:
         mean, std = np.zeros(n), np.zeros(n)
         if self.baseline is not None:
             window = (t >= self.baseline[0]) & (t < self.baseline[1])
-            if window.any():
+            if len(t) and t[-1] + self.dt >= self.baseline[1] - 1e-9:
                 mean, std = signal[window].mean(axis=0), signal[window].std(axis=0)
-            else:  # a run that diverged before the window's end: nothing learned, no alarm
+            else:  # a run that ended (or diverged) before the window's end: nothing learned, no alarm
                 mean, std = np.full(n, np.nan), np.full(n, np.nan)
         estimate = signal - mean
         residual = np.abs(estimate)
@@ -199,7 +199,8 @@ class Diagnoser:
             for row in range(len(t)):
                 threshold[row] += self.bound(float(t[row]), q_meas[row].tolist(), qd_hat[row].tolist())
         armed = t >= self.start
-        exceeded = (residual > threshold) & armed[:, None]  # NaN compares False: no alarm
+        threshold[~armed] = np.nan  # no threshold before the diagnoser is armed (also in the plots)
+        exceeded = residual > threshold  # NaN compares False: no alarm
         return Diagnosis(space=self.space, t=t, signal=signal, fault_estimate=estimate, residual=residual,
                          threshold=threshold, alarm=persistent(exceeded, self.persistence), armed=armed,
                          mean=mean, std=std, injected=np.asarray(injected, dtype=float))
