@@ -8,12 +8,15 @@ from __future__ import annotations
 
 import json
 import math
+import shutil
+import subprocess
 from pathlib import Path
 
 import mujoco
 import numpy as np
 import pytest
 from fault_scenarios import FAULTS, PUMA_MODEL, run, scenario_data, write
+from rerun.chunk import RrdReader
 
 from ftc_mj.diagnosis import Diagnoser, low_pass, persistent
 from ftc_mj.errors import InputError
@@ -319,9 +322,11 @@ def test_table_json_and_recording(tmp_path: Path, capsys: pytest.CaptureFixture)
     _, commanded = read_series(rec, "/torque/proposed")
     np.testing.assert_array_equal(delivered[:8000], commanded[:8000])
     assert np.abs(delivered[8100:, 1] / commanded[8100:, 1] - 1).max() > 0.3
-    from rerun.chunk import RrdReader
-
     texts = [text for chunk in RrdReader(rec).stream().to_chunks() if chunk.entity_path == "/events"
              and not chunk.is_static for text in chunk.to_record_batch().column("TextLog:text").to_pylist()]
     flat = [t for group in texts for t in (group if isinstance(group, list) else [group])]
     assert any("alarm raised on joint 2" in text for text in flat), flat
+    exe = shutil.which("rerun")
+    if exe is not None:
+        verify = subprocess.run([exe, "rrd", "verify", str(rec)], capture_output=True, text=True, timeout=120)
+        assert verify.returncode == 0, verify.stdout + verify.stderr
