@@ -22,15 +22,12 @@ tabulated on the run's time grid before the loop; a step only combines the comma
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import Annotated, Literal, Union
+from typing import Literal
 
 import numpy as np
-from pydantic import Tag
 
 from ftc_mj.profiles import AbruptSpec, Profile, ProfileSpec
 from ftc_mj.schema import ExpressionText, JointSelection, PositiveFloat, Strict, tagged_union
-
-KINDS = ("loss_of_effectiveness", "bias", "lock", "float", "saturation")
 
 
 class _FaultSpec(Strict):
@@ -66,16 +63,9 @@ class SaturationSpec(_FaultSpec):
     limit: PositiveFloat | list[PositiveFloat]
 
 
-ActuatorFaultSpec = Annotated[
-    Union[
-        Annotated[LossOfEffectivenessSpec, Tag("kind-loss_of_effectiveness")],
-        Annotated[BiasSpec, Tag("kind-bias")],
-        Annotated[LockSpec, Tag("kind-lock")],
-        Annotated[FloatSpec, Tag("kind-float")],
-        Annotated[SaturationSpec, Tag("kind-saturation")],
-    ],
-    tagged_union("kind", KINDS),
-]
+KINDS = {"loss_of_effectiveness": LossOfEffectivenessSpec, "bias": BiasSpec, "lock": LockSpec, "float": FloatSpec,
+         "saturation": SaturationSpec}
+ActuatorFaultSpec = tagged_union("kind", KINDS)
 
 
 @dataclass

@@ -14,28 +14,19 @@ reads a table; :meth:`Profile.weight` gives one instant, for plant terms and tes
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import Annotated, Literal, Union
+from typing import Annotated, Literal
 
 import numpy as np
-from pydantic import Field, Tag, model_validator
+from pydantic import Field
 
-from ftc_mj.schema import NonNegativeFloat, PositiveFloat, Strict, tagged_union
+from ftc_mj.schema import Interval, NonNegativeFloat, PositiveFloat, tagged_union
 
-SHAPES = ("abrupt", "incipient", "ramp", "intermittent")
 _PHASE_TOLERANCE = 1e-9
 
 
-class _ProfileSpec(Strict):
-    #: Fault onset Tf [s].
+class _ProfileSpec(Interval):
+    #: Fault onset Tf [s]; the fault is gone from ``end`` on (never when absent).
     onset: NonNegativeFloat = 0.0
-    #: The fault is gone from this time on [s]; never when absent.
-    end: PositiveFloat | None = None
-
-    @model_validator(mode="after")
-    def _end_after_onset(self) -> "_ProfileSpec":
-        if self.end is not None and self.end <= self.onset:
-            raise ValueError(f"end {self.end} must be after the onset {self.onset}")
-        return self
 
 
 class AbruptSpec(_ProfileSpec):
@@ -62,15 +53,8 @@ class IntermittentSpec(_ProfileSpec):
     duty: Annotated[float, Field(gt=0, le=1, allow_inf_nan=False)]
 
 
-ProfileSpec = Annotated[
-    Union[
-        Annotated[AbruptSpec, Tag("shape-abrupt")],
-        Annotated[IncipientSpec, Tag("shape-incipient")],
-        Annotated[RampSpec, Tag("shape-ramp")],
-        Annotated[IntermittentSpec, Tag("shape-intermittent")],
-    ],
-    tagged_union("shape", SHAPES, default="abrupt"),
-]
+SHAPES = {"abrupt": AbruptSpec, "incipient": IncipientSpec, "ramp": RampSpec, "intermittent": IntermittentSpec}
+ProfileSpec = tagged_union("shape", SHAPES, default="abrupt")
 
 
 @dataclass(frozen=True)

@@ -8,11 +8,10 @@ compiles the validated values. Unions over a ``kind`` or ``shape`` key are discr
 
 from __future__ import annotations
 
-from collections.abc import Callable, Sequence
-from typing import Annotated, Any
+from collections.abc import Mapping
+from typing import Annotated, Any, Union
 
-import numpy as np
-from pydantic import BaseModel, ConfigDict, Discriminator, Field, StrictFloat, StrictInt, StrictStr
+from pydantic import BaseModel, ConfigDict, Discriminator, Field, StrictFloat, StrictInt, StrictStr, Tag, model_validator
 
 PositiveFloat = Annotated[float, Field(gt=0, allow_inf_nan=False)]
 NonNegativeFloat = Annotated[float, Field(ge=0, allow_inf_nan=False)]
@@ -29,26 +28,28 @@ class Strict(BaseModel):
     model_config = ConfigDict(extra="forbid")
 
 
-def tagged_union(key: str, choices: Sequence[str], default: str | None = None) -> Discriminator:
-    """A discriminator choosing the member whose tag is ``"<key>-<value of key>"`` (``default`` when the key
-    is absent), with one clear error naming the ``choices`` for a missing or unknown value."""
+class Interval(Strict):
+    """From ``onset`` until ``end`` (for good when absent) [s]."""
+
+    onset: NonNegativeFloat
+    end: PositiveFloat | None = None
+
+    @model_validator(mode="after")
+    def _end_after_onset(self) -> "Interval":
+        if self.end is not None and self.end <= self.onset:
+            raise ValueError(f"end {self.end} must be after the onset {self.onset}")
+        return self
+
+
+def tagged_union(key: str, members: Mapping[str, type[BaseModel]], default: str | None = None) -> Any:
+    """The union of ``members`` chosen by the value of ``key`` (``default`` when the key is absent), with one
+    clear error naming the choices for a missing or unknown value. Members are tagged ``"<key>-<value>"``."""
 
     def choose(value: Any) -> str | None:
         chosen = value.get(key, default) if isinstance(value, dict) else getattr(value, key, None)
         return f"{key}-{chosen}" if isinstance(chosen, str) else None
 
-    return Discriminator(choose, custom_error_type=f"invalid_{key}",
-                         custom_error_message=f"{key} must be one of: {', '.join(choices)}")
-
-
-def per_joint(values: float | Sequence[float], n: int, describe: Callable[[int], str]) -> np.ndarray:
-    """One number for all ``n`` entries or a list of exactly ``n``, as a float array.
-
-    Raises:
-        ValueError: with ``describe(len(values))`` as the message, on a list of the wrong length.
-    """
-    if isinstance(values, (list, tuple)):
-        if len(values) != n:
-            raise ValueError(describe(len(values)))
-        return np.asarray(values, dtype=float)
-    return np.full(n, float(values))
+    union = Union[tuple(Annotated[member, Tag(f"{key}-{name}")] for name, member in members.items())]  # noqa: UP007
+    discriminator = Discriminator(choose, custom_error_type=f"invalid_{key}",
+                                  custom_error_message=f"{key} must be one of: {', '.join(members)}")
+    return Annotated[union, discriminator]

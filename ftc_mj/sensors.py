@@ -23,24 +23,16 @@ from typing import Annotated
 import numpy as np
 from pydantic import Field, StrictInt, model_validator
 
-from ftc_mj.schema import FiniteFloat, JointSelection, NonNegativeFloat, PositiveFloat, Strict
+from ftc_mj.schema import FiniteFloat, Interval, JointSelection, NonNegativeFloat, PositiveFloat, Strict
 
 PositiveInt = Annotated[StrictInt, Field(gt=0)]
 
 
-class StuckSpec(Strict):
-    #: The reading freezes from this time [s] ...
-    onset: NonNegativeFloat
-    #: ... until this time [s] (for good when absent).
-    end: PositiveFloat | None = None
+class StuckSpec(Interval):
+    """The reading freezes from ``onset`` until ``end`` (for good when absent) [s]."""
+
     #: Stuck joints, 1-based or by name; all when absent.
     joints: JointSelection = None
-
-    @model_validator(mode="after")
-    def _end_after_onset(self) -> "StuckSpec":
-        if self.end is not None and self.end <= self.onset:
-            raise ValueError(f"end {self.end} must be after the onset {self.onset}")
-        return self
 
 
 class ChannelSpec(Strict):

@@ -7,8 +7,10 @@ import json
 from pathlib import Path
 
 import numpy as np
+import pytest
 import yaml
 
+from ftc_mj.errors import InputError
 from ftc_mj.results import VariantResult
 from ftc_mj.scenario import Scenario, load_scenario
 from ftc_mj.simulation import simulate_variant
@@ -42,6 +44,17 @@ def run(tmp_path: Path, data: dict, name: str = "scenario.yaml", **kwargs) -> tu
     """Load and run the first variant."""
     scenario = load(tmp_path, data, name, **kwargs)
     return scenario, simulate_variant(scenario, scenario.variants[0])
+
+
+def assert_input_error(tmp_path: Path, data: dict, field: str, fragment: str) -> None:
+    """Loading ``data`` fails with one line naming the file, exactly ``field``, and a problem containing
+    ``fragment``."""
+    path = write(tmp_path, data)
+    with pytest.raises(InputError) as info:
+        load_scenario(path)
+    assert (info.value.file, info.value.field) == (str(path), field), str(info.value)
+    assert fragment in info.value.problem
+    assert "\n" not in str(info.value)
 
 
 def array_fields(result: VariantResult) -> dict[str, np.ndarray]:

@@ -15,11 +15,10 @@ from pathlib import Path
 import mujoco
 import numpy as np
 import pytest
-from fault_scenarios import FAULTS, PUMA_MODEL, run, scenario_data, write
+from fault_scenarios import FAULTS, PUMA_MODEL, assert_input_error, run, scenario_data, write
 from rerun.chunk import RrdReader
 
 from ftc_mj.diagnosis import Diagnoser, low_pass, persistent
-from ftc_mj.errors import InputError
 from ftc_mj.expressions import StateFunction, parse, state_variables
 from ftc_mj.metrics import compute_metrics, diagnosis_metrics
 from ftc_mj.nominal import NominalModel
@@ -275,11 +274,7 @@ INVALID = [
 
 @pytest.mark.parametrize(("diagnosis", "field", "fragment"), INVALID, ids=[f"{i}" for i in range(len(INVALID))])
 def test_invalid_diagnosis(tmp_path: Path, diagnosis: dict, field: str, fragment: str) -> None:
-    path = write(tmp_path, diagnosis_data(diagnosis))
-    with pytest.raises(InputError) as info:
-        load_scenario(path)
-    assert (info.value.file, info.value.field) == (str(path), field), str(info.value)
-    assert fragment in info.value.problem
+    assert_input_error(tmp_path, diagnosis_data(diagnosis), field, fragment)
 
 
 def test_persistence_time_in_samples(tmp_path: Path) -> None:

@@ -9,7 +9,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from fault_scenarios import load, run, scenario_data, write
+from fault_scenarios import assert_input_error, load, run, scenario_data, write
 
 from ftc_mj.errors import InputError
 from ftc_mj.faults import ActuatorFault, ActuatorFaults
@@ -219,13 +219,7 @@ INVALID = [
 
 @pytest.mark.parametrize(("fault", "field", "fragment"), INVALID, ids=[f"{i}" for i in range(len(INVALID))])
 def test_invalid_fault(tmp_path: Path, fault: dict, field: str, fragment: str) -> None:
-    path = write(tmp_path, faults_data(fault))
-    with pytest.raises(InputError) as info:
-        load_scenario(path)
-    error = info.value
-    assert (error.file, error.field) == (str(path), field), str(error)
-    assert fragment in error.problem
-    assert "\n" not in str(error)
+    assert_input_error(tmp_path, faults_data(fault), field, fragment)
 
 
 def test_term_profiles(tmp_path: Path) -> None:

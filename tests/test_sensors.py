@@ -9,10 +9,9 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from fault_scenarios import ROOT, load, run, scenario_data, write
+from fault_scenarios import ROOT, assert_input_error, run, scenario_data
 
 from ftc_mj import randomness
-from ftc_mj.errors import InputError
 from ftc_mj.metrics import compute_metrics
 from ftc_mj.scenario import load_scenario
 from ftc_mj.sensors import Channel, Measurement
@@ -167,11 +166,7 @@ INVALID = [
 
 @pytest.mark.parametrize(("sensors", "field", "fragment"), INVALID, ids=[f"{i}" for i in range(len(INVALID))])
 def test_invalid_sensors(tmp_path: Path, sensors: dict, field: str, fragment: str) -> None:
-    path = write(tmp_path, sensor_data(sensors))
-    with pytest.raises(InputError) as info:
-        load_scenario(path)
-    assert (info.value.file, info.value.field) == (str(path), field), str(info.value)
-    assert fragment in info.value.problem
+    assert_input_error(tmp_path, sensor_data(sensors), field, fragment)
 
 
 # ------------------------------------------------------------------------------------------ estimation vs noise
