@@ -4,9 +4,10 @@ Per joint j and sample k (all causal: an output at t_k uses samples up to t_k on
 recorded arrays after the run gives what an online diagnoser would have given):
 
 * signal s: the LUaF estimate in the diagnosis ``space``: ``acceleration`` (the estimate itself, rad/s^2)
-  or ``torque`` (M(q_meas) times it, N m, with the controller's nominal model; an actuator fault of one joint
-  then shows on that joint only, while in acceleration units M^-1 spreads it over coupled joints);
-  optionally through a first-order low-pass filter (``filter_time_constant``);
+  or ``torque`` (M(q_meas) times it, N m, with the controller's nominal model, formed in the loop where that
+  M is at hand; an actuator fault of one joint then shows on that joint only, while in acceleration units
+  M^-1 spreads it over coupled joints); optionally through a first-order low-pass filter
+  (``filter_time_constant``);
 * baseline: mean m_j and standard deviation sd_j of s over a fault-free ``baseline`` window [t0, t1)
   (without one, m = 0 and sd = 0: the estimate is compared against the bound alone);
 * fault estimate: s - m, its magnitude over time; residual r = |s - m|;
@@ -31,7 +32,6 @@ from pydantic import Field, StrictInt, model_validator
 from scipy.signal import lfilter
 
 from ftc_mj.expressions import StateFunction
-from ftc_mj.nominal import NominalModel
 from ftc_mj.schema import ExpressionText, NonNegativeFloat, PositiveFloat, Strict
 
 
@@ -168,21 +168,12 @@ class Diagnoser:
     bound: StateFunction | None = None
 
     def diagnose(
-        self,
-        t: np.ndarray,
-        luaf_hat: np.ndarray,
-        q_meas: np.ndarray,
-        qd_hat: np.ndarray,
-        injected: np.ndarray,
-        nominal: NominalModel,
+        self, t: np.ndarray, estimate: np.ndarray, q_meas: np.ndarray, qd_hat: np.ndarray, injected: np.ndarray
     ) -> Diagnosis:
-        """Diagnose one run from its recorded arrays; ``injected`` is the true fault in this space."""
-        n = luaf_hat.shape[1]
-        signal = np.array(luaf_hat, dtype=float)
-        if self.space == "torque":
-            mass = np.empty((n, n))
-            for row in range(len(signal)):
-                signal[row] = nominal.mass_matrix(q_meas[row], out=mass) @ luaf_hat[row]
+        """Diagnose one run from its recorded arrays: ``estimate`` is the LUaF estimate in this diagnoser's
+        space (M(q_meas) luaf_hat in torque space), ``injected`` the true fault in the same space."""
+        n = estimate.shape[1]
+        signal = np.array(estimate, dtype=float)
         if self.filter_time_constant > 0 and len(signal):
             signal = low_pass(signal, self.dt, self.filter_time_constant)
         mean, std = np.zeros(n), np.zeros(n)

@@ -150,6 +150,9 @@ def simulate_variant(
     q_true_reading, qd_true_reading = np.zeros(n), np.zeros(n)  # what perfect sensors would read
     fault_rhs, fault_acceleration = np.zeros((1, n)), np.zeros((1, n))  # for mj_solveM
     qd_measured = np.full((steps, n), np.nan) if qd_meas is not None else None
+    # A torque-space diagnosis needs M(q_meas) luaf_hat: the loop has that M at hand (StepModel).
+    torque_space = scenario.diagnoser is not None and scenario.diagnoser.space == "torque"
+    luaf_torque = np.full((steps, n), np.nan) if torque_space else None
     # Plugin-specific signals (e.g. an adaptive switching gain), recorded beside the estimates.
     signals = {**observer.signals, **controller.signals}
     extras = {name: np.full((steps, n), np.nan) for name in signals}
@@ -183,6 +186,8 @@ def simulate_variant(
             _record(series, k, q_meas, data, observer, controller)
             if qd_meas is not None:
                 qd_measured[k] = qd_meas
+            if luaf_torque is not None:
+                np.matmul(step_model.M, observer.luaf_hat, out=luaf_torque[k])
             for name, signal in signals.items():
                 extras[name][k] = signal
             if record_poses:
@@ -249,9 +254,11 @@ def simulate_variant(
     if status != "ok":
         result = result.truncated(done)
     if scenario.diagnoser is not None:
-        injected = result.fault_torque if scenario.diagnoser.space == "torque" else result.fault_acceleration
-        result.diagnosis = scenario.diagnoser.diagnose(result.t, result.luaf_hat, result.q_meas, result.qd_hat,
-                                                       injected, nominal)
+        if torque_space:
+            estimate, injected = luaf_torque[:len(result.t)], result.fault_torque
+        else:
+            estimate, injected = result.luaf_hat, result.fault_acceleration
+        result.diagnosis = scenario.diagnoser.diagnose(result.t, estimate, result.q_meas, result.qd_hat, injected)
     return result
 
 

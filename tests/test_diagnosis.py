@@ -12,10 +12,9 @@ import shutil
 import subprocess
 from pathlib import Path
 
-import mujoco
 import numpy as np
 import pytest
-from fault_scenarios import FAULTS, PUMA_MODEL, assert_input_error, run, scenario_data, write
+from fault_scenarios import FAULTS, assert_input_error, run, scenario_data, write
 from rerun.chunk import RrdReader
 
 from ftc_mj.diagnosis import Diagnoser, low_pass, persistent
@@ -76,7 +75,7 @@ def healthy_signal() -> np.ndarray:
 
 def diagnose(diagnoser: Diagnoser, luaf: np.ndarray, injected: np.ndarray | None = None):
     zeros = np.zeros((len(T), NJ))
-    return diagnoser.diagnose(T, luaf, zeros, zeros, zeros if injected is None else injected, nominal=None)
+    return diagnoser.diagnose(T, luaf, zeros, zeros, zeros if injected is None else injected)
 
 
 def test_baseline_threshold_and_detection_delay() -> None:
@@ -152,7 +151,7 @@ def test_fixed_and_adaptive_threshold_without_baseline() -> None:
     q = np.stack([np.sin(T)] * n, axis=1)
     qd = np.stack([np.cos(T)] * n, axis=1)
     luaf = healthy_signal()
-    diagnosis = diagnoser.diagnose(T, luaf, q, qd, np.zeros_like(luaf), nominal=None)
+    diagnosis = diagnoser.diagnose(T, luaf, q, qd, np.zeros_like(luaf))
     expected = np.stack([1.0 + np.abs(qd[:, 0]), 2.0 + 0.1 * T, 3.0 + q[:, 2] ** 2], axis=1)
     armed = T >= 0.5
     np.testing.assert_allclose(diagnosis.threshold[armed], expected[armed], rtol=1e-12)
@@ -161,23 +160,20 @@ def test_fixed_and_adaptive_threshold_without_baseline() -> None:
     assert not diagnosis.alarm.any()
 
 
-def test_torque_space_and_filter() -> None:
-    """In torque space the signal is M(q_meas) times the estimate (here through the low-pass filter)."""
-    model = mujoco.MjModel.from_xml_path(str(PUMA_MODEL))
-    nominal = NominalModel(model)
+def test_filter() -> None:
+    """The optional low-pass filter is the exact discretisation y[k] = a y[k-1] + (1 - a) x[k], from x[0]."""
     t = T[:300]
-    q = np.stack([0.3 * np.sin(t + j) for j in range(NJ)], axis=1)
-    luaf = np.stack([np.cos(5 * t + j) for j in range(NJ)], axis=1)
-    diagnoser = synthetic(space="torque", baseline=None, k=0.0, fixed=np.ones(NJ), filter_time_constant=0.01)
-    diagnosis = diagnoser.diagnose(t, luaf, q, np.zeros_like(q), np.zeros_like(q), nominal)
-    torque = np.array([nominal.mass_matrix(q[k]) @ luaf[k] for k in range(len(t))])
-    np.testing.assert_allclose(diagnosis.signal, low_pass(torque, DT, 0.01), rtol=1e-12)
-    # The filter is the exact discretisation y[k] = a y[k-1] + (1 - a) x[k], starting at x[0].
+    estimate = np.stack([np.cos(5 * t + j) + (np.arange(len(t)) % 2) for j in range(NJ)], axis=1)
+    diagnoser = synthetic(baseline=None, k=0.0, fixed=np.ones(NJ), filter_time_constant=0.01)
+    diagnosis = diagnoser.diagnose(t, estimate, *np.zeros((3, len(t), NJ)))
     a = math.exp(-DT / 0.01)
-    y = torque[0].copy()
+    y = estimate[0].copy()
+    filtered = [y]
     for k in range(1, len(t)):
-        y = a * y + (1 - a) * torque[k]
-    np.testing.assert_allclose(diagnosis.signal[-1], y, rtol=1e-12)
+        y = a * y + (1 - a) * estimate[k]
+        filtered.append(y)
+    np.testing.assert_allclose(diagnosis.signal, filtered, rtol=1e-12)
+    np.testing.assert_allclose(low_pass(estimate, DT, 0.01), filtered, rtol=1e-12)
 
 
 def test_a_baseline_beyond_the_run_raises_nothing() -> None:
@@ -202,6 +198,15 @@ def loe_runs(tmp_path_factory: pytest.TempPathFactory):
 
 def metrics_of(scenario, result) -> dict[str, np.ndarray]:
     return compute_metrics(result, scenario.spec.metrics, scenario.fault_onsets, scenario.joint_fault_onsets)
+
+
+def test_torque_space_signal_is_nominal_mass_times_estimate(loe_runs) -> None:
+    """In torque space the diagnosis signal is M(q_meas) luaf_hat with the controller's nominal model."""
+    (scenario, result), _ = loe_runs
+    nominal = NominalModel(scenario.model, scenario.spec.nominal.mass_scale)
+    for k in range(0, len(result.t), 997):
+        expected = nominal.mass_matrix(result.q_meas[k]) @ result.luaf_hat[k]
+        np.testing.assert_allclose(result.diagnosis.signal[k], expected, rtol=1e-12, atol=1e-12)
 
 
 def test_no_alarm_without_a_fault(loe_runs) -> None:
