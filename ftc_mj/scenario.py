@@ -12,7 +12,12 @@ Sign convention of plant terms: a term with value f and ``sign`` s enters the tr
 
 so Chapter 5's (5.1) has friction and disturbance with s = -1 (torque) and the fault with s = +1
 (acceleration). A term with an ``onset`` Tf is multiplied per joint by the profile 1 - exp(-rate (t - Tf))
-for t >= Tf (abrupt, i.e. a step, when ``rate`` is absent) and is zero before.
+for t >= Tf (abrupt, i.e. a step, when ``rate`` is absent) and is zero before; or by any ``profile`` of
+:mod:`ftc_mj.profiles`.
+
+The sections ``actuator_faults``, ``sensors`` and ``diagnosis`` are defined in the modules of their concepts
+(:mod:`ftc_mj.faults`, :mod:`ftc_mj.sensors`, :mod:`ftc_mj.diagnosis`) and compiled here, where joint names,
+vector lengths, expressions and the time grid are known.
 """
 
 from __future__ import annotations
