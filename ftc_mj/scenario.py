@@ -550,7 +550,7 @@ def _joint_mask(indices: list[int], n: int) -> np.ndarray:
     return mask
 
 
-def _profile(spec, file: str, field: str, n: int) -> Profile:
+def _profile(spec: ProfileSpec, file: str, field: str, n: int) -> Profile:
     rate = getattr(spec, "rate", None)
     if rate is not None:
         rate = _per_joint(rate, n, file, f"{field}.rate")
@@ -571,7 +571,9 @@ def _term_profile(term: TermSpec, file: str, field: str, n: int) -> Profile | No
     return Profile("abrupt" if rate is None else "incipient", onset=term.onset, rate=rate)
 
 
-def _actuator_fault(spec, file: str, field: str, model: mujoco.MjModel, times: np.ndarray) -> ActuatorFault:
+def _actuator_fault(spec: ActuatorFaultSpec, file: str, field: str, model: mujoco.MjModel,
+                    times: np.ndarray) -> ActuatorFault:
+    """A fault with its time-dependent parameter (alpha, offset) tabulated on the run's time grid."""
     n = model.nv
     indices = _joint_indices(spec.joints, model, file, f"{field}.joints")
     parameter = None
@@ -585,11 +587,11 @@ def _actuator_fault(spec, file: str, field: str, model: mujoco.MjModel, times: n
         parameter = np.full(n, np.inf)
         parameter[indices] = _per_selected(spec.limit, indices, file, f"{field}.limit")
     return ActuatorFault(name=spec.name or f"{spec.kind}{field.rsplit('.', 1)[-1]}", kind=spec.kind,
-                         joints=_joint_mask(indices, n), profile=_profile(spec.profile, file, f"{field}.profile", n),
-                         parameter=parameter)
+                         joints=_joint_mask(indices, n), parameter=parameter,
+                         profile=_profile(spec.profile, file, f"{field}.profile", n))
 
 
-def _per_selected(values, indices: list[int], file: str, field: str) -> list:
+def _per_selected(values: Any, indices: list[int], file: str, field: str) -> list:
     """One value for all selected joints, or a list with one per selected joint."""
     if not isinstance(values, list):
         return [values] * len(indices)
@@ -598,7 +600,8 @@ def _per_selected(values, indices: list[int], file: str, field: str) -> list:
     return values
 
 
-def _time_table(values, indices: list[int], n: int, times: np.ndarray, file: str, field: str) -> np.ndarray:
+def _time_table(values: ExpressionText | list[ExpressionText], indices: list[int], n: int, times: np.ndarray,
+                file: str, field: str) -> np.ndarray:
     """Expressions of t for the selected joints, evaluated on the time grid: ``(N, n)``, 0 elsewhere."""
     texts = _per_selected(values, indices, file, field)
     single = not isinstance(values, list)
@@ -639,22 +642,25 @@ def _diagnoser(spec: DiagnosisSpec, scenario: ScenarioSpec, file: str, n: int, f
     dt = scenario.control_dt
     bound = None
     if spec.threshold.bound is not None:
-        if len(spec.threshold.bound) != n:
-            raise InputError(file, "diagnosis.threshold.bound", f"has {len(spec.threshold.bound)} values, the robot has {n} joints")
+        texts = spec.threshold.bound
+        if len(texts) != n:
+            raise InputError(file, "diagnosis.threshold.bound", f"has {len(texts)} values, the robot has {n} joints")
         variables = expressions.state_variables(n)
         bound = expressions.StateFunction(
-            [_parse(text, variables, file, f"diagnosis.threshold.bound.{j}") for j, text in enumerate(spec.threshold.bound)], n)
+            [_parse(text, variables, file, f"diagnosis.threshold.bound.{j}") for j, text in enumerate(texts)], n)
     baseline = None
     if spec.baseline is not None:
         baseline = (spec.baseline.start, spec.baseline.end)
         if fault_onsets and spec.baseline.end > fault_onsets[0]:
-            raise InputError(file, "diagnosis.baseline.end", f"the baseline must be fault-free: it ends after the first fault onset ({fault_onsets[0]:g} s)")
+            raise InputError(file, "diagnosis.baseline.end",
+                             f"the baseline must be fault-free: it ends after the first fault onset ({fault_onsets[0]:g} s)")
+    # Persistence time in whole samples, rounded up (a float just above an integer is that integer).
     persistence = spec.persistence.samples or math.ceil(spec.persistence.time / dt - 1e-9)
     start = spec.start
     if start is None:
         start = spec.baseline.end if spec.baseline is not None else scenario.metrics.estimation_window_start
-    return Diagnoser(space=spec.space, dt=dt, start=start, fixed=_per_joint(spec.threshold.fixed, n, file, "diagnosis.threshold.fixed"),
-                     k=spec.threshold.k, persistence=max(1, persistence), baseline=baseline,
+    return Diagnoser(space=spec.space, dt=dt, start=start, k=spec.threshold.k, persistence=max(1, persistence),
+                     fixed=_per_joint(spec.threshold.fixed, n, file, "diagnosis.threshold.fixed"), baseline=baseline,
                      filter_time_constant=spec.filter_time_constant, bound=bound)
 
 
