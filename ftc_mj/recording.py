@@ -7,8 +7,12 @@ the same quantity of all variants (as in a paper's comparison figures)::
     /velocity/true/<variant>   /velocity/estimate/<variant>   /velocity_error/<variant>
     /luaf/true/<variant>   /luaf/estimate/<variant>   /luaf_error/<variant>
     /torque/<variant>   /sliding/<variant>   /fault/<variant>   /fault_active/<variant>
+    /velocity/measured/<variant>   /torque_delivered/<variant>   (when recorded)
+    /fault_torque/<variant>   /fault_acceleration/<variant>   (when recorded)
+    /diagnosis/residual/<variant>   /diagnosis/threshold/<variant>   /diagnosis/alarm/<variant>
+    /diagnosis/fault_estimate/<variant>   /diagnosis/injected/<variant>   (with a diagnosis section)
     /extras/<name>/<variant>
-    /events (fault onsets, divergences)   /info (scenario, seed, variants, status)
+    /events (fault onsets, alarms raised and cleared, divergences)   /info (scenario, seed, variants, status)
     /world/<body>   /world/<body>/geoms/<geom>   (robot of the first variant that recorded body poses)
 
 Each series entity holds an (N, n) ``Scalars`` column on the ``sim_time`` timeline (a duration, seconds)
@@ -50,6 +54,21 @@ SERIES: tuple[tuple[str, str, str], ...] = (
     ("fault", "fault", ""),
     ("fault_active", "fault_active", ""),
 )
+#: Ground truth a result may lack (results built without it): logged when present.
+OPTIONAL_SERIES: tuple[tuple[str, str, str], ...] = (
+    ("velocity/measured", "qd_meas", " meas"),
+    ("torque_delivered", "tau_delivered", " delivered"),
+    ("fault_torque", "fault_torque", ""),
+    ("fault_acceleration", "fault_acceleration", ""),
+)
+#: The diagnoser's output (attributes of ftc_mj.diagnosis.Diagnosis), under /diagnosis.
+DIAGNOSIS_SERIES: tuple[tuple[str, str, str], ...] = (
+    ("diagnosis/residual", "residual", " residual"),
+    ("diagnosis/threshold", "threshold", " threshold"),
+    ("diagnosis/alarm", "alarm", ""),
+    ("diagnosis/fault_estimate", "fault_estimate", " est"),
+    ("diagnosis/injected", "injected", " injected"),
+)
 
 # One time-series view per quantity: (title, entity prefixes shown together).
 VIEWS: tuple[tuple[str, tuple[str, ...]], ...] = (
@@ -59,9 +78,14 @@ VIEWS: tuple[tuple[str, tuple[str, ...]], ...] = (
     ("Velocity estimation error", ("velocity_error",)),
     ("LUAF: true and estimate", ("luaf",)),
     ("LUAF estimation error", ("luaf_error",)),
-    ("Torque", ("torque",)),
+    ("Torque: commanded and delivered", ("torque", "torque_delivered")),
     ("Sliding variable", ("sliding",)),
     ("Fault signal and fault active", ("fault", "fault_active")),
+    ("Generalized fault force [N m]", ("fault_torque",)),
+    ("Fault acceleration M^-1 force [rad/s^2]", ("fault_acceleration",)),
+    ("Diagnosis: residual and threshold", ("diagnosis/residual", "diagnosis/threshold")),
+    ("Diagnosis: alarms", ("diagnosis/alarm",)),
+    ("Fault estimate and injected fault", ("diagnosis/fault_estimate", "diagnosis/injected")),
 )
 
 # MuJoCo's viewer hides geom groups 3..5 by default (where collision duplicates usually live); do the same.
@@ -92,10 +116,14 @@ def write_recording(
     tmp = path.with_name(f"{path.name}.tmp-{os.getpid()}-{uuid.uuid4().hex[:8]}")
     posed = next((r for r in results if r.body_xpos.size > 0), None)
     extra_names = sorted({name for r in results for name in r.extras})
+    logged = {prefix for prefix, _, _ in SERIES}
+    logged |= {prefix for prefix, attr, _ in OPTIONAL_SERIES if any(getattr(r, attr) is not None for r in results)}
+    if any(r.diagnosis is not None for r in results):
+        logged |= {prefix for prefix, _, _ in DIAGNOSIS_SERIES}
     # A fresh stream per call (never the global one), so several recordings in one process do not mix.
     rec = rr.RecordingStream("ftc_mj", recording_id=str(uuid.uuid4()))
     try:
-        rec.save(tmp, default_blueprint=_blueprint(posed is not None, extra_names))
+        rec.save(tmp, default_blueprint=_blueprint(posed is not None, extra_names, logged))
         rec.send_recording_name(scenario)
         rec.log("/info", rr.TextDocument(_info_markdown(scenario, seed, results, fault_onsets),
                                          media_type=rr.MediaType.MARKDOWN), static=True)
@@ -166,8 +194,12 @@ def _send_series(rec: rr.RecordingStream, entity: str, name: str, values: np.nda
 
 def _log_variant(rec: rr.RecordingStream, result: VariantResult) -> None:
     time = _time_column(result.t)
-    for prefix, attr, suffix in SERIES:
-        values = _rows(result, attr, getattr(result, attr))
+    sources = [(result, series) for series in SERIES]
+    sources += [(result, series) for series in OPTIONAL_SERIES if getattr(result, series[1]) is not None]
+    if result.diagnosis is not None:
+        sources += [(result.diagnosis, series) for series in DIAGNOSIS_SERIES]
+    for source, (prefix, attr, suffix) in sources:
+        values = _rows(result, attr, getattr(source, attr))
         _send_series(rec, _ep(*prefix.split("/"), result.name), result.name, values, time, suffix)
     for extra, value in result.extras.items():
         _send_series(rec, _ep("extras", extra, result.name), result.name,
@@ -175,8 +207,15 @@ def _log_variant(rec: rr.RecordingStream, result: VariantResult) -> None:
 
 
 def _log_events(rec: rr.RecordingStream, results: Sequence[VariantResult], fault_onsets: Sequence[float]) -> None:
-    """Fault onsets and divergences as text-log events on the timeline."""
+    """Fault onsets, alarms (raised and cleared) and divergences as text-log events on the timeline."""
     events = [(float(t), f"fault onset at t = {t:g} s", "WARN") for t in fault_onsets]
+    for r in results:
+        if r.diagnosis is None:
+            continue
+        for edges, what, level in ((r.diagnosis.raised, "raised", "WARN"), (r.diagnosis.cleared, "cleared", "INFO")):
+            for k, joint in zip(*np.nonzero(edges)):
+                t = float(r.diagnosis.t[k])
+                events.append((t, f"{r.name}: alarm {what} on joint {joint + 1} at t = {t:g} s", level))
     events += [(float(r.diverged_at), f"{r.name} diverged at t = {r.diverged_at:g} s", "ERROR")
                for r in results if r.diverged_at is not None]
     if not events:
@@ -264,10 +303,11 @@ def _log_poses(rec: rr.RecordingStream, model: mujoco.MjModel, result: VariantRe
                                                         quaternion=_xyzw(xquat[rows, b])))
 
 
-def _blueprint(with_3d: bool, extra_names: Sequence[str]) -> rrb.Blueprint:
-    """3-D robot, info and events on the left; a grid of one plot per quantity (all variants overlaid) on the right."""
+def _blueprint(with_3d: bool, extra_names: Sequence[str], logged: set[str]) -> rrb.Blueprint:
+    """3-D robot, info and events on the left; a grid of one plot per quantity (all variants overlaid) on the right,
+    for the quantities in ``logged`` (entity prefixes)."""
     plots = [rrb.TimeSeriesView(name=title, origin="/", contents=[f"/{p}/**" for p in prefixes])
-             for title, prefixes in VIEWS]
+             for title, prefixes in VIEWS if logged.intersection(prefixes)]
     plots += [rrb.TimeSeriesView(name=f"extra: {name}", origin=_ep("extras", name)) for name in extra_names]
     side: list[rrb.View] = [rrb.TextDocumentView(name="Info", origin="/info"),
                             rrb.TextLogView(name="Events", origin="/events")]

@@ -7,8 +7,12 @@ Shapes: ``(N,)`` for time, ``(N, n)`` for per-joint series, ``(N, nbody, 3|4)`` 
 from __future__ import annotations
 
 from dataclasses import dataclass, field
+from typing import TYPE_CHECKING
 
 import numpy as np
+
+if TYPE_CHECKING:
+    from ftc_mj.diagnosis import Diagnosis
 
 
 @dataclass
@@ -22,19 +26,26 @@ class VariantResult:
         t: sample times [s].
         q_ref, qd_ref, qdd_ref: reference position, velocity, acceleration.
         q_meas: position measured by the sensors (what the controller saw).
+        qd_meas: velocity measured by the tachometers (what the controller saw); None without them.
         q_true, qd_true, qdd_true: true joint state and its acceleration at the sample instant.
         qd_hat: observer's velocity estimate.
         luaf_hat: observer's lumped-uncertainty-and-fault estimate, in acceleration units (rad/s^2).
         luaf_true: true lumped uncertainty qdd - (Psi(q, qd) + M(q)^-1 tau), nominal Psi and M.
-        tau: commanded torque [N m].
+        tau: commanded torque [N m] (what the controller asked for, in ``ctrl``).
         sliding: the controller's sliding variable.
         fault: the injected fault signal: the sum of the fault terms, each in the space it was declared in
             (rad/s^2 for acceleration-space faults, N m for torque-space ones; mixing both mixes units).
-        fault_active: whether any fault term is on.
+        fault_active: whether any fault (term or actuator fault) is on.
+        tau_delivered: the torque the actuators deliver (tau unless an actuator fault acts) [N m].
+        fault_torque: the generalized force all faults add to the plant: fault terms (acceleration-space
+            ones through the true M(q)) plus delivered - commanded torque [N m].
+        fault_acceleration: the same in acceleration units, M(q)^-1 fault_torque with the true M: the fault's
+            share of the true lumped uncertainty [rad/s^2].
         body_xpos, body_xquat: world pose of every body (MuJoCo order, quaternion wxyz); may be empty.
         status: "ok" or "diverged".
         diverged_at: time of divergence [s], or None.
         extras: further per-joint series a plugin chose to expose (name -> (N, n)).
+        diagnosis: the diagnoser's output, when the scenario has a ``diagnosis`` section.
     """
 
     name: str
@@ -60,6 +71,11 @@ class VariantResult:
     status: str = "ok"
     diverged_at: float | None = None
     extras: dict[str, np.ndarray] = field(default_factory=dict)
+    qd_meas: np.ndarray | None = None
+    tau_delivered: np.ndarray | None = None
+    fault_torque: np.ndarray | None = None
+    fault_acceleration: np.ndarray | None = None
+    diagnosis: Diagnosis | None = None
 
     @property
     def tracking_error(self) -> np.ndarray:

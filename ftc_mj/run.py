@@ -21,7 +21,7 @@ from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, T
 from rich.table import Table
 
 from ftc_mj.errors import InputError
-from ftc_mj.metrics import METRICS, UNITS, compute_metrics
+from ftc_mj.metrics import METRICS, compute_metrics, unit
 from ftc_mj.results import VariantResult
 from ftc_mj.scenario import Scenario, load_scenario
 from ftc_mj.simulation import simulate_variant
@@ -74,9 +74,10 @@ def metrics_table(scenario: Scenario, results: Sequence[VariantResult], metrics:
     for result in results:
         status = "" if result.status == "ok" else f"\n[red]diverged at {result.diverged_at:.3f} s[/red]"
         table.add_column(f"{result.name}{status}", justify="right")
+    space = scenario.diagnoser.space if scenario.diagnoser is not None else None
     for metric in METRICS:
         cells = ["\n".join(_format(v) for v in metrics[r.name][metric]) for r in results]
-        table.add_row(metric, UNITS[metric], *cells)
+        table.add_row(metric, unit(metric, space), *cells)
     return table
 
 
@@ -89,6 +90,20 @@ def metrics_document(scenario: Scenario, results: Sequence[VariantResult], metri
     def clean(values: np.ndarray) -> list[float | None]:
         return [float(v) if math.isfinite(v) else None for v in values]
 
+    first_onset = min(scenario.fault_onsets, default=math.inf)
+
+    def diagnosis(result: VariantResult) -> dict | None:
+        found = result.diagnosis
+        if found is None:
+            return None
+        return {
+            "space": found.space,
+            "alarms": found.alarm_times(),
+            "isolated_joints": [int(j) + 1 for j in np.flatnonzero(found.isolated(first_onset))],
+            "baseline_mean": clean(found.mean),
+            "baseline_std": clean(found.std),
+        }
+
     return {
         "scenario": scenario.name,
         "seed": scenario.spec.seed,
@@ -97,6 +112,7 @@ def metrics_document(scenario: Scenario, results: Sequence[VariantResult], metri
                 "status": r.status,
                 "diverged_at": r.diverged_at,
                 "metrics": {name: clean(values) for name, values in metrics[r.name].items()},
+                "diagnosis": diagnosis(r),
             }
             for r in results
         },

@@ -12,37 +12,39 @@ Sign convention of plant terms: a term with value f and ``sign`` s enters the tr
 
 so Chapter 5's (5.1) has friction and disturbance with s = -1 (torque) and the fault with s = +1
 (acceleration). A term with an ``onset`` Tf is multiplied per joint by the profile 1 - exp(-rate (t - Tf))
-for t >= Tf (abrupt, i.e. a step, when ``rate`` is absent) and is zero before.
+for t >= Tf (abrupt, i.e. a step, when ``rate`` is absent) and is zero before; or by any ``profile`` of
+:mod:`ftc_mj.profiles`.
+
+The sections ``actuator_faults``, ``sensors`` and ``diagnosis`` are defined in the modules of their concepts
+(:mod:`ftc_mj.faults`, :mod:`ftc_mj.sensors`, :mod:`ftc_mj.diagnosis`) and compiled here, where joint names,
+vector lengths, expressions and the time grid are known.
 """
 
 from __future__ import annotations
 
+import math
 from collections.abc import Mapping
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Annotated, Any, Literal
 
 import mujoco
 import numpy as np
 import yaml
-from pydantic import BaseModel, ConfigDict, Field, StrictFloat, StrictInt, StrictStr, ValidationError, field_validator
+from pydantic import Field, ValidationError, field_validator
 
 from ftc_mj import expressions, urdf
+from ftc_mj.diagnosis import Diagnoser, DiagnosisSpec
 from ftc_mj.errors import InputError
+from ftc_mj.faults import ActuatorFault, ActuatorFaultSpec
 from ftc_mj.gains import GainConfig
+from ftc_mj.profiles import Profile, ProfileSpec
 from ftc_mj.registry import PluginError, controller_types, observer_types
-
-PositiveFloat = Annotated[float, Field(gt=0, allow_inf_nan=False)]
-NonNegativeFloat = Annotated[float, Field(ge=0, allow_inf_nan=False)]
-FiniteFloat = Annotated[float, Field(allow_inf_nan=False)]
-# Strict: a YAML boolean must not pass as the number 1.
-ExpressionText = StrictStr | StrictInt | StrictFloat
+from ftc_mj.schema import ExpressionText, FiniteFloat, JointSelection, NonNegativeFloat, PositiveFloat
+from ftc_mj.schema import Strict as _Strict
+from ftc_mj.sensors import Channel, ChannelSpec, EncoderSpec, SensorsSpec
 
 REPO_ROOT = Path(__file__).resolve().parents[1]
-
-
-class _Strict(BaseModel):
-    model_config = ConfigDict(extra="forbid")
 
 
 class UrdfOptions(_Strict):
@@ -86,6 +88,8 @@ class TermSpec(_Strict):
     onset: NonNegativeFloat | None = None
     #: Evolution rate of 1 - exp(-rate (t - onset)), one number or one per joint; abrupt when absent.
     rate: PositiveFloat | list[PositiveFloat] | None = None
+    #: Any time profile of :mod:`ftc_mj.profiles` (instead of ``onset`` and ``rate``).
+    profile: ProfileSpec | None = None
     name: str | None = None
 
 
@@ -131,7 +135,8 @@ class ScenarioSpec(_Strict):
     name: Annotated[str, Field(min_length=1, pattern=r"^[A-Za-z0-9_.-]+$")]
     description: str = ""
     robot: RobotSpec
-    seed: int = 0
+    #: Every random element of a run derives from it (:mod:`ftc_mj.randomness`).
+    seed: Annotated[int, Field(ge=0)] = 0
     duration: PositiveFloat
     control_dt: PositiveFloat = 1e-3
     #: Physics timestep; control_dt must be an integer multiple of it. Defaults to control_dt.
@@ -140,9 +145,12 @@ class ScenarioSpec(_Strict):
     observer_initial: ObserverInitial = ObserverInitial()
     reference: list[ExpressionText]
     terms: list[TermSpec] = []
+    actuator_faults: list[ActuatorFaultSpec] = []
+    sensors: SensorsSpec = SensorsSpec()
     nominal: NominalSpec = NominalSpec()
     variants: Annotated[dict[str, VariantSpec], Field(min_length=1)]
     metrics: MetricsSpec
+    diagnosis: DiagnosisSpec | None = None
     divergence: DivergenceSpec = DivergenceSpec()
     #: Recording path, relative to the working directory.
     output: str | None = None
@@ -165,21 +173,24 @@ class CompiledTerm:
     space: str
     sign: float
     function: expressions.StateFunction
-    onset: float | None
-    rate: np.ndarray | None  # per joint; None = abrupt
+    #: None: always on.
+    time_profile: Profile | None
     #: Joints whose value is not identically zero (a fault "on joint 1" has zeros elsewhere).
     joints: np.ndarray
 
+    @property
+    def onset(self) -> float | None:
+        return None if self.time_profile is None else self.time_profile.onset
+
+    @property
+    def rate(self) -> np.ndarray | None:
+        """Per joint, for an incipient profile."""
+        return None if self.time_profile is None else self.time_profile.rate
+
     def profile(self, t: float) -> np.ndarray | float | None:
-        """The time profile omega(t - Tf) per joint (5.1): None (off) before the onset, then
-        1 - exp(-rate (t - Tf)), or 1 when abrupt."""
-        if self.onset is None:
-            return 1.0
-        if t < self.onset:
-            return None
-        if self.rate is None:
-            return 1.0
-        return 1.0 - np.exp(-self.rate * (t - self.onset))
+        """The time profile per joint, e.g. omega(t - Tf) of (5.1): None while off (before the onset), then
+        1 - exp(-rate (t - Tf)), or 1 when abrupt (see :class:`~ftc_mj.profiles.Profile`)."""
+        return 1.0 if self.time_profile is None else self.time_profile.weight(t)
 
 
 @dataclass
@@ -209,27 +220,42 @@ class Scenario:
     reference: expressions.TimeFunctions
     terms: list[CompiledTerm]
     variants: list[Variant]
+    actuator_faults: list[ActuatorFault] = field(default_factory=list)
+    #: Sensor effects on the encoders and the tachometers; None: perfect.
+    position_sensor: Channel | None = None
+    velocity_sensor: Channel | None = None
+    diagnoser: Diagnoser | None = None
 
     @property
     def name(self) -> str:
         return self.spec.name
 
     @property
+    def times(self) -> np.ndarray:
+        """The control instants k * control_dt of a run."""
+        return time_grid(self.spec.duration, self.spec.control_dt)
+
+    @property
     def measures_velocity(self) -> bool:
         """Whether the controller side may read the tachometers."""
         return "velocity" in self.spec.robot.sensors
 
+    def _faults(self) -> list[tuple[float, np.ndarray]]:
+        """(onset, joint mask) of every fault: fault terms with an onset and actuator faults. Sensor effects
+        are not faults for the detection metrics."""
+        faults = [(term.onset, term.joints) for term in self.terms if term.kind == "fault" and term.onset is not None]
+        return faults + [(fault.profile.onset, fault.joints) for fault in self.actuator_faults]
+
     @property
     def fault_onsets(self) -> list[float]:
-        return sorted({term.onset for term in self.terms if term.kind == "fault" and term.onset is not None})
+        return sorted({onset for onset, _ in self._faults()})
 
     @property
     def joint_fault_onsets(self) -> np.ndarray:
-        """Per joint, the earliest onset of a fault term acting on it; NaN for a healthy joint."""
+        """Per joint, the earliest onset of a fault acting on it; NaN for a healthy joint."""
         onsets = np.full(self.n_joints, np.inf)
-        for term in self.terms:
-            if term.kind == "fault" and term.onset is not None:
-                onsets[term.joints] = np.minimum(onsets[term.joints], term.onset)
+        for onset, joints in self._faults():
+            onsets[joints] = np.minimum(onsets[joints], onset)
         onsets[np.isinf(onsets)] = np.nan
         return onsets
 
@@ -425,11 +451,6 @@ def _compile(path: Path, spec: ScenarioSpec) -> Scenario:
         if len(term.value) != n:
             raise InputError(file, f"{field}.value", f"has {len(term.value)} values, the robot has {n} joints")
         exprs = [_parse(text, state_vars, file, f"{field}.value.{j}") for j, text in enumerate(term.value)]
-        rate = None
-        if term.rate is not None:
-            if term.onset is None:
-                raise InputError(file, f"{field}.rate", "an evolution rate needs an onset")
-            rate = vector(term.rate if isinstance(term.rate, list) else [term.rate] * n, f"{field}.rate")
         terms.append(
             CompiledTerm(
                 name=term.name or f"{term.kind}{index}",
@@ -437,11 +458,17 @@ def _compile(path: Path, spec: ScenarioSpec) -> Scenario:
                 space=term.space,
                 sign=float(term.sign),
                 function=expressions.StateFunction(exprs, n),
-                onset=term.onset,
-                rate=rate,
+                time_profile=_term_profile(term, file, field, n),
                 joints=np.array([expr.is_zero is not True for expr in exprs]),
             )
         )
+    times = time_grid(spec.duration, spec.control_dt)
+    actuator_faults = [_actuator_fault(fault, file, f"actuator_faults.{index}", model, times)
+                       for index, fault in enumerate(spec.actuator_faults)]
+    position_sensor = _channel(spec.sensors.position, file, "sensors.position", model)
+    if spec.sensors.velocity is not None and "velocity" not in spec.robot.sensors:
+        raise InputError(file, "sensors.velocity", "the robot has no velocity sensors (robot.sensors)")
+    velocity_sensor = _channel(spec.sensors.velocity, file, "sensors.velocity", model)
 
     sensors = set(spec.robot.sensors) | {"position"}
     variants = []
@@ -468,7 +495,7 @@ def _compile(path: Path, spec: ScenarioSpec) -> Scenario:
         )
 
     model.opt.timestep = timestep
-    return Scenario(
+    scenario = Scenario(
         path=path,
         spec=spec,
         model_path=model_path,
@@ -481,7 +508,169 @@ def _compile(path: Path, spec: ScenarioSpec) -> Scenario:
         reference=reference,
         terms=terms,
         variants=variants,
+        actuator_faults=actuator_faults,
+        position_sensor=position_sensor,
+        velocity_sensor=velocity_sensor,
     )
+    if spec.diagnosis is not None:
+        scenario.diagnoser = _diagnoser(spec.diagnosis, spec, file, n, scenario.fault_onsets)
+    return scenario
+
+
+def time_grid(duration: float, control_dt: float) -> np.ndarray:
+    """The control instants k * control_dt of a run of ``duration``."""
+    return np.arange(int(round(duration / control_dt))) * control_dt
+
+
+def _per_joint(values: float | list[float], n: int, file: str, field: str) -> np.ndarray:
+    """One number for every joint, or a list with one per joint."""
+    if not isinstance(values, list):
+        return np.full(n, float(values))
+    if len(values) != n:
+        raise InputError(file, field, f"has {len(values)} values, the robot has {n} joints")
+    return np.asarray(values, dtype=float)
+
+
+def _joint_indices(selection: JointSelection, model: mujoco.MjModel, file: str, field: str) -> list[int]:
+    """DOF indices of a joint selection (1-based numbers or MJCF names), in the order given; all when None."""
+    n = model.nv
+    if selection is None:
+        return list(range(n))
+    names = {mujoco.mj_id2name(model, mujoco.mjtObj.mjOBJ_JOINT, j): int(model.jnt_dofadr[j]) for j in range(model.njnt)}
+    indices: list[int] = []
+    for position, item in enumerate(selection):
+        if isinstance(item, str):
+            if item not in names:
+                raise InputError(file, f"{field}.{position}", f"unknown joint {item!r} (joints: {', '.join(name for name in names if name)})")
+            index = names[item]
+        elif item > n:
+            raise InputError(file, f"{field}.{position}", f"joint {item} does not exist, the robot has {n} joints")
+        else:
+            index = item - 1
+        if index in indices:
+            raise InputError(file, f"{field}.{position}", f"joint {item!r} is listed twice")
+        indices.append(index)
+    return indices
+
+
+def _joint_mask(indices: list[int], n: int) -> np.ndarray:
+    mask = np.zeros(n, dtype=bool)
+    mask[indices] = True
+    return mask
+
+
+def _profile(spec: ProfileSpec, file: str, field: str, n: int) -> Profile:
+    rate = getattr(spec, "rate", None)
+    if rate is not None:
+        rate = _per_joint(rate, n, file, f"{field}.rate")
+    return Profile.from_spec(spec, rate)
+
+
+def _term_profile(term: TermSpec, file: str, field: str, n: int) -> Profile | None:
+    """A plant term's profile: ``profile``, or the dissertation's ``onset`` with an optional ``rate``."""
+    if term.profile is not None:
+        if term.onset is not None or term.rate is not None:
+            raise InputError(file, f"{field}.profile", "give either a profile or onset and rate, not both")
+        return _profile(term.profile, file, f"{field}.profile", n)
+    if term.rate is not None and term.onset is None:
+        raise InputError(file, f"{field}.rate", "an evolution rate needs an onset")
+    if term.onset is None:
+        return None
+    rate = None if term.rate is None else _per_joint(term.rate, n, file, f"{field}.rate")
+    return Profile("abrupt" if rate is None else "incipient", onset=term.onset, rate=rate)
+
+
+def _actuator_fault(spec: ActuatorFaultSpec, file: str, field: str, model: mujoco.MjModel,
+                    times: np.ndarray) -> ActuatorFault:
+    """A fault with its time-dependent parameter (alpha, offset) tabulated on the run's time grid."""
+    n = model.nv
+    indices = _joint_indices(spec.joints, model, file, f"{field}.joints")
+    parameter = None
+    if spec.kind in ("loss_of_effectiveness", "bias"):
+        key = "alpha" if spec.kind == "loss_of_effectiveness" else "offset"
+        parameter = _time_table(getattr(spec, key), indices, n, times, file, f"{field}.{key}")
+        if key == "alpha" and ((parameter < 0) | (parameter > 1)).any():
+            row = int(np.flatnonzero(((parameter < 0) | (parameter > 1)).any(axis=1))[0])
+            raise InputError(file, f"{field}.alpha", f"must stay within [0, 1]; it is outside at t = {times[row]:g}")
+    elif spec.kind == "saturation":
+        parameter = np.full(n, np.inf)
+        parameter[indices] = _per_selected(spec.limit, indices, file, f"{field}.limit")
+    return ActuatorFault(name=spec.name or f"{spec.kind}{field.rsplit('.', 1)[-1]}", kind=spec.kind,
+                         joints=_joint_mask(indices, n), parameter=parameter,
+                         profile=_profile(spec.profile, file, f"{field}.profile", n))
+
+
+def _per_selected(values: Any, indices: list[int], file: str, field: str) -> list:
+    """One value for all selected joints, or a list with one per selected joint."""
+    if not isinstance(values, list):
+        return [values] * len(indices)
+    if len(values) != len(indices):
+        raise InputError(file, field, f"has {len(values)} values for {len(indices)} joints")
+    return values
+
+
+def _time_table(values: ExpressionText | list[ExpressionText], indices: list[int], n: int, times: np.ndarray,
+                file: str, field: str) -> np.ndarray:
+    """Expressions of t for the selected joints, evaluated on the time grid: ``(N, n)``, 0 elsewhere."""
+    texts = _per_selected(values, indices, file, field)
+    single = not isinstance(values, list)
+    exprs = [_parse(text, ["t"], file, field if single else f"{field}.{i}") for i, text in enumerate(texts)]
+    table = np.zeros((len(times), n))
+    with np.errstate(all="ignore"):
+        table[:, indices] = expressions.TimeFunctions(exprs).evaluate(times)[0]
+    if not np.isfinite(table).all():
+        row = int(np.flatnonzero(~np.isfinite(table).all(axis=1))[0])
+        raise InputError(file, field, f"is not a finite number at t = {times[row]:g}")
+    return table
+
+
+def _channel(spec: ChannelSpec | None, file: str, field: str, model: mujoco.MjModel) -> Channel | None:
+    if spec is None:
+        return None
+    n = model.nv
+    resolution = np.zeros(n)
+    if spec.resolution is not None:
+        resolution = _per_joint(spec.resolution, n, file, f"{field}.resolution")
+    if isinstance(spec, EncoderSpec) and spec.counts_per_rev is not None:
+        resolution = 2.0 * np.pi / _per_joint(spec.counts_per_rev, n, file, f"{field}.counts_per_rev")
+    stuck = spec.stuck
+    return Channel(
+        resolution=resolution,
+        noise_std=_per_joint(spec.noise_std, n, file, f"{field}.noise_std"),
+        bias=_per_joint(spec.bias, n, file, f"{field}.bias"),
+        drift_rate=_per_joint(spec.drift_rate, n, file, f"{field}.drift_rate"),
+        delay_samples=spec.delay_samples,
+        stuck_onset=None if stuck is None else stuck.onset,
+        stuck_end=None if stuck is None else stuck.end,
+        stuck_joints=None if stuck is None else _joint_mask(
+            _joint_indices(stuck.joints, model, file, f"{field}.stuck.joints"), n),
+    )
+
+
+def _diagnoser(spec: DiagnosisSpec, scenario: ScenarioSpec, file: str, n: int, fault_onsets: list[float]) -> Diagnoser:
+    dt = scenario.control_dt
+    bound = None
+    if spec.threshold.bound is not None:
+        texts = spec.threshold.bound
+        if len(texts) != n:
+            raise InputError(file, "diagnosis.threshold.bound", f"has {len(texts)} values, the robot has {n} joints")
+        variables = expressions.state_variables(n)
+        bound = expressions.StateFunction(
+            [_parse(text, variables, file, f"diagnosis.threshold.bound.{j}") for j, text in enumerate(texts)], n)
+    baseline = None
+    if spec.baseline is not None:
+        baseline = (spec.baseline.start, spec.baseline.end)
+        if fault_onsets and spec.baseline.end > fault_onsets[0]:
+            raise InputError(file, "diagnosis.baseline.end",
+                             f"the baseline must be fault-free: it ends after the first fault onset ({fault_onsets[0]:g} s)")
+    # Persistence time in whole samples, rounded up (a float just above an integer is that integer).
+    persistence = spec.persistence.samples or math.ceil(spec.persistence.time / dt - 1e-9)
+    start = spec.start
+    if start is None:
+        start = spec.baseline.end if spec.baseline is not None else scenario.metrics.estimation_window_start
+    return Diagnoser(space=spec.space, dt=dt, start=start, k=spec.threshold.k, persistence=max(1, persistence),
+                     fixed=_per_joint(spec.threshold.fixed, n, file, "diagnosis.threshold.fixed"), baseline=baseline,
+                     filter_time_constant=spec.filter_time_constant, bound=bound)
 
 
 def _load_model(model_path: Path, robot: RobotSpec, file: str) -> mujoco.MjModel:

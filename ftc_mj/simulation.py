@@ -4,19 +4,23 @@ Per control period k (time t_k, zero-order hold on the command):
 
 1. ``mj_step1`` brings positions, sensors and M(q) up to date for the current state (a plain ``mj_step``
    would leave ``sensordata`` one step behind);
-2. the position sensors (and the tachometers, if the scenario declares them) are read; the nominal model is
-   evaluated once (M at the measurement, Psi at the estimate); the observer takes the measurement; the
-   controller computes tau; tau goes to ``ctrl``;
+2. the position sensors (and the tachometers, if the scenario declares them) are read and corrupted by the
+   scenario's sensor effects (:mod:`ftc_mj.sensors`); the nominal model is evaluated once (M at the
+   measurement, Psi at the estimate); the observer takes the measurement; the controller computes tau; tau
+   goes to ``ctrl``;
 3. friction, disturbance and fault terms are evaluated on the *true* state and their sum is written to
-   ``qfrc_applied`` (acceleration-space terms through the true M(q)), held like the command over the period;
+   ``qfrc_applied`` (acceleration-space terms through the true M(q)), plus what the actuator faults
+   (:mod:`ftc_mj.faults`) deliver beyond the command, all held like the command over the period;
 4. ``mj_step2`` integrates, ``control_dt / timestep`` physics steps per period; the observer integrates over
    the period with the command it applied.
 
 Holding the plant terms over the period instead of re-evaluating them at every physics step changes the
 Chapter 5 metrics by less than 0.5% (measured at timestep 0.25 ms), and keeps substeps cheap.
 
-Ground truth (q, qd, qdd, the fault signal) is copied from the simulation beside every estimate; the true
-lumped uncertainty qdd - (Psi(q, qd) + M(q)^-1 tau), in the nominal model's terms, is computed after the run.
+Ground truth (q, qd, qdd, the fault signal, the delivered torque, the generalized fault force and the
+fault's acceleration M(q)^-1 times that force) is copied from the simulation beside every estimate; the true
+lumped uncertainty qdd - (Psi(q, qd) + M(q)^-1 tau), in the nominal model's terms, and the diagnosis
+(:mod:`ftc_mj.diagnosis`) are computed after the run.
 """
 
 from __future__ import annotations
@@ -26,8 +30,11 @@ from collections.abc import Callable
 import mujoco
 import numpy as np
 
+from ftc_mj import randomness
+from ftc_mj.faults import ActuatorFaults
 from ftc_mj.nominal import NominalModel, StepModel
 from ftc_mj.results import VariantResult
+from ftc_mj.sensors import Measurement
 from ftc_mj.scenario import (
     CompiledTerm,
     Scenario,
@@ -48,9 +55,13 @@ class PlantTerms:
         self.torque = np.zeros(n_joints)
         self.acceleration = np.zeros(n_joints)
         self.fault = np.zeros(n_joints)
+        #: The generalized force of the fault terms (acceleration-space ones through the true M(q)).
+        self.fault_force = np.zeros(n_joints)
         self.fault_active = False
         self._mapped = np.zeros(n_joints)
+        self._fault_acceleration = np.zeros(n_joints)
         self._has_acceleration = any(term.space == "acceleration" for term in terms)
+        self._has_acceleration_fault = any(term.space == "acceleration" and term.kind == "fault" for term in terms)
 
     def apply(self, model: mujoco.MjModel, data: mujoco.MjData, t: float) -> None:
         """Write the sum of all terms at time ``t`` and the current true state to ``data.qfrc_applied``.
@@ -62,6 +73,8 @@ class PlantTerms:
         self.torque[:] = 0.0
         self.acceleration[:] = 0.0
         self.fault[:] = 0.0
+        self.fault_force[:] = 0.0
+        self._fault_acceleration[:] = 0.0
         self.fault_active = False
         if self.terms:
             q, qd = data.qpos.tolist(), data.qvel.tolist()
@@ -70,14 +83,19 @@ class PlantTerms:
                 if weight is None:
                     continue
                 value = term.sign * weight * np.asarray(term.function(t, q, qd))
-                (self.acceleration if term.space == "acceleration" else self.torque)[:] += value
+                acceleration = term.space == "acceleration"
+                (self.acceleration if acceleration else self.torque)[:] += value
                 if term.kind == "fault":
                     self.fault += value
+                    (self._fault_acceleration if acceleration else self.fault_force)[:] += value
                     self.fault_active = True
         data.qfrc_applied[:] = self.torque
         if self._has_acceleration:
             mujoco.mj_mulM(model, data, self._mapped, self.acceleration)
             data.qfrc_applied[:] += self._mapped
+        if self._has_acceleration_fault and self.fault_active:
+            mujoco.mj_mulM(model, data, self._mapped, self._fault_acceleration)
+            self.fault_force += self._mapped
 
 
 class Diverged(Exception):
@@ -97,8 +115,8 @@ def simulate_variant(
     data = mujoco.MjData(model)
     n = scenario.n_joints
     dt = spec.control_dt
-    steps = int(round(spec.duration / dt))
-    times = np.arange(steps) * dt
+    times = scenario.times
+    steps = len(times)
 
     data.qpos[:] = scenario.q0
     data.qvel[:] = scenario.qd0
@@ -108,8 +126,18 @@ def simulate_variant(
     controller = variant.controller_type(variant.controller_config, n, dt)
     controller.reset()
     plant = PlantTerms(scenario.terms, n)
+    actuators = ActuatorFaults(scenario.actuator_faults, times, n) if scenario.actuator_faults else None
+    has_faults = actuators is not None or any(term.kind == "fault" for term in scenario.terms)
     sensor_addresses = position_sensor_addresses(model)
     velocity_addresses = velocity_sensor_addresses(model) if scenario.measures_velocity else None
+    # Random numbers are drawn here, before the loop, from the scenario's seed (ftc_mj.randomness).
+    position_sensor = velocity_sensor = None
+    if scenario.position_sensor is not None:
+        position_sensor = Measurement(scenario.position_sensor, times,
+                                      randomness.generator(spec.seed, randomness.POSITION_NOISE))
+    if scenario.velocity_sensor is not None and velocity_addresses is not None:
+        velocity_sensor = Measurement(scenario.velocity_sensor, times,
+                                      randomness.generator(spec.seed, randomness.VELOCITY_NOISE))
 
     q_ref, qd_ref, qdd_ref = scenario.reference.evaluate(times)
     series = {name: np.full((steps, n), np.nan) for name in _SERIES}
@@ -119,6 +147,12 @@ def simulate_variant(
     body_xquat = np.zeros((steps if record_poses else 0, nbody, 4))
     q_meas = np.zeros(n)
     qd_meas = np.zeros(n) if velocity_addresses is not None else None
+    q_true_reading, qd_true_reading = np.zeros(n), np.zeros(n)  # what perfect sensors would read
+    fault_rhs, fault_acceleration = np.zeros((1, n)), np.zeros((1, n))  # for mj_solveM
+    qd_measured = np.full((steps, n), np.nan) if qd_meas is not None else None
+    # A torque-space diagnosis needs M(q_meas) luaf_hat: the loop has that M at hand (StepModel).
+    torque_space = scenario.diagnoser is not None and scenario.diagnoser.space == "torque"
+    luaf_torque = np.full((steps, n), np.nan) if torque_space else None
     # Plugin-specific signals (e.g. an adaptive switching gain), recorded beside the estimates.
     signals = {**observer.signals, **controller.signals}
     extras = {name: np.full((steps, n), np.nan) for name in signals}
@@ -130,9 +164,17 @@ def simulate_variant(
         t = times[k]
         try:
             mujoco.mj_step1(model, data)  # positions, sensors and M(q) of the current state
-            np.take(data.sensordata, sensor_addresses, out=q_meas)
+            if position_sensor is None:
+                np.take(data.sensordata, sensor_addresses, out=q_meas)
+            else:
+                np.take(data.sensordata, sensor_addresses, out=q_true_reading)
+                position_sensor.read(k, q_true_reading, q_meas)
             if qd_meas is not None:
-                np.take(data.sensordata, velocity_addresses, out=qd_meas)
+                if velocity_sensor is None:
+                    np.take(data.sensordata, velocity_addresses, out=qd_meas)
+                else:
+                    np.take(data.sensordata, velocity_addresses, out=qd_true_reading)
+                    velocity_sensor.read(k, qd_true_reading, qd_meas)
             if k == 0:
                 observer.reset(q_meas if variant.q_hat0 is None else variant.q_hat0, variant.qd_hat0)
             observer.measure(q_meas, qd_meas)
@@ -142,6 +184,10 @@ def simulate_variant(
             tau = controller.compute(t, q_ref[k], qd_ref[k], qdd_ref[k], q_meas, observer, step_model)
             data.ctrl[:] = tau
             _record(series, k, q_meas, data, observer, controller)
+            if qd_meas is not None:
+                qd_measured[k] = qd_meas
+            if luaf_torque is not None:
+                np.matmul(step_model.M, observer.luaf_hat, out=luaf_torque[k])
             for name, signal in signals.items():
                 extras[name][k] = signal
             if record_poses:
@@ -150,6 +196,22 @@ def simulate_variant(
             plant.apply(model, data, t)
             series["fault"][k] = plant.fault
             fault_active[k] = plant.fault_active
+            if actuators is not None:
+                # The actuators deliver something else than the command: the difference acts through
+                # qfrc_applied, so ctrl (and the recorded tau) stay what the controller asked for.
+                actuators.apply(k, tau)
+                data.qfrc_applied[:] += actuators.torque
+                plant.fault_force += actuators.torque
+                fault_active[k] |= actuators.active[k]
+            series["tau_delivered"][k] = tau if actuators is None else actuators.delivered
+            if has_faults:
+                series["fault_torque"][k] = plant.fault_force
+                if fault_active[k]:  # M(q)^-1 of the fault force, with the factorisation mj_step1 made
+                    fault_rhs[0] = plant.fault_force
+                    mujoco.mj_solveM(model, data, fault_acceleration, fault_rhs)
+                    series["fault_acceleration"][k] = fault_acceleration[0]
+                else:
+                    series["fault_acceleration"][k] = 0.0
             mujoco.mj_step2(model, data)
             series["qdd_true"][k] = data.qacc
             observer.advance(tau, step_model)
@@ -166,6 +228,9 @@ def simulate_variant(
     if progress is not None:
         progress(steps % PROGRESS_EVERY if status == "ok" else 0)
 
+    if not has_faults:
+        series["fault_torque"][:] = 0.0
+        series["fault_acceleration"][:] = 0.0
     luaf_true = true_lumped_uncertainty(nominal, series["q_true"][:done], series["qd_true"][:done],
                                         series["qdd_true"][:done], series["tau"][:done])
     result = VariantResult(
@@ -183,13 +248,23 @@ def simulate_variant(
         status=status,
         diverged_at=diverged_at,
         extras=extras,
+        qd_meas=qd_measured,
         **series,
     )
-    return result.truncated(done) if status != "ok" else result
+    if status != "ok":
+        result = result.truncated(done)
+    if scenario.diagnoser is not None:
+        if torque_space:
+            estimate, injected = luaf_torque[:len(result.t)], result.fault_torque
+        else:
+            estimate, injected = result.luaf_hat, result.fault_acceleration
+        result.diagnosis = scenario.diagnoser.diagnose(result.t, estimate, result.q_meas, result.qd_hat, injected)
+    return result
 
 
 _BAD_ACCELERATION = int(mujoco.mjtWarning.mjWARN_BADQACC)
-_SERIES = ("q_meas", "q_true", "qd_true", "qdd_true", "qd_hat", "luaf_hat", "tau", "sliding", "fault")
+_SERIES = ("q_meas", "q_true", "qd_true", "qdd_true", "qd_hat", "luaf_hat", "tau", "sliding", "fault",
+           "tau_delivered", "fault_torque", "fault_acceleration")
 
 
 def _record(series: dict[str, np.ndarray], k: int, q_meas, data, observer, controller) -> None:

@@ -13,7 +13,7 @@ import pytest
 import rerun as rr
 from rerun.chunk import RrdReader
 
-from ftc_mj.recording import SERIES, write_recording
+from ftc_mj.recording import DIAGNOSIS_SERIES, OPTIONAL_SERIES, SERIES, write_recording
 from ftc_mj.results import VariantResult
 
 N, NJ, STRIDE = 500, 2, 10
@@ -122,6 +122,13 @@ def test_entities_per_variant(chunks: list) -> None:
         assert f"/extras/gain/{variant}" in temporal
     assert "/events" in temporal
     assert "/info" in static_entities(chunks)
+
+
+def test_optional_series_only_when_present(chunks: list) -> None:
+    """Results without delivered torque, fault ground truth, tachometers or a diagnosis log none of them."""
+    entities = {c.entity_path for c in chunks}
+    for prefix, _, _ in OPTIONAL_SERIES + DIAGNOSIS_SERIES:
+        assert not any(e.startswith(f"/{prefix}/") for e in entities), prefix
 
 
 @pytest.mark.parametrize("prefix", [p for p, _, _ in SERIES])

@@ -1,0 +1,332 @@
+"""Fault diagnosis (ftc_mj.diagnosis and its metrics in ftc_mj.metrics): persistence against chattering,
+baseline and thresholds, detection delay, false alarms, missed detections, isolation and the fault-estimate
+error on synthetic residuals; then closed-loop PUMA runs with realistic encoders: no alarm without a fault,
+detection within a stated delay and the right joints with one; the schema's errors; the recording, table
+and JSON outputs."""
+
+from __future__ import annotations
+
+import json
+import math
+import shutil
+import subprocess
+from pathlib import Path
+
+import numpy as np
+import pytest
+from fault_scenarios import FAULTS, assert_input_error, run, scenario_data, write
+from rerun.chunk import RrdReader
+
+from ftc_mj.diagnosis import Diagnoser, low_pass, persistent
+from ftc_mj.expressions import StateFunction, parse, state_variables
+from ftc_mj.metrics import compute_metrics, diagnosis_metrics
+from ftc_mj.nominal import NominalModel
+from ftc_mj.recording import read_series
+from ftc_mj.run import main
+from ftc_mj.scenario import load_scenario
+
+DT = 1e-3
+T = np.arange(10000) * DT  # 10 s
+NJ = 3
+
+
+def column(*values: bool) -> np.ndarray:
+    return np.array(values, dtype=bool)[:, None]
+
+
+# ------------------------------------------------------------------------------------------ persistence
+
+
+def test_persistence_suppresses_chattering() -> None:
+    chatter = (np.arange(1000) % 2 == 0)[:, None]  # above the threshold every other sample
+    assert not persistent(chatter, 2).any()
+    bursts = ((np.arange(1000) % 50) < 19)[:, None]  # 19 samples above, 31 below, over and over
+    assert not persistent(bursts, 20).any()
+    # With 19, each burst raises the alarm at its 19th sample and the 19th sample below clears it.
+    phase = np.arange(1000) % 50
+    np.testing.assert_array_equal(persistent(bursts, 19)[:, 0], (phase >= 18) & (phase < 37))
+    np.testing.assert_array_equal(persistent(chatter, 1), chatter)
+
+
+def test_persistence_raises_and_clears_after_n_samples() -> None:
+    x = column(*([False] * 5 + [True] * 4 + [False] * 2 + [True] * 3 + [False] * 3 + [True]))
+    got = persistent(x, 3)[:, 0]
+    # raised at the 3rd sample of the first run (index 7); the 2-sample dip does not clear it; cleared at the
+    # 3rd sample of the 3-sample dip (index 16); the last lone True does not raise it again.
+    expected = np.zeros(len(x), dtype=bool)
+    expected[7:16] = True
+    np.testing.assert_array_equal(got, expected)
+
+
+# ------------------------------------------------------------------------------------------ synthetic runs
+
+
+def synthetic(persistence: int = 20, **kwargs) -> Diagnoser:
+    values = dict(space="acceleration", dt=DT, start=4.0, fixed=np.zeros(NJ), k=5.0, persistence=persistence,
+                  baseline=(1.0, 4.0))
+    values.update(kwargs)
+    return Diagnoser(**values)
+
+
+def healthy_signal() -> np.ndarray:
+    """A healthy estimate: per-joint offset plus a bounded oscillation (std 0.1 / sqrt 2 about)."""
+    return np.array([0.3, -0.2, 1.0]) + 0.1 * np.sin(np.outer(T, [50.0, 37.0, 23.0]))
+
+
+def diagnose(diagnoser: Diagnoser, luaf: np.ndarray, injected: np.ndarray | None = None):
+    zeros = np.zeros((len(T), NJ))
+    return diagnoser.diagnose(T, luaf, zeros, zeros, zeros if injected is None else injected)
+
+
+def test_baseline_threshold_and_detection_delay() -> None:
+    luaf = healthy_signal()
+    injected = np.zeros_like(luaf)
+    injected[6000:, 0] = 2.0
+    luaf = luaf + injected
+    diagnosis = diagnose(synthetic(), luaf, injected)
+    window = (T >= 1.0) & (T < 4.0)
+    np.testing.assert_allclose(diagnosis.mean, luaf[window].mean(axis=0), rtol=1e-12)
+    np.testing.assert_allclose(diagnosis.std, luaf[window].std(axis=0), rtol=1e-12)
+    armed = T >= 4.0
+    np.testing.assert_array_equal(diagnosis.armed, armed)
+    assert np.isnan(diagnosis.threshold[~armed]).all()
+    np.testing.assert_allclose(diagnosis.threshold[armed], np.broadcast_to(5 * diagnosis.std, luaf[armed].shape),
+                               rtol=1e-12)
+    np.testing.assert_allclose(diagnosis.fault_estimate, luaf - diagnosis.mean, rtol=1e-12)
+    np.testing.assert_array_equal(diagnosis.residual, np.abs(diagnosis.fault_estimate))
+    assert not diagnosis.alarm[T < 4.0].any()  # not armed before the baseline's end
+    # The step of 2 (about 28 standard deviations) exceeds the threshold from sample 6000 on: the alarm comes
+    # with the 20th sample, 19 periods later.
+    assert diagnosis.alarm_times() == [[T[6019]], [], []]
+    m = diagnosis_metrics(diagnosis, np.array([6.0, np.nan, np.nan]), 6.0, NJ)
+    np.testing.assert_allclose(m["detection_delay"], [19 * DT, np.nan, np.nan], rtol=1e-9)
+    np.testing.assert_array_equal(m["missed_detection"], [0.0, np.nan, np.nan])
+    np.testing.assert_array_equal(m["false_alarms"], [0, 0, 0])
+    np.testing.assert_array_equal(m["false_alarm_rate"], [0, 0, 0])
+    np.testing.assert_array_equal(m["isolation_correct"], [1, 1, 1])
+    # Fault estimate from detection on: luaf - mean - injected = the healthy oscillation about its mean.
+    error = (luaf - diagnosis.mean - injected)[6019:, 0]
+    np.testing.assert_allclose(m["fault_estimate_rms"][0], np.sqrt(np.mean(error**2)), rtol=1e-12)
+    assert m["fault_estimate_rms"][0] < 0.1
+    assert np.isnan(m["fault_estimate_rms"][1:]).all()
+
+
+def test_false_alarms_missed_detection_and_isolation() -> None:
+    luaf = healthy_signal()
+    luaf[5000:5030, 0] += 3.0  # 30 samples before joint 1's onset: a false alarm
+    luaf[6000:, 0] += 3.0  # joint 1's fault
+    luaf[7000:7100, 1] += 3.0  # healthy joint 2 alarms after the onset: false alarm and a wrong isolation
+    luaf[6000:, 2] += 0.05  # joint 3's fault is far below its threshold: missed
+    diagnosis = diagnose(synthetic(), luaf)
+    onsets = np.array([6.0, np.nan, 6.0])
+    m = diagnosis_metrics(diagnosis, onsets, 6.0, NJ)
+    np.testing.assert_array_equal(m["false_alarms"], [1, 1, 0])
+    # Armed fault-free time: 4 s to the onset (2 s) on joints 1 and 3, 4 s to the end (6 s) on joint 2.
+    np.testing.assert_allclose(m["false_alarm_rate"], [1 / 2.0, 1 / 6.0, 0.0], rtol=1e-9)
+    np.testing.assert_array_equal(m["missed_detection"], [0, np.nan, 1])
+    np.testing.assert_array_equal(m["isolation_correct"], [1, 0, 0])
+    assert m["detection_delay"][0] == pytest.approx(19 * DT)  # the first alarm at or after the onset
+    assert np.isnan(m["detection_delay"][2]) and np.isnan(m["fault_estimate_rms"][2])
+    np.testing.assert_array_equal(diagnosis.isolated(6.0), [True, True, False])
+
+
+def test_persistence_against_chattering_estimate() -> None:
+    """Single-sample spikes (the chattering of a discrete sliding-mode estimate) raise alarms without
+    persistence and none with it."""
+    luaf = healthy_signal()
+    luaf[4000::97, 1] += 5.0
+    assert diagnosis_metrics(diagnose(synthetic(persistence=1), luaf), np.full(NJ, np.nan), math.inf, NJ)[
+        "false_alarms"][1] > 50
+    m = diagnosis_metrics(diagnose(synthetic(persistence=5), luaf), np.full(NJ, np.nan), math.inf, NJ)
+    np.testing.assert_array_equal(m["false_alarms"], [0, 0, 0])
+    np.testing.assert_array_equal(m["isolation_correct"], [1, 1, 1])
+    assert np.isnan(m["detection_delay"]).all() and np.isnan(m["missed_detection"]).all()
+
+
+def test_fixed_and_adaptive_threshold_without_baseline() -> None:
+    """threshold = fixed + bound(t, q_meas, qd_hat); no baseline: the estimate is its own fault estimate."""
+    n = NJ
+    bound = StateFunction([parse(text, state_variables(n)) for text in ("abs(qd1)", "0.1*t", "q3**2")], n)
+    diagnoser = synthetic(k=0.0, baseline=None, start=0.5, fixed=np.array([1.0, 2.0, 3.0]), bound=bound)
+    q = np.stack([np.sin(T)] * n, axis=1)
+    qd = np.stack([np.cos(T)] * n, axis=1)
+    luaf = healthy_signal()
+    diagnosis = diagnoser.diagnose(T, luaf, q, qd, np.zeros_like(luaf))
+    expected = np.stack([1.0 + np.abs(qd[:, 0]), 2.0 + 0.1 * T, 3.0 + q[:, 2] ** 2], axis=1)
+    armed = T >= 0.5
+    np.testing.assert_allclose(diagnosis.threshold[armed], expected[armed], rtol=1e-12)
+    np.testing.assert_array_equal(diagnosis.mean, 0.0)
+    np.testing.assert_array_equal(diagnosis.fault_estimate, luaf)
+    assert not diagnosis.alarm.any()
+
+
+def test_filter() -> None:
+    """The optional low-pass filter is the exact discretisation y[k] = a y[k-1] + (1 - a) x[k], from x[0]."""
+    t = T[:300]
+    estimate = np.stack([np.cos(5 * t + j) + (np.arange(len(t)) % 2) for j in range(NJ)], axis=1)
+    diagnoser = synthetic(baseline=None, k=0.0, fixed=np.ones(NJ), filter_time_constant=0.01)
+    diagnosis = diagnoser.diagnose(t, estimate, *np.zeros((3, len(t), NJ)))
+    a = math.exp(-DT / 0.01)
+    y = estimate[0].copy()
+    filtered = [y]
+    for k in range(1, len(t)):
+        y = a * y + (1 - a) * estimate[k]
+        filtered.append(y)
+    np.testing.assert_allclose(diagnosis.signal, filtered, rtol=1e-12)
+    np.testing.assert_allclose(low_pass(estimate, DT, 0.01), filtered, rtol=1e-12)
+
+
+def test_a_baseline_beyond_the_run_raises_nothing() -> None:
+    """A run shorter than the baseline window (e.g. --duration, or a divergence): never armed, no alarm."""
+    diagnosis = diagnose(synthetic(baseline=(1.0, 20.0), start=20.0), healthy_signal() * 100)
+    assert not diagnosis.alarm.any() and np.isnan(diagnosis.mean).all()
+
+
+# ------------------------------------------------------------------------------------------ closed loop
+
+
+@pytest.fixture(scope="module")
+def loe_runs(tmp_path_factory: pytest.TempPathFactory):
+    """scenarios/faults/puma_loss_of_effectiveness.yaml (encoders 2^16 counts/rev, 1e-5 rad noise), the
+    proposed method, without and with its fault."""
+    tmp = tmp_path_factory.mktemp("loe")
+    healthy = scenario_data()
+    healthy["actuator_faults"] = []
+    faulty = scenario_data()
+    return run(tmp, healthy, "healthy.yaml"), run(tmp, faulty, "faulty.yaml")
+
+
+def metrics_of(scenario, result) -> dict[str, np.ndarray]:
+    return compute_metrics(result, scenario.spec.metrics, scenario.fault_onsets, scenario.joint_fault_onsets)
+
+
+def test_torque_space_signal_is_nominal_mass_times_estimate(loe_runs) -> None:
+    """In torque space the diagnosis signal is M(q_meas) luaf_hat with the controller's nominal model."""
+    (scenario, result), _ = loe_runs
+    nominal = NominalModel(scenario.model, scenario.spec.nominal.mass_scale)
+    for k in range(0, len(result.t), 997):
+        expected = nominal.mass_matrix(result.q_meas[k]) @ result.luaf_hat[k]
+        np.testing.assert_allclose(result.diagnosis.signal[k], expected, rtol=1e-12, atol=1e-12)
+
+
+def test_no_alarm_without_a_fault(loe_runs) -> None:
+    (scenario, result), _ = loe_runs
+    assert result.status == "ok" and result.t[-1] > 11.9
+    assert not result.diagnosis.alarm.any()
+    m = metrics_of(scenario, result)
+    np.testing.assert_array_equal(m["false_alarms"], [0, 0, 0])
+    np.testing.assert_array_equal(m["isolation_correct"], [1, 1, 1])
+    # Margin: the armed residual stays below 0.8 of the threshold (measured at most 0.55).
+    armed = result.diagnosis.armed
+    assert (result.diagnosis.residual[armed] < 0.8 * result.diagnosis.threshold[armed]).all()
+    # The sensors were realistic: the measurement is off the truth by up to about half a count plus noise.
+    assert 4e-5 < np.abs(result.q_meas - result.q_true).max() < 1e-4
+
+
+def test_loss_of_effectiveness_detected_and_isolated(loe_runs) -> None:
+    """Measured: joint 2 detected 0.171 s after the onset, nothing else alarmed, fault estimate error 3.4 N m
+    RMS (the fault grows to about 25 N m)."""
+    _, (scenario, result) = loe_runs
+    m = metrics_of(scenario, result)
+    assert m["detection_delay"][1] < 0.3
+    np.testing.assert_array_equal(m["missed_detection"], [np.nan, 0, np.nan])
+    np.testing.assert_array_equal(m["false_alarms"], [0, 0, 0])
+    np.testing.assert_array_equal(m["isolation_correct"], [1, 1, 1])
+    assert result.diagnosis.alarm_times()[0] == [] and result.diagnosis.alarm_times()[2] == []
+    assert m["fault_estimate_rms"][1] < 0.25 * np.abs(result.fault_torque[:, 1]).max()
+
+
+def test_bias_detected_against_the_uncertainty_bound(tmp_path: Path) -> None:
+    """scenarios/faults/puma_bias.yaml: threshold from the declared friction and disturbance bound, no
+    baseline. Measured: joint 3 detected after 0.224 s, no false alarm from 2 s (armed) on."""
+    scenario, result = run(tmp_path, scenario_data("puma_bias"))
+    m = metrics_of(scenario, result)
+    assert m["detection_delay"][2] < 0.4
+    np.testing.assert_array_equal(m["false_alarms"], [0, 0, 0])
+    np.testing.assert_array_equal(m["isolation_correct"], [1, 1, 1])
+    assert result.diagnosis.armed[np.searchsorted(result.t, 2.0)] and not result.diagnosis.armed[0]
+
+
+# ------------------------------------------------------------------------------------------ schema
+
+
+def diagnosis_data(diagnosis: dict | None) -> dict:
+    data = scenario_data()
+    data["diagnosis"] = diagnosis
+    return data
+
+
+VALID = {"space": "torque", "baseline": {"start": 2.0, "end": 7.5}, "threshold": {"k": 5.0},
+         "persistence": {"samples": 10}}
+INVALID = [
+    ({**VALID, "space": "jerk"}, "diagnosis.space", "'acceleration' or 'torque'"),
+    ({**VALID, "baseline": None}, "diagnosis", "threshold.k needs a baseline"),
+    ({**VALID, "threshold": {}}, "diagnosis.threshold", "the threshold is zero"),
+    ({**VALID, "threshold": {"fixed": -1.0}}, "diagnosis.threshold.fixed", "greater than or equal to 0"),
+    ({**VALID, "threshold": {"fixed": [1.0, 2.0]}}, "diagnosis.threshold.fixed", "has 2 values"),
+    ({**VALID, "threshold": {"k": 1, "bound": ["1", "2"]}}, "diagnosis.threshold.bound", "has 2 values"),
+    ({**VALID, "threshold": {"bound": ["1", "abs(qd4)", "1"]}}, "diagnosis.threshold.bound.1", "unknown name 'qd4'"),
+    ({**VALID, "persistence": {"samples": 3, "time": 0.01}}, "diagnosis.persistence", "exactly one"),
+    ({**VALID, "persistence": {}}, "diagnosis.persistence", "exactly one"),
+    ({**VALID, "persistence": {"samples": 0}}, "diagnosis.persistence.samples", "greater than 0"),
+    ({**VALID, "baseline": {"start": 5.0, "end": 5.0}}, "diagnosis.baseline", "must be after start"),
+    ({**VALID, "baseline": {"start": 2.0, "end": 9.0}}, "diagnosis.baseline.end", "must be fault-free"),
+    ({**VALID, "start": 3.0}, "diagnosis", "before the baseline's end"),
+    ({**VALID, "filter_time_constant": -0.1}, "diagnosis.filter_time_constant", "greater than or equal to 0"),
+    ({**VALID, "alarm": "loud"}, "diagnosis.alarm", "unknown key"),
+]
+
+
+@pytest.mark.parametrize(("diagnosis", "field", "fragment"), INVALID, ids=[f"{i}" for i in range(len(INVALID))])
+def test_invalid_diagnosis(tmp_path: Path, diagnosis: dict, field: str, fragment: str) -> None:
+    assert_input_error(tmp_path, diagnosis_data(diagnosis), field, fragment)
+
+
+def test_persistence_time_in_samples(tmp_path: Path) -> None:
+    scenario = load_scenario(write(tmp_path, diagnosis_data({**VALID, "persistence": {"time": 0.02}})))
+    assert scenario.diagnoser.persistence == 20 and scenario.diagnoser.start == 7.5
+    scenario = load_scenario(write(tmp_path, diagnosis_data({**VALID, "persistence": {"time": 0.0201}})))
+    assert scenario.diagnoser.persistence == 21
+
+
+# ------------------------------------------------------------------------------------------ outputs
+
+
+def test_table_json_and_recording(tmp_path: Path, capsys: pytest.CaptureFixture) -> None:
+    rec, out = tmp_path / "rec.rrd", tmp_path / "out.json"
+    status = main([str(FAULTS / "puma_loss_of_effectiveness.yaml"), "--variant", "proposed", "--duration", "9",
+                   "--out", str(rec), "--json", str(out)])
+    assert status == 0
+    table = capsys.readouterr().out
+    for metric in ("detection_delay", "false_alarms", "isolation_correct", "fault_estimate_rms"):
+        assert metric in table
+    assert "N m" in table
+    document = json.loads(out.read_text())
+    assert document["seed"] == 1
+    variant = document["variants"]["proposed"]
+    assert variant["diagnosis"]["space"] == "torque"
+    assert variant["diagnosis"]["isolated_joints"] == [2]
+    alarms = variant["diagnosis"]["alarms"]
+    assert alarms[0] == [] and alarms[2] == [] and len(alarms[1]) == 1 and 8.0 < alarms[1][0] < 8.3
+    assert variant["metrics"]["detection_delay"][1] == pytest.approx(alarms[1][0] - 8.0)
+    assert variant["metrics"]["missed_detection"] == [None, 0.0, None]
+    # Recording: residual and threshold per joint, the alarm as an event, the ground truth of the fault.
+    _, residual = read_series(rec, "/diagnosis/residual/proposed")
+    _, threshold = read_series(rec, "/diagnosis/threshold/proposed")
+    assert residual.shape == threshold.shape == (9000, 3)
+    above = residual[:, 1] > threshold[:, 1]
+    assert above[int(8.0 / DT):].any() and not above[:int(8.0 / DT)].any()
+    _, alarm = read_series(rec, "/diagnosis/alarm/proposed")
+    assert alarm[:, 1].max() == 1.0 and alarm[:, [0, 2]].max() == 0.0
+    _, delivered = read_series(rec, "/torque_delivered/proposed")
+    _, commanded = read_series(rec, "/torque/proposed")
+    np.testing.assert_array_equal(delivered[:8000], commanded[:8000])
+    assert np.abs(delivered[8100:, 1] / commanded[8100:, 1] - 1).max() > 0.3
+    texts = [text for chunk in RrdReader(rec).stream().to_chunks() if chunk.entity_path == "/events"
+             and not chunk.is_static for text in chunk.to_record_batch().column("TextLog:text").to_pylist()]
+    flat = [t for group in texts for t in (group if isinstance(group, list) else [group])]
+    assert any("alarm raised on joint 2" in text for text in flat), flat
+    exe = shutil.which("rerun")
+    if exe is not None:
+        verify = subprocess.run([exe, "rrd", "verify", str(rec)], capture_output=True, text=True, timeout=120)
+        assert verify.returncode == 0, verify.stdout + verify.stderr
