@@ -99,7 +99,7 @@ UNITS: dict[str, str] = {
     "false_alarms": "count",
     "false_alarm_rate": "1/s",
     "isolation_correct": "0/1",
-    "fault_estimate_rms": "rad/s^2 | N m",
+    "fault_estimate_rms": "rad/s^2 or N m",
 }
 
 DIAGNOSIS_METRICS = METRICS[METRICS.index("detection_delay"):]

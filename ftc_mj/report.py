@@ -33,7 +33,8 @@ def markdown_table(document: dict, metrics: Sequence[str] = (), variants: Sequen
     ]
     for metric in rows:
         cells = [_cell(document["variants"][name]["metrics"][metric]) for name in names]
-        lines.append(f"| {metric} | {UNITS.get(metric, '')} | " + " | ".join(cells) + " |")
+        unit = UNITS.get(metric, "").replace("|", "\\|")  # a bar would end the cell
+        lines.append(f"| {metric} | {unit} | " + " | ".join(cells) + " |")
     return "\n".join(lines)
 
 
