@@ -21,6 +21,8 @@ tabulated on the run's time grid before the loop; a step only combines the comma
 
 from __future__ import annotations
 
+from abc import ABC, abstractmethod
+
 from dataclasses import dataclass
 from typing import Literal
 
@@ -121,7 +123,7 @@ class ActuatorFaults:
         np.subtract(self.delivered, command, out=self.torque)
 
 
-class _Action:
+class _Action(ABC):
     """One fault's per-step effect on the torque ``u`` it receives (in place)."""
 
     def __init__(self, fault: ActuatorFault, times: np.ndarray):
@@ -131,8 +133,9 @@ class _Action:
         self.on: list[bool] = self.on_joints.any(axis=1).tolist()
         self._scratch = np.zeros(len(fault.joints))
 
+    @abstractmethod
     def __call__(self, k: int, u: np.ndarray) -> None:
-        raise NotImplementedError
+        """Apply the fault of control step ``k`` to ``u`` in place."""
 
 
 class _Scale(_Action):
@@ -165,8 +168,9 @@ class _Blend(_Action):
         super().__init__(fault, times)
         self.keep = 1.0 - self.weights
 
+    @abstractmethod
     def faulty(self, k: int, u: np.ndarray, out: np.ndarray) -> None:
-        raise NotImplementedError
+        """The fully faulty actuator's output for the received torque ``u``, into ``out``."""
 
     def __call__(self, k: int, u: np.ndarray) -> None:
         self.faulty(k, u, self._scratch)
