@@ -76,6 +76,9 @@ class VariantResult:
     fault_torque: np.ndarray | None = None
     fault_acceleration: np.ndarray | None = None
     diagnosis: Diagnosis | None = None
+    #: The results of the variant's monitors (``variants.NAME.monitors``): the same trajectory with each
+    #: monitor's estimates, named ``<variant>.<monitor>``.
+    monitors: list["VariantResult"] = field(default_factory=list)
 
     @property
     def tracking_error(self) -> np.ndarray:

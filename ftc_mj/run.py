@@ -47,7 +47,8 @@ def build_parser() -> argparse.ArgumentParser:
 
 
 def run_scenario(scenario: Scenario, console: Console | None = None) -> list[VariantResult]:
-    """Simulate every variant (the first one with body poses for the 3-D view), with a progress display."""
+    """Simulate every variant (the first one with body poses for the 3-D view), with a progress display.
+    Each variant's monitors follow it in the list as results of their own."""
     steps = int(round(scenario.spec.duration / scenario.spec.control_dt))
     results = []
     with Progress(
@@ -63,6 +64,7 @@ def run_scenario(scenario: Scenario, console: Console | None = None) -> list[Var
             if result.status != "ok":
                 progress.update(task, description=f"{variant.name} (diverged)")
             results.append(result)
+            results.extend(result.monitors)  # a column each, beside their host
     return results
 
 

@@ -102,6 +102,18 @@ class VariantSpec(_Strict):
     observer: MethodSpec
     controller: MethodSpec
     observer_initial: ObserverInitial | None = None
+    #: Further observers that run beside ``observer`` on the same measurements and commands but feed nothing:
+    #: an open-loop comparison of estimators on one closed-loop trajectory. Each is reported as the variant
+    #: ``<variant>.<name>`` (its tracking metrics are the host's).
+    monitors: dict[str, MethodSpec] = {}
+
+    @field_validator("monitors")
+    @classmethod
+    def _monitor_names(cls, monitors: dict[str, MethodSpec]) -> dict[str, MethodSpec]:
+        for name in monitors:
+            if not name or not all(c.isalnum() or c in "_-" for c in name):
+                raise ValueError(f"monitor name {name!r} may use only letters, digits, '_' and '-'")
+        return monitors
 
 
 class NominalSpec(_Strict):
@@ -194,6 +206,15 @@ class CompiledTerm:
 
 
 @dataclass
+class Monitor:
+    """An observer that runs beside a variant's own and feeds nothing (``variants.NAME.monitors``)."""
+
+    name: str
+    observer_type: type
+    observer_config: GainConfig
+
+
+@dataclass
 class Variant:
     name: str
     observer_type: type
@@ -202,6 +223,7 @@ class Variant:
     controller_config: GainConfig
     q_hat0: np.ndarray | None
     qd_hat0: np.ndarray
+    monitors: list[Monitor] = field(default_factory=list)
 
 
 @dataclass
@@ -476,7 +498,13 @@ def _compile(path: Path, spec: ScenarioSpec) -> Scenario:
         field = f"variants.{name}"
         observer_type, observer_config = _plugin(file, f"{field}.observer", variant.observer, observer_types(), "observer", n)
         controller_type, controller_config = _plugin(file, f"{field}.controller", variant.controller, controller_types(), "controller", n)
-        for kind, plugin in (("observer", observer_type), ("controller", controller_type)):
+        monitors = [
+            Monitor(monitor, *_plugin(file, f"{field}.monitors.{monitor}", method, observer_types(), "observer", n))
+            for monitor, method in variant.monitors.items()
+        ]
+        plugins = [("observer", observer_type), ("controller", controller_type)]
+        plugins += [(f"monitors.{m.name}", m.observer_type) for m in monitors]
+        for kind, plugin in plugins:
             missing = set(plugin.requires) - sensors
             if missing:
                 raise InputError(file, f"{field}.{kind}.type", f"{plugin.name} needs {', '.join(sorted(missing))} sensors, robot.sensors has {sorted(sensors)}")
@@ -491,6 +519,7 @@ def _compile(path: Path, spec: ScenarioSpec) -> Scenario:
                 controller_config=controller_config,
                 q_hat0=vector(initial.q_hat, f"{initial_field}.q_hat", default=None),
                 qd_hat0=vector(initial.qd_hat, f"{initial_field}.qd_hat"),
+                monitors=monitors,
             )
         )
 

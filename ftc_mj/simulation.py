@@ -25,6 +25,7 @@ lumped uncertainty qdd - (Psi(q, qd) + M(q)^-1 tau), in the nominal model's term
 
 from __future__ import annotations
 
+import dataclasses
 from collections.abc import Callable
 
 import mujoco
@@ -37,6 +38,7 @@ from ftc_mj.results import VariantResult
 from ftc_mj.sensors import Measurement
 from ftc_mj.scenario import (
     CompiledTerm,
+    Monitor,
     Scenario,
     Variant,
     position_sensor_addresses,
@@ -102,6 +104,39 @@ class Diverged(Exception):
     """The state left the plausible range or stopped being finite."""
 
 
+class MonitorRun:
+    """An observer that runs beside the variant's own on the same readings and commands and feeds nothing.
+
+    It has its own nominal model (Psi at its own estimate, M at the measurement), as it would alone; its
+    estimates are recorded for a result of their own.
+    """
+
+    def __init__(self, monitor: Monitor, model: mujoco.MjModel, mass_scale: float, steps: int, n: int, dt: float,
+                 torque_space: bool):
+        self.name = monitor.name
+        self.observer = monitor.observer_type(monitor.observer_config, n, dt)
+        self.step_model = StepModel(NominalModel(model, mass_scale))
+        self.qd_hat = np.full((steps, n), np.nan)
+        self.luaf_hat = np.full((steps, n), np.nan)
+        self.luaf_torque = np.full((steps, n), np.nan) if torque_space else None
+
+    def sense(self, k: int, t: float, q_meas: np.ndarray, qd_meas: np.ndarray | None, q_hat0, qd_hat0) -> None:
+        """The observer's half of the period before the command: reset (k = 0), measure, update, record."""
+        observer = self.observer
+        if k == 0:
+            observer.reset(q_hat0, qd_hat0)
+        observer.measure(q_meas, qd_meas)
+        self.step_model.update(q_meas, observer.q_hat, observer.qd_hat)
+        observer.update(t, q_meas, self.step_model)
+        self.qd_hat[k] = observer.qd_hat
+        self.luaf_hat[k] = observer.luaf_hat
+        if self.luaf_torque is not None:
+            np.matmul(self.step_model.M, observer.luaf_hat, out=self.luaf_torque[k])
+
+    def advance(self, tau: np.ndarray) -> None:
+        self.observer.advance(tau, self.step_model)
+
+
 def simulate_variant(
     scenario: Scenario,
     variant: Variant,
@@ -153,6 +188,7 @@ def simulate_variant(
     # A torque-space diagnosis needs M(q_meas) luaf_hat: the loop has that M at hand (StepModel).
     torque_space = scenario.diagnoser is not None and scenario.diagnoser.space == "torque"
     luaf_torque = np.full((steps, n), np.nan) if torque_space else None
+    monitors = [MonitorRun(m, model, spec.nominal.mass_scale, steps, n, dt, torque_space) for m in variant.monitors]
     # Plugin-specific signals (e.g. an adaptive switching gain), recorded beside the estimates.
     signals = {**observer.signals, **controller.signals}
     extras = {name: np.full((steps, n), np.nan) for name in signals}
@@ -181,6 +217,9 @@ def simulate_variant(
             _check_state(data.qpos.tolist(), data.qvel.tolist(), max_position, max_velocity)
             step_model.update(q_meas, observer.q_hat, observer.qd_hat)
             observer.update(t, q_meas, step_model)
+            for monitor in monitors:
+                monitor.sense(k, t, q_meas, qd_meas, q_meas if variant.q_hat0 is None else variant.q_hat0,
+                              variant.qd_hat0)
             tau = controller.compute(t, q_ref[k], qd_ref[k], qdd_ref[k], q_meas, observer, step_model)
             data.ctrl[:] = tau
             _record(series, k, q_meas, data, observer, controller)
@@ -215,6 +254,8 @@ def simulate_variant(
             mujoco.mj_step2(model, data)
             series["qdd_true"][k] = data.qacc
             observer.advance(tau, step_model)
+            for monitor in monitors:
+                monitor.advance(tau)
             # ctrl and qfrc_applied persist: the rest of the period is plain physics steps (zero-order hold).
             if remaining_substeps:
                 mujoco.mj_step(model, data, nstep=remaining_substeps)
@@ -253,13 +294,28 @@ def simulate_variant(
     )
     if status != "ok":
         result = result.truncated(done)
-    if scenario.diagnoser is not None:
-        if torque_space:
-            estimate, injected = luaf_torque[:len(result.t)], result.fault_torque
-        else:
-            estimate, injected = result.luaf_hat, result.fault_acceleration
-        result.diagnosis = scenario.diagnoser.diagnose(result.t, estimate, result.q_meas, result.qd_hat, injected)
+    _diagnose(scenario, result, luaf_torque)
+    for monitor in monitors:
+        kept = len(result.t)
+        view = dataclasses.replace(
+            result, name=f"{variant.name}.{monitor.name}", observer=monitor.observer.name,
+            qd_hat=monitor.qd_hat[:kept], luaf_hat=monitor.luaf_hat[:kept],
+            body_xpos=body_xpos[:0], body_xquat=body_xquat[:0], extras={}, diagnosis=None, monitors=[],
+        )
+        _diagnose(scenario, view, monitor.luaf_torque)
+        result.monitors.append(view)
     return result
+
+
+def _diagnose(scenario: Scenario, result: VariantResult, luaf_torque: np.ndarray | None) -> None:
+    """Run the scenario's diagnoser, if any, on the result's LUaF estimate (in its diagnosis space)."""
+    if scenario.diagnoser is None:
+        return
+    if scenario.diagnoser.space == "torque":
+        estimate, injected = luaf_torque[:len(result.t)], result.fault_torque
+    else:
+        estimate, injected = result.luaf_hat, result.fault_acceleration
+    result.diagnosis = scenario.diagnoser.diagnose(result.t, estimate, result.q_meas, result.qd_hat, injected)
 
 
 _BAD_ACCELERATION = int(mujoco.mjtWarning.mjWARN_BADQACC)

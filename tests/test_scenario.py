@@ -598,6 +598,22 @@ def test_model_without_position_sensors(tmp_path):
     assert "jointpos sensor" in error.problem
 
 
+def test_monitor_is_checked_like_an_observer(tmp_path):
+    base = base_dict()
+    variant = next(iter(base["variants"]))
+    for monitors, field, fragment in [
+        ({"m": {"type": "nope"}}, f"variants.{variant}.monitors.m.type", "unknown observer 'nope'"),
+        ({"m": {"type": "tosmo", "gains": {"D": -1}}}, f"variants.{variant}.monitors.m.gains.D", "greater than 0"),
+        ({"m": {"type": "do", "gains": {"k1": 8, "k2": 18, "p1": 10, "p2": 10}}}, f"variants.{variant}.monitors.m.type",
+         "velocity"),
+        ({"a.b": {"type": "tosmo", "gains": {"D": 9}}}, f"variants.{variant}.monitors", "monitor name 'a.b'"),
+    ]:
+        path = write(tmp_path, mutate(base_dict(), f"variants.{variant}.monitors", monitors))
+        error = load_error(path)
+        assert_names(error, path, field)
+        assert fragment in error.problem, (monitors, error.problem)
+
+
 def test_velocity_sensing_needs_tachometers_in_the_model(tmp_path):
     source = (Path(__file__).resolve().parents[1] / "models" / "puma560.xml").read_text(encoding="utf-8")
     without = "\n".join(line for line in source.splitlines() if "<jointvel" not in line)
