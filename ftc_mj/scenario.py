@@ -98,6 +98,14 @@ class MethodSpec(_Strict):
     gains: dict[str, Any] = {}
 
 
+def _plain_names(named: dict[str, Any], what: str) -> dict[str, Any]:
+    """Names of variants and monitors: letters, digits, '_' and '-' (a monitor's result is "variant.monitor")."""
+    for name in named:
+        if not name or not all(c.isalnum() or c in "_-" for c in name):
+            raise ValueError(f"{what} name {name!r} may use only letters, digits, '_' and '-'")
+    return named
+
+
 class VariantSpec(_Strict):
     observer: MethodSpec
     controller: MethodSpec
@@ -110,10 +118,7 @@ class VariantSpec(_Strict):
     @field_validator("monitors")
     @classmethod
     def _monitor_names(cls, monitors: dict[str, MethodSpec]) -> dict[str, MethodSpec]:
-        for name in monitors:
-            if not name or not all(c.isalnum() or c in "_-" for c in name):
-                raise ValueError(f"monitor name {name!r} may use only letters, digits, '_' and '-'")
-        return monitors
+        return _plain_names(monitors, "monitor")
 
 
 class NominalSpec(_Strict):
@@ -170,10 +175,7 @@ class ScenarioSpec(_Strict):
     @field_validator("variants")
     @classmethod
     def _variant_names(cls, variants: dict[str, VariantSpec]) -> dict[str, VariantSpec]:
-        for name in variants:
-            if not name or not all(c.isalnum() or c in "_-" for c in name):
-                raise ValueError(f"variant name {name!r} may use only letters, digits, '_' and '-'")
-        return variants
+        return _plain_names(variants, "variant")
 
 
 @dataclass
