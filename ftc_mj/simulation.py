@@ -120,11 +120,9 @@ class MonitorRun:
         self.luaf_hat = np.full((steps, n), np.nan)
         self.luaf_torque = np.full((steps, n), np.nan) if torque_space else None
 
-    def sense(self, k: int, t: float, q_meas: np.ndarray, qd_meas: np.ndarray | None, q_hat0, qd_hat0) -> None:
-        """The observer's half of the period before the command: reset (k = 0), measure, update, record."""
+    def sense(self, k: int, t: float, q_meas: np.ndarray, qd_meas: np.ndarray | None) -> None:
+        """The observer's half of the period before the command: measure, update, record."""
         observer = self.observer
-        if k == 0:
-            observer.reset(q_hat0, qd_hat0)
         observer.measure(q_meas, qd_meas)
         self.step_model.update(q_meas, observer.q_hat, observer.qd_hat)
         observer.update(t, q_meas, self.step_model)
@@ -211,15 +209,16 @@ def simulate_variant(
                 else:
                     np.take(data.sensordata, velocity_addresses, out=qd_true_reading)
                     velocity_sensor.read(k, qd_true_reading, qd_meas)
-            if k == 0:
-                observer.reset(q_meas if variant.q_hat0 is None else variant.q_hat0, variant.qd_hat0)
+            if k == 0:  # the observers start from the first reading unless the scenario says otherwise
+                q_hat0 = q_meas if variant.q_hat0 is None else variant.q_hat0
+                for estimator in (observer, *(monitor.observer for monitor in monitors)):
+                    estimator.reset(q_hat0, variant.qd_hat0)
             observer.measure(q_meas, qd_meas)
             _check_state(data.qpos.tolist(), data.qvel.tolist(), max_position, max_velocity)
             step_model.update(q_meas, observer.q_hat, observer.qd_hat)
             observer.update(t, q_meas, step_model)
             for monitor in monitors:
-                monitor.sense(k, t, q_meas, qd_meas, q_meas if variant.q_hat0 is None else variant.q_hat0,
-                              variant.qd_hat0)
+                monitor.sense(k, t, q_meas, qd_meas)
             tau = controller.compute(t, q_ref[k], qd_ref[k], qdd_ref[k], q_meas, observer, step_model)
             data.ctrl[:] = tau
             _record(series, k, q_meas, data, observer, controller)
