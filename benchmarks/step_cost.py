@@ -17,10 +17,10 @@ from pathlib import Path
 
 import mujoco
 
-from ftc_mj.metrics import compute_metrics
-from ftc_mj.recording import write_recording
-from ftc_mj.scenario import load_scenario
-from ftc_mj.simulation import simulate_variant
+from ftc_mj.analysis.metrics import compute_metrics
+from ftc_mj.engine.loop import simulate_variant
+from ftc_mj.outputs.recording import write_recording
+from ftc_mj.spec.scenario import load_scenario
 
 ROOT = Path(__file__).resolve().parents[1]
 

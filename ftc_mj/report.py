@@ -15,7 +15,7 @@ import sys
 from collections.abc import Sequence
 from pathlib import Path
 
-from ftc_mj.metrics import UNITS
+from ftc_mj.analysis.metrics import UNITS
 
 
 def _cell(values: Sequence[float | None]) -> str:

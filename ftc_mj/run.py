@@ -20,11 +20,11 @@ from rich.console import Console
 from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn
 from rich.table import Table
 
-from ftc_mj.errors import InputError
-from ftc_mj.metrics import METRICS, compute_metrics, unit
-from ftc_mj.results import VariantResult
-from ftc_mj.scenario import Scenario, load_scenario
-from ftc_mj.simulation import simulate_variant
+from ftc_mj.analysis.metrics import METRICS, compute_metrics, unit
+from ftc_mj.engine.loop import simulate_variant
+from ftc_mj.engine.results import VariantResult
+from ftc_mj.spec.errors import InputError
+from ftc_mj.spec.scenario import Scenario, load_scenario
 
 
 class _ArgumentParser(argparse.ArgumentParser):
@@ -171,7 +171,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     written: list[Path] = []
     try:
         if not args.no_record:
-            from ftc_mj.recording import write_recording  # rerun is heavy to import; only when recording
+            from ftc_mj.outputs.recording import write_recording  # rerun is heavy to import; only when recording
 
             write_recording(recording_path, scenario=scenario.name, model=scenario.model, results=results,
                             fault_onsets=onsets, seed=scenario.spec.seed)

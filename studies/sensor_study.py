@@ -20,9 +20,9 @@ from pathlib import Path
 
 import numpy as np
 
-from ftc_mj.metrics import compute_metrics
-from ftc_mj.scenario import load_scenario
-from ftc_mj.simulation import simulate_variant
+from ftc_mj.analysis.metrics import compute_metrics
+from ftc_mj.engine.loop import simulate_variant
+from ftc_mj.spec.scenario import load_scenario
 
 ROOT = Path(__file__).resolve().parents[1]
 SCENARIO = ROOT / "scenarios" / "puma_fault.yaml"

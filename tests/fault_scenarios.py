@@ -10,10 +10,10 @@ import numpy as np
 import pytest
 import yaml
 
-from ftc_mj.errors import InputError
-from ftc_mj.results import VariantResult
-from ftc_mj.scenario import Scenario, load_scenario
-from ftc_mj.simulation import simulate_variant
+from ftc_mj.engine.loop import simulate_variant
+from ftc_mj.engine.results import VariantResult
+from ftc_mj.spec.errors import InputError
+from ftc_mj.spec.scenario import Scenario, load_scenario
 
 ROOT = Path(__file__).resolve().parents[1]
 FAULTS = ROOT / "scenarios" / "faults"

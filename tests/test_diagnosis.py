@@ -1,4 +1,4 @@
-"""Fault diagnosis (ftc_mj.diagnosis and its metrics in ftc_mj.metrics): persistence against chattering,
+"""Fault diagnosis (ftc_mj.analysis.diagnosis and its metrics in ftc_mj.analysis.metrics): persistence against chattering,
 baseline and thresholds, detection delay, false alarms, missed detections, isolation and the fault-estimate
 error on synthetic residuals; then closed-loop PUMA runs with realistic encoders: no alarm without a fault,
 detection within a stated delay and the right joints with one; the schema's errors; the recording, table
@@ -17,13 +17,13 @@ import pytest
 from fault_scenarios import FAULTS, assert_input_error, run, scenario_data, write
 from rerun.chunk import RrdReader
 
-from ftc_mj.diagnosis import Diagnoser, low_pass, persistent
-from ftc_mj.expressions import StateFunction, parse, state_variables
-from ftc_mj.metrics import compute_metrics, diagnosis_metrics
-from ftc_mj.nominal import NominalModel
-from ftc_mj.recording import read_series
+from ftc_mj.analysis.diagnosis import Diagnoser, low_pass, persistent
+from ftc_mj.analysis.metrics import compute_metrics, diagnosis_metrics
+from ftc_mj.outputs.recording import read_series
+from ftc_mj.robot.nominal import NominalModel
 from ftc_mj.run import main
-from ftc_mj.scenario import load_scenario
+from ftc_mj.spec.expressions import StateFunction, parse, state_variables
+from ftc_mj.spec.scenario import load_scenario
 
 DT = 1e-3
 T = np.arange(10000) * DT  # 10 s

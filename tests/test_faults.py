@@ -1,4 +1,4 @@
-"""Actuator faults (ftc_mj.faults): each kind delivers what it specifies, profiles blend, faults compose in
+"""Actuator faults (ftc_mj.effects.faults): each kind delivers what it specifies, profiles blend, faults compose in
 order; compiled from scenario files with field-path errors; in the closed loop they act through
 qfrc_applied only (the command and the recorded tau stay the controller's), and the plant's acceleration
 is that of the delivered torque."""
@@ -11,11 +11,11 @@ import numpy as np
 import pytest
 from fault_scenarios import assert_input_error, load, run, scenario_data, write
 
-from ftc_mj.errors import InputError
-from ftc_mj.faults import ActuatorFault, ActuatorFaults
-from ftc_mj.nominal import NominalModel
-from ftc_mj.profiles import Profile
-from ftc_mj.scenario import load_scenario
+from ftc_mj.effects.faults import ActuatorFault, ActuatorFaults
+from ftc_mj.effects.profiles import Profile
+from ftc_mj.robot.nominal import NominalModel
+from ftc_mj.spec.errors import InputError
+from ftc_mj.spec.scenario import load_scenario
 
 N, NJ, DT = 1000, 3, 1e-3
 T = np.arange(N) * DT

@@ -1,4 +1,4 @@
-"""ftc_mj.metrics on synthetic VariantResults with known signals.
+"""ftc_mj.analysis.metrics on synthetic VariantResults with known signals.
 
 The sample time is 2^-10 s, so every sample time, window start, fault onset and settle end below is exact in
 binary and the expected sample counts are exact integers.
@@ -9,9 +9,9 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from ftc_mj.metrics import METRICS, compute_metrics, evaluation_mask, settling_time
-from ftc_mj.results import VariantResult
-from ftc_mj.scenario import MetricsSpec
+from ftc_mj.analysis.metrics import METRICS, compute_metrics, evaluation_mask, settling_time
+from ftc_mj.engine.results import VariantResult
+from ftc_mj.spec.scenario import MetricsSpec
 
 DT = 2.0**-10
 N = 2049  # t = 0 .. 2 s

@@ -13,7 +13,7 @@ import mujoco
 import numpy as np
 import pytest
 
-from ftc_mj.nominal import NominalModel, StepModel
+from ftc_mj.robot.nominal import NominalModel, StepModel
 
 PUMA = Path(__file__).resolve().parents[1] / "models" / "puma560.xml"
 CHECK_QD = np.array([0.4, -0.3, 0.9])

@@ -1,4 +1,4 @@
-"""Fault time profiles (ftc_mj.profiles): each shape's value, the end time, and the instant (weight) and
+"""Fault time profiles (ftc_mj.effects.profiles): each shape's value, the end time, and the instant (weight) and
 grid (evaluate, active) forms agreeing sample by sample."""
 
 from __future__ import annotations
@@ -6,7 +6,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from ftc_mj.profiles import Profile
+from ftc_mj.effects.profiles import Profile
 
 T = np.arange(4000) * 1e-3
 RATE = np.array([1.0, 2.0, 8.0])

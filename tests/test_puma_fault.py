@@ -12,10 +12,10 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from ftc_mj.recording import read_series
+from ftc_mj.engine.loop import simulate_variant
+from ftc_mj.outputs.recording import read_series
 from ftc_mj.run import main
-from ftc_mj.scenario import load_scenario
-from ftc_mj.simulation import simulate_variant
+from ftc_mj.spec.scenario import load_scenario
 
 ROOT = Path(__file__).resolve().parents[1]
 SCENARIO = ROOT / "scenarios" / "puma_fault.yaml"

@@ -1,4 +1,4 @@
-"""Reproducible randomness (ftc_mj.randomness): one seed per scenario; the same scenario and seed give the
+"""Reproducible randomness (ftc_mj.effects.randomness): one seed per scenario; the same scenario and seed give the
 same run bit for bit (in one process and across processes), another seed another run; variants share their
 noise; random elements do not disturb each other; the seed is in the JSON and the recording."""
 
@@ -14,9 +14,9 @@ import numpy as np
 from fault_scenarios import FAULTS, ROOT, array_fields, load, scenario_data
 from rerun.chunk import RrdReader
 
-from ftc_mj import randomness
-from ftc_mj.recording import read_series
-from ftc_mj.simulation import simulate_variant
+from ftc_mj.effects import randomness
+from ftc_mj.engine.loop import simulate_variant
+from ftc_mj.outputs.recording import read_series
 
 #: The LoE scenario (noise, quantisation, an actuator fault at 8 s, diagnosis) cut to 8.5 s.
 SHORT = 8.5

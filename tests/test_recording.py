@@ -13,8 +13,8 @@ import pytest
 import rerun as rr
 from rerun.chunk import RrdReader
 
-from ftc_mj.recording import DIAGNOSIS_SERIES, OPTIONAL_SERIES, SERIES, write_recording
-from ftc_mj.results import VariantResult
+from ftc_mj.engine.results import VariantResult
+from ftc_mj.outputs.recording import DIAGNOSIS_SERIES, OPTIONAL_SERIES, SERIES, write_recording
 
 N, NJ, STRIDE = 500, 2, 10
 VARIANTS = ("nftsmc_sosmo", "nftsmc_tosmo")

@@ -1,6 +1,6 @@
-"""ftc_mj.registry: built-in methods by name, third-party methods through entry points.
+"""ftc_mj.methods.registry: built-in methods by name, third-party methods through entry points.
 
-Third-party plugins are simulated: ``ftc_mj.registry.entry_points`` is replaced by a function returning
+Third-party plugins are simulated: ``ftc_mj.methods.registry.entry_points`` is replaced by a function returning
 ``importlib.metadata.EntryPoint`` objects whose ``value`` points into a module object put in ``sys.modules``
 (a real installed distribution is not needed). ``registry._discover`` is cached, so every test clears the
 cache before and after.
@@ -18,14 +18,14 @@ import numpy as np
 import pytest
 import yaml
 
-from ftc_mj import controllers, observers, registry
-from ftc_mj.controllers.nftsmc import NFTSMC, NFTSMCConfig
-from ftc_mj.errors import InputError
-from ftc_mj.gains import GainConfig, PositiveFloat
-from ftc_mj.observers.base import Observer
-from ftc_mj.observers.tosmo import TOSMO
-from ftc_mj.scenario import load_scenario
-from ftc_mj.simulation import simulate_variant
+from ftc_mj.engine.loop import simulate_variant
+from ftc_mj.methods import controllers, observers, registry
+from ftc_mj.methods.controllers.nftsmc import NFTSMC, NFTSMCConfig
+from ftc_mj.methods.gains import GainConfig, PositiveFloat
+from ftc_mj.methods.observers.base import Observer
+from ftc_mj.methods.observers.tosmo import TOSMO
+from ftc_mj.spec.errors import InputError
+from ftc_mj.spec.scenario import load_scenario
 
 ROOT = Path(__file__).resolve().parents[1]
 TWO_LINK = ROOT / "models" / "two_link.xml"

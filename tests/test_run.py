@@ -27,7 +27,7 @@ from pathlib import Path
 import pytest
 import yaml
 
-from ftc_mj.metrics import METRICS
+from ftc_mj.analysis.metrics import METRICS
 from ftc_mj.run import main
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -387,7 +387,7 @@ def run_bug_case(name: str, tmp_path: Path, monkeypatch, capsys) -> Outcome:
 
 
 def test_regression_runtime_math_error_in_a_term_is_not_a_traceback(tmp_path, monkeypatch, capsys):
-    """Was a bug (ftc_mj/simulation.py): a term evaluated with the ``math`` module outside its domain
+    """Was a bug (ftc_mj/engine/loop.py): a term evaluated with the ``math`` module outside its domain
     (sqrt(q1) at q1 = -0.5; likewise 1/(q1 + 0.5), log(q1), exp(1000*qd1)) ended the run in a traceback.
     Now that variant is reported as diverged (exit 1)."""
     outcome = run_bug_case("runtime_domain_error", tmp_path, monkeypatch, capsys)
@@ -395,7 +395,7 @@ def test_regression_runtime_math_error_in_a_term_is_not_a_traceback(tmp_path, mo
 
 
 def test_regression_division_by_zero_in_an_expression_is_an_input_error(tmp_path, monkeypatch, capsys):
-    """Was a bug (ftc_mj/expressions.py, parse): "1/0" raised ZeroDivisionError from SymPy, which was not
+    """Was a bug (ftc_mj/spec/expressions.py, parse): "1/0" raised ZeroDivisionError from SymPy, which was not
     turned into an InputError: the command line printed a traceback instead of one line."""
     outcome = run_bug_case("division_by_zero_in_reference", tmp_path, monkeypatch, capsys)
     check_bad_input(BUGS["division_by_zero_in_reference"], outcome)

@@ -1,4 +1,4 @@
-"""Scenario files (ftc_mj.scenario): the reference scenario compiled, ``--set`` overrides, variant filtering,
+"""Scenario files (ftc_mj.spec.scenario): the reference scenario compiled, ``--set`` overrides, variant filtering,
 Remark 5.3 gains, and invalid files, each rejected with an InputError naming the file and the field path.
 
 Invalid files are written to tmp_path from the reference scenario (scenarios/puma_fault.yaml) with one
@@ -18,9 +18,9 @@ import numpy as np
 import pytest
 import yaml
 
-from ftc_mj.errors import InputError
-from ftc_mj.expressions import ExpressionError
-from ftc_mj.scenario import load_scenario
+from ftc_mj.spec.errors import InputError
+from ftc_mj.spec.expressions import ExpressionError
+from ftc_mj.spec.scenario import load_scenario
 
 ROOT = Path(__file__).resolve().parents[1]
 PUMA_YAML = ROOT / "scenarios" / "puma_fault.yaml"

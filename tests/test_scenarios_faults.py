@@ -10,7 +10,7 @@ import numpy as np
 import pytest
 from fault_scenarios import run, scenario_data
 
-from ftc_mj.metrics import compute_metrics
+from ftc_mj.analysis.metrics import compute_metrics
 
 NAMES = ("puma_lock", "puma_float", "puma_saturation", "puma_intermittent", "puma_sensors")
 

@@ -1,4 +1,4 @@
-"""Sensor effects (ftc_mj.sensors): quantisation, noise, bias, drift, stuck readings and delay, alone and in
+"""Sensor effects (ftc_mj.effects.sensors): quantisation, noise, bias, drift, stuck readings and delay, alone and in
 their documented order; in the closed loop the controller side reads the corrupted measurement while the
 recorded truth stays true; the schema's errors; and every observer's estimation error growing with the noise
 level."""
@@ -11,11 +11,11 @@ import numpy as np
 import pytest
 from fault_scenarios import ROOT, assert_input_error, run, scenario_data
 
-from ftc_mj import randomness
-from ftc_mj.metrics import compute_metrics
-from ftc_mj.scenario import load_scenario
-from ftc_mj.sensors import Channel, Measurement
-from ftc_mj.simulation import simulate_variant
+from ftc_mj.analysis.metrics import compute_metrics
+from ftc_mj.effects import randomness
+from ftc_mj.effects.sensors import Channel, Measurement
+from ftc_mj.engine.loop import simulate_variant
+from ftc_mj.spec.scenario import load_scenario
 
 N, NJ, DT = 2000, 3, 1e-3
 T = np.arange(N) * DT

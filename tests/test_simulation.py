@@ -1,4 +1,4 @@
-"""The closed loop of ftc_mj.simulation: measurement timing, ground truth, model mismatch, substeps,
+"""The closed loop of ftc_mj.engine.loop: measurement timing, ground truth, model mismatch, substeps,
 divergence, body poses, determinism and the plugins' isolation from the simulation's MjData.
 
 Every scenario is a small YAML file written to tmp_path (PUMA560 with joints 4-6 locked, 0.2-1 s). Tolerances
@@ -15,13 +15,13 @@ import numpy as np
 import pytest
 import yaml
 
-from ftc_mj import controllers, observers, registry
-from ftc_mj.controllers.nftsmc import NFTSMC
-from ftc_mj.metrics import compute_metrics
-from ftc_mj.observers.tosmo import HighSpeedTOSMO
-from ftc_mj.results import VariantResult
-from ftc_mj.scenario import Scenario, load_scenario
-from ftc_mj.simulation import simulate_variant
+from ftc_mj.analysis.metrics import compute_metrics
+from ftc_mj.engine.loop import simulate_variant
+from ftc_mj.engine.results import VariantResult
+from ftc_mj.methods import controllers, observers, registry
+from ftc_mj.methods.controllers.nftsmc import NFTSMC
+from ftc_mj.methods.observers.tosmo import HighSpeedTOSMO
+from ftc_mj.spec.scenario import Scenario, load_scenario
 
 ROOT = Path(__file__).resolve().parents[1]
 PUMA = ROOT / "models" / "puma560.xml"
@@ -245,7 +245,7 @@ def test_substeps_give_nearly_the_same_tracking(tmp_path: Path) -> None:
 def test_substeps_hold_command_and_terms_over_the_period(tmp_path: Path) -> None:
     """With timestep = control_dt / 4, the recorded run equals an independent replay that evaluates the
     (time- and state-dependent) term once per control period on the true state and holds it, like the
-    recorded torque, over the period's physics steps (the documented design of ftc_mj.simulation)."""
+    recorded torque, over the period's physics steps (the documented design of ftc_mj.engine.loop)."""
     term = {"kind": "fault", "space": "acceleration", "sign": 1, "value": ["5*sin(40*t) + 20*qd2", "-3*qd1", "2"]}
     scenario, result = run(tmp_path, scenario_dict(timestep=DT / 4, terms=[term]))
     assert scenario.substeps == 4 and result.status == "ok"

@@ -9,7 +9,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from ftc_mj.recording import read_series
+from ftc_mj.outputs.recording import read_series
 from scenario_runs import Metrics, run_scenario
 
 

@@ -1,4 +1,4 @@
-"""URDF robots (ftc_mj.urdf) and scenarios on them.
+"""URDF robots (ftc_mj.robot.urdf) and scenarios on them.
 
 * ``models/puma560.urdf`` with its wrist locked reproduces ``models/puma560.xml``: M(q), G(q), C(q, qd) qd at
   100 random states (1e-9), the body poses, and the metrics of ``puma_fault`` against ``puma_fault_urdf``.
@@ -29,13 +29,13 @@ import yaml
 from rerun.chunk import RrdReader
 from test_models import dynamics  # M(q), G(q), C(q, qd) qd on fresh MjData, as the MJCF models are checked
 
-from ftc_mj.errors import InputError
-from ftc_mj.metrics import compute_metrics
-from ftc_mj.nominal import NominalModel
+from ftc_mj.analysis.metrics import compute_metrics
+from ftc_mj.engine.loop import simulate_variant
+from ftc_mj.robot.nominal import NominalModel
+from ftc_mj.robot.urdf import load_model, read_urdf, resolve_mesh
 from ftc_mj.run import main
-from ftc_mj.scenario import load_scenario
-from ftc_mj.simulation import simulate_variant
-from ftc_mj.urdf import load_model, read_urdf, resolve_mesh
+from ftc_mj.spec.errors import InputError
+from ftc_mj.spec.scenario import load_scenario
 
 ROOT = Path(__file__).resolve().parents[1]
 MODELS = ROOT / "models"

@@ -16,7 +16,7 @@ from pydantic import ValidationError
 import closed_loop
 from closed_loop import DT, FakeObserver, Period, fake_step, reaching, simulate, total_variation
 
-from ftc_mj.controllers import NFTSMC, AdaptiveNFTSMC
+from ftc_mj.methods.controllers import NFTSMC, AdaptiveNFTSMC
 
 GAINS = dict(beta1=15.0, beta2=10.0, beta3=10.0, beta4=5.0, gamma1=0.5, bound=0.5, mu=0.5)  # the scenario's
 

@@ -13,7 +13,7 @@ from pydantic import ValidationError
 
 from closed_loop import DT, Period, make, reaching, settled, simulate
 
-from ftc_mj.controllers import NTSMC
+from ftc_mj.methods.controllers import NTSMC
 
 # Table 3.2's beta2, lambda, alpha; beta1 = 5 (Table 3.2: 1.5) so that the test converges in 3 s; K = 1.
 GAINS = dict(beta1=5.0, beta2=0.4, decay=0.7, alpha=0.3, bound=0.5, mu=0.5)

@@ -12,7 +12,7 @@ from pydantic import ValidationError
 
 from closed_loop import DT, Period, make, reaching, settled, simulate
 
-from ftc_mj.controllers import SigmoidNFTSMC
+from ftc_mj.methods.controllers import SigmoidNFTSMC
 
 # The scenario's (two_link_tosmo_simple.yaml, phi = 0.487) but mu = 0.5, so that K = 1.
 GAINS = dict(kappa1=2.0, kappa2=1.5, mu1=1.2, mu2=1.4, alpha=0.6, bound=0.5, mu=0.5)

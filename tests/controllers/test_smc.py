@@ -11,7 +11,7 @@ from pydantic import ValidationError
 
 from closed_loop import DT, Period, make, reaching, settled, simulate
 
-from ftc_mj.controllers import SMC
+from ftc_mj.methods.controllers import SMC
 
 GAINS = dict(c=5.0, bound=0.5, mu=0.5)  # K = 1
 

@@ -15,7 +15,7 @@ from pydantic import ValidationError
 
 from double_integrator import DT, SLOW, FakeStepModel, simulate
 
-from ftc_mj.observers import ESO
+from ftc_mj.methods.observers import ESO
 
 
 def make(n_joints=1, bandwidth=20.0) -> ESO:

@@ -20,7 +20,7 @@ from pydantic import ValidationError
 
 from double_integrator import DT, FAST, SLOW, FakeStepModel, simulate
 
-from ftc_mj.observers import SOSMO, TOSMO
+from ftc_mj.methods.observers import SOSMO, TOSMO
 
 L_BOUND = 10.0  # k2 = 11 > max |d| = 3
 

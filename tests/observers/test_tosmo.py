@@ -17,9 +17,9 @@ from pydantic import ValidationError
 
 from double_integrator import DT, MASS, FakeStepModel, simulate
 
-from ftc_mj.nominal import NominalModel, StepModel
-from ftc_mj.observers import HighSpeedTOSMO, TOSMO
-from ftc_mj.observers.base import signed_power
+from ftc_mj.methods.observers import HighSpeedTOSMO, TOSMO
+from ftc_mj.methods.observers.base import signed_power
+from ftc_mj.robot.nominal import NominalModel, StepModel
 
 D_BOUND = 10.0
 GAMMA = 5.0  # the scenario's Gamma (scenarios/puma_fault.yaml)

@@ -1,0 +1,1 @@
+"""What a run's results say: metrics, and fault diagnosis (detection, isolation, estimation)."""

@@ -1,0 +1,225 @@
+"""Fault diagnosis on any observer's lumped-uncertainty (LUaF) estimate: detection, isolation, estimation.
+
+Per joint j and sample k (all causal: an output at t_k uses samples up to t_k only, so running it on the
+recorded arrays after the run gives what an online diagnoser would have given):
+
+* signal s: the LUaF estimate in the diagnosis ``space``: ``acceleration`` (the estimate itself, rad/s^2)
+  or ``torque`` (M(q_meas) times it, N m, with the controller's nominal model, formed in the loop where that
+  M is at hand; an actuator fault of one joint then shows on that joint only, while in acceleration units
+  M^-1 spreads it over coupled joints); optionally through a first-order low-pass filter
+  (``filter_time_constant``);
+* baseline: mean m_j and standard deviation sd_j of s over a fault-free ``baseline`` window [t0, t1)
+  (without one, m = 0 and sd = 0: the estimate is compared against the bound alone);
+* fault estimate: s - m, its magnitude over time; residual r = |s - m|;
+* threshold: ``fixed`` + ``k`` sd_j + ``bound``_j(t, q_meas, qd_hat) (the last an adaptive bound of the
+  healthy uncertainty, an expression of the measured position and the estimated velocity);
+* alarm: raised after ``persistence`` consecutive samples with r > threshold, cleared after as many below
+  it (against chattering-induced alarms); nothing before the diagnoser is armed (``start``, default the
+  baseline's end).
+
+The metrics (detection delay, false alarms, missed detections, isolation, fault-estimate error) are in
+:mod:`ftc_mj.analysis.metrics`.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from typing import Annotated, Literal
+
+import numpy as np
+from pydantic import Field, StrictInt, model_validator
+from scipy.signal import lfilter
+
+from ftc_mj.spec.expressions import StateFunction
+from ftc_mj.spec.schema import ExpressionText, NonNegativeFloat, PositiveFloat, Strict
+
+
+class WindowSpec(Strict):
+    start: NonNegativeFloat
+    end: PositiveFloat
+
+    @model_validator(mode="after")
+    def _ordered(self) -> "WindowSpec":
+        if self.end <= self.start:
+            raise ValueError(f"end {self.end} must be after start {self.start}")
+        return self
+
+
+class ThresholdSpec(Strict):
+    """threshold_j(t) = fixed_j + k sd_j + bound_j(t, q, qd); at least one part must be given."""
+
+    #: A constant, one number or one per joint (units of the diagnosis space).
+    fixed: NonNegativeFloat | list[NonNegativeFloat] = 0.0
+    #: Multiple of the baseline's standard deviation (needs a baseline).
+    k: NonNegativeFloat = 0.0
+    #: Adaptive part: one expression of t, q1..qn, qd1..qn per joint, on the measured position and the
+    #: observer's velocity estimate.
+    bound: list[ExpressionText] | None = None
+
+    @model_validator(mode="after")
+    def _not_zero(self) -> "ThresholdSpec":
+        fixed = self.fixed if isinstance(self.fixed, list) else [self.fixed]
+        if self.k == 0 and self.bound is None and not any(fixed):
+            raise ValueError("the threshold is zero: give fixed, k or bound")
+        return self
+
+
+class PersistenceSpec(Strict):
+    """How long the residual must stay above (below) the threshold to raise (clear) an alarm: a number of
+    ``samples`` or a ``time`` [s] (rounded up to whole samples)."""
+
+    samples: Annotated[StrictInt, Field(gt=0)] | None = None
+    time: PositiveFloat | None = None
+
+    @model_validator(mode="after")
+    def _exactly_one(self) -> "PersistenceSpec":
+        if (self.samples is None) == (self.time is None):
+            raise ValueError("give samples or time (exactly one)")
+        return self
+
+
+class DiagnosisSpec(Strict):
+    space: Literal["acceleration", "torque"] = "acceleration"
+    baseline: WindowSpec | None = None
+    #: Time constant of a first-order low-pass filter on the LUaF estimate [s]; 0 = none.
+    filter_time_constant: NonNegativeFloat = 0.0
+    threshold: ThresholdSpec
+    persistence: PersistenceSpec = PersistenceSpec(samples=1)
+    #: The diagnoser is armed from this time [s]; default: the baseline's end, else
+    #: ``metrics.estimation_window_start``.
+    start: NonNegativeFloat | None = None
+
+    @model_validator(mode="after")
+    def _baseline_first(self) -> "DiagnosisSpec":
+        if self.threshold.k > 0 and self.baseline is None:
+            raise ValueError("threshold.k needs a baseline window")
+        if self.baseline is not None and self.start is not None and self.start < self.baseline.end:
+            # Causality: an alarm at t may only use a baseline learned before t.
+            raise ValueError(f"start {self.start} is before the baseline's end {self.baseline.end}")
+        return self
+
+
+@dataclass
+class Diagnosis:
+    """What the diagnoser produced for one run; per-joint series are ``(N, n)``.
+
+    Attributes:
+        space: ``acceleration`` or ``torque``.
+        t: sample times.
+        signal: the (filtered) LUaF estimate in the diagnosis space.
+        fault_estimate: signal - baseline mean.
+        residual: |fault_estimate|.
+        threshold: per sample and joint; NaN before the diagnoser is armed.
+        alarm: per sample and joint.
+        armed: per sample.
+        mean, std: the baseline per joint (0 without one).
+        injected: the injected fault in the same space (ground truth, for the metrics and the recording).
+    """
+
+    space: str
+    t: np.ndarray
+    signal: np.ndarray
+    fault_estimate: np.ndarray
+    residual: np.ndarray
+    threshold: np.ndarray
+    alarm: np.ndarray
+    armed: np.ndarray
+    mean: np.ndarray
+    std: np.ndarray
+    injected: np.ndarray
+
+    @property
+    def raised(self) -> np.ndarray:
+        """Samples at which an alarm is raised (rising edges), ``(N, n)``."""
+        before = np.vstack([np.zeros((1, self.alarm.shape[1]), dtype=bool), self.alarm[:-1]])
+        return self.alarm & ~before
+
+    @property
+    def cleared(self) -> np.ndarray:
+        """Samples at which an alarm is cleared (falling edges), ``(N, n)``."""
+        before = np.vstack([np.zeros((1, self.alarm.shape[1]), dtype=bool), self.alarm[:-1]])
+        return ~self.alarm & before
+
+    def alarm_times(self) -> list[list[float]]:
+        """Per joint, the times at which an alarm is raised."""
+        raised = self.raised
+        return [self.t[raised[:, j]].tolist() for j in range(raised.shape[1])]
+
+    def isolated(self, first_onset: float) -> np.ndarray:
+        """Joints the diagnoser names faulty: an alarm at or after the first fault onset (at any armed time in
+        a run without faults), ``(n,)``."""
+        after = self.t >= first_onset if math.isfinite(first_onset) else self.armed
+        return self.alarm[after].any(axis=0)
+
+
+@dataclass
+class Diagnoser:
+    """A compiled ``diagnosis`` section (see the module docstring)."""
+
+    space: str
+    dt: float
+    start: float
+    fixed: np.ndarray
+    k: float
+    persistence: int
+    baseline: tuple[float, float] | None = None
+    filter_time_constant: float = 0.0
+    bound: StateFunction | None = None
+
+    def diagnose(
+        self, t: np.ndarray, estimate: np.ndarray, q_meas: np.ndarray, qd_hat: np.ndarray, injected: np.ndarray
+    ) -> Diagnosis:
+        """Diagnose one run from its recorded arrays: ``estimate`` is the LUaF estimate in this diagnoser's
+        space (M(q_meas) luaf_hat in torque space), ``injected`` the true fault in the same space."""
+        n = estimate.shape[1]
+        signal = np.array(estimate, dtype=float)
+        if self.filter_time_constant > 0 and len(signal):
+            signal = low_pass(signal, self.dt, self.filter_time_constant)
+        mean, std = np.zeros(n), np.zeros(n)
+        if self.baseline is not None:
+            window = (t >= self.baseline[0]) & (t < self.baseline[1])
+            if len(t) and t[-1] + self.dt >= self.baseline[1] - 1e-9:
+                mean, std = signal[window].mean(axis=0), signal[window].std(axis=0)
+            else:  # a run that ended (or diverged) before the window's end: nothing learned, no alarm
+                mean, std = np.full(n, np.nan), np.full(n, np.nan)
+        estimate = signal - mean
+        residual = np.abs(estimate)
+        threshold = np.broadcast_to(self.fixed + self.k * std, residual.shape).copy()
+        if self.bound is not None:
+            for row in range(len(t)):
+                threshold[row] += self.bound(float(t[row]), q_meas[row].tolist(), qd_hat[row].tolist())
+        armed = t >= self.start
+        threshold[~armed] = np.nan  # no threshold before the diagnoser is armed (also in the plots)
+        exceeded = residual > threshold  # NaN compares False: no alarm
+        return Diagnosis(space=self.space, t=t, signal=signal, fault_estimate=estimate, residual=residual,
+                         threshold=threshold, alarm=persistent(exceeded, self.persistence), armed=armed,
+                         mean=mean, std=std, injected=np.asarray(injected, dtype=float))
+
+
+def low_pass(x: np.ndarray, dt: float, time_constant: float) -> np.ndarray:
+    """First-order low-pass filter along axis 0, exactly discretised, starting at the first sample."""
+    a = math.exp(-dt / time_constant)
+    return lfilter([1.0 - a], [1.0, -a], x, axis=0, zi=a * x[:1])[0]
+
+
+def persistent(exceeded: np.ndarray, samples: int) -> np.ndarray:
+    """Debounce per column: on from the ``samples``-th consecutive True, off from the ``samples``-th
+    consecutive False; starts off."""
+    alarm = np.zeros_like(exceeded, dtype=bool)
+    for j in range(exceeded.shape[1]):
+        column = exceeded[:, j]
+        if not column.any():
+            continue
+        edges = np.flatnonzero(column[1:] != column[:-1]) + 1
+        starts = np.concatenate(([0], edges))
+        ends = np.concatenate((edges, [len(column)]))
+        state, since = False, 0
+        for start, end in zip(starts.tolist(), ends.tolist()):
+            value = bool(column[start])
+            if value != state and end - start >= samples:
+                switch = start + samples - 1
+                alarm[since:switch, j] = state
+                state, since = value, switch
+        alarm[since:, j] = state
+    return alarm

@@ -1,0 +1,250 @@
+"""Metrics of a variant, per joint, in SI units. Definitions (also in README.md):
+
+* ``rms_error``, ``max_error``: RMS and maximum of |e|, e = q - q_d (true position), over the whole run.
+* ``rms_error_converged``, ``max_error_converged``: the same over the evaluation window: from
+  ``metrics.window_start`` to the end, without the ``fault_settle`` seconds after each fault onset.
+* ``convergence_time``: the first time after which |e| stays within ``tracking_tolerance`` until the first
+  fault onset (or the end); NaN if it is never within.
+* ``rms_velocity_error``, ``rms_luaf_error``: RMS of the estimate against ground truth over the estimation
+  window (from ``estimation_window_start``, without the settle intervals after fault onsets).
+* ``observer_convergence_time``: as ``convergence_time`` for the velocity estimation error with
+  ``velocity_tolerance``.
+* ``luaf_convergence_time``: as ``convergence_time`` for the LUaF estimation error with ``luaf_tolerance``.
+* ``peak_luaf_error_transient``: the largest |LUaF estimation error| before ``estimation_window_start``: the
+  initial error, or more if the estimate overshoots while it converges (Fig. 2.3's ESO).
+* ``rms_luaf_error_fault``: ``rms_luaf_error`` restricted to the samples after the first fault onset (outside
+  the settle intervals); NaN without faults. With ``rms_luaf_error`` it separates accuracy before and after.
+* ``reaching_time``: as ``convergence_time`` for the controller's sliding variable with ``sliding_tolerance``:
+  when the sliding motion is reached for good (Fig. 3.12, 4.11).
+* ``fault_peak_error``: per faulty joint, the largest |e| from the joint's first fault onset to the next fault
+  onset of the scenario (or the end); NaN on a healthy joint.
+* ``recovery_time``: per faulty joint, how long after its first fault onset |e| comes back within
+  ``tracking_tolerance`` for good (up to the next fault onset, or the end); NaN on a healthy joint or if it
+  never does.
+* ``rms_torque``: RMS of the commanded torque over the whole run [N m].
+* ``chattering``: total variation of the commanded torque per second over the evaluation window,
+  sum |tau[k+1] - tau[k]| / window length [N m / s]. A smooth torque that follows the reference scores low;
+  switching at the sampling rate scores high.
+
+Diagnosis (:mod:`ftc_mj.analysis.diagnosis`; all NaN without a ``diagnosis`` section). A joint is faulty from the
+first onset of a fault acting on it (a fault term or an actuator fault; sensor effects are not faults):
+
+* ``detection_delay``: per faulty joint, the first time at or after its onset with its alarm on, minus the
+  onset [s]; NaN on a healthy joint and on a missed one.
+* ``missed_detection``: per faulty joint, 1 if its alarm is never on from the onset to the end, else 0.
+* ``false_alarms``: alarms raised while the joint is fault-free and the diagnoser armed (before the joint's
+  onset; the whole armed run on a healthy joint).
+* ``false_alarm_rate``: that count per second of armed fault-free time [1/s].
+* ``isolation_correct``: 1 if the diagnoser names the joint faulty (an alarm at or after the first fault
+  onset; at any armed time in a run without faults) exactly when it is faulty, else 0.
+* ``fault_estimate_rms``: per detected faulty joint, RMS of the fault estimate minus the injected fault
+  (both in the diagnosis space: rad/s^2 for ``acceleration``, N m for ``torque``) from detection to the end.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+
+import numpy as np
+
+from ftc_mj.analysis.diagnosis import Diagnosis
+from ftc_mj.engine.results import VariantResult
+from ftc_mj.spec.scenario import MetricsSpec
+
+METRICS: tuple[str, ...] = (
+    "rms_error",
+    "max_error",
+    "rms_error_converged",
+    "max_error_converged",
+    "convergence_time",
+    "rms_velocity_error",
+    "rms_luaf_error",
+    "observer_convergence_time",
+    "luaf_convergence_time",
+    "peak_luaf_error_transient",
+    "rms_luaf_error_fault",
+    "reaching_time",
+    "fault_peak_error",
+    "recovery_time",
+    "rms_torque",
+    "chattering",
+    "detection_delay",
+    "missed_detection",
+    "false_alarms",
+    "false_alarm_rate",
+    "isolation_correct",
+    "fault_estimate_rms",
+)
+
+#: Units for display.
+UNITS: dict[str, str] = {
+    "rms_error": "rad",
+    "max_error": "rad",
+    "rms_error_converged": "rad",
+    "max_error_converged": "rad",
+    "convergence_time": "s",
+    "rms_velocity_error": "rad/s",
+    "rms_luaf_error": "rad/s^2",
+    "observer_convergence_time": "s",
+    "luaf_convergence_time": "s",
+    "peak_luaf_error_transient": "rad/s^2",
+    "rms_luaf_error_fault": "rad/s^2",
+    "reaching_time": "s",
+    "fault_peak_error": "rad",
+    "recovery_time": "s",
+    "rms_torque": "N m",
+    "chattering": "N m/s",
+    "detection_delay": "s",
+    "missed_detection": "0/1",
+    "false_alarms": "count",
+    "false_alarm_rate": "1/s",
+    "isolation_correct": "0/1",
+    "fault_estimate_rms": "rad/s^2 or N m",
+}
+
+DIAGNOSIS_METRICS = METRICS[METRICS.index("detection_delay"):]
+
+
+def unit(metric: str, diagnosis_space: str | None = None) -> str:
+    """The unit of ``metric``; the fault-estimate error takes the diagnosis space's."""
+    if metric == "fault_estimate_rms" and diagnosis_space is not None:
+        return "N m" if diagnosis_space == "torque" else "rad/s^2"
+    return UNITS[metric]
+
+
+def evaluation_mask(t: np.ndarray, start: float, fault_onsets: Sequence[float], settle: float) -> np.ndarray:
+    """Samples from ``start`` on, minus ``[onset, onset + settle)`` for every fault onset."""
+    mask = t >= start
+    for onset in fault_onsets:
+        mask &= ~((t >= onset) & (t < onset + settle))
+    return mask
+
+
+def settling_time(t: np.ndarray, error: np.ndarray, tolerance: float, until: float) -> np.ndarray:
+    """Per joint: the first time from which |error| <= tolerance holds up to ``until``; NaN if never."""
+    window = t < until
+    outside = ~(np.abs(error[window]) <= tolerance)  # NaN counts as outside
+    times = t[window]
+    result = np.full(error.shape[1], np.nan)
+    for joint in range(error.shape[1]):
+        bad = np.flatnonzero(outside[:, joint])
+        if bad.size == 0:
+            result[joint] = times[0] if times.size else np.nan
+        elif bad[-1] + 1 < times.size:
+            result[joint] = times[bad[-1] + 1]
+    return result
+
+
+def _rms(x: np.ndarray, mask: np.ndarray) -> np.ndarray:
+    if not mask.any():
+        return np.full(x.shape[1], np.nan)
+    return np.sqrt(np.mean(x[mask] ** 2, axis=0))
+
+
+def _max_abs(x: np.ndarray, mask: np.ndarray) -> np.ndarray:
+    if not mask.any():
+        return np.full(x.shape[1], np.nan)
+    return np.max(np.abs(x[mask]), axis=0)
+
+
+def fault_response(
+    t: np.ndarray, error: np.ndarray, joint_onsets: np.ndarray, fault_onsets: Sequence[float], tolerance: float
+) -> tuple[np.ndarray, np.ndarray]:
+    """Per joint: (peak |error|, recovery time) from the joint's first fault onset to the next onset of any
+    fault (or the end); NaN for joints without a fault."""
+    n = error.shape[1]
+    peak, recovery = np.full(n, np.nan), np.full(n, np.nan)
+    for joint in range(n):
+        onset = joint_onsets[joint]
+        if not np.isfinite(onset):
+            continue
+        until = min((o for o in fault_onsets if o > onset), default=np.inf)
+        inside = (t >= onset) & (t < until)
+        if not inside.any():
+            continue
+        column = error[inside, joint : joint + 1]
+        peak[joint] = np.max(np.abs(column))
+        recovery[joint] = settling_time(t[inside], column, tolerance, until)[0] - onset
+    return peak, recovery
+
+
+def compute_metrics(
+    result: VariantResult,
+    spec: MetricsSpec,
+    fault_onsets: Sequence[float],
+    joint_onsets: np.ndarray | None = None,
+) -> dict[str, np.ndarray]:
+    """All metrics of one variant, each an array with one value per joint.
+
+    ``fault_onsets`` are all onsets of the scenario (they shape the windows); ``joint_onsets`` the first
+    onset per joint, NaN for healthy joints (:attr:`~ftc_mj.spec.scenario.Scenario.joint_fault_onsets`); without
+    it every joint counts as faulty from the first onset.
+    """
+    t = result.t
+    everything = np.ones(t.shape, dtype=bool)
+    window = evaluation_mask(t, spec.window_start, fault_onsets, spec.fault_settle)
+    estimation = evaluation_mask(t, spec.estimation_window_start, fault_onsets, spec.fault_settle)
+    first_fault = min(fault_onsets, default=np.inf)
+    error = result.tracking_error
+    n = error.shape[1]
+    if joint_onsets is None:
+        joint_onsets = np.full(n, first_fault if np.isfinite(first_fault) else np.nan)
+    fault_peak, recovery = fault_response(t, error, joint_onsets, fault_onsets, spec.tracking_tolerance)
+
+    # Total variation inside the window: only differences between two consecutive samples that are both in it.
+    pairs = window[1:] & window[:-1]
+    window_seconds = pairs.sum() * (t[1] - t[0]) if t.size > 1 else 0.0
+    variation = np.abs(np.diff(result.tau, axis=0))[pairs].sum(axis=0)
+    chattering = variation / window_seconds if window_seconds > 0 else np.full(result.tau.shape[1], np.nan)
+
+    return {
+        "rms_error": _rms(error, everything),
+        "max_error": _max_abs(error, everything),
+        "rms_error_converged": _rms(error, window),
+        "max_error_converged": _max_abs(error, window),
+        "convergence_time": settling_time(t, error, spec.tracking_tolerance, first_fault),
+        "rms_velocity_error": _rms(result.velocity_error, estimation),
+        "rms_luaf_error": _rms(result.luaf_error, estimation),
+        "observer_convergence_time": settling_time(t, result.velocity_error, spec.velocity_tolerance, first_fault),
+        "luaf_convergence_time": settling_time(t, result.luaf_error, spec.luaf_tolerance, first_fault),
+        "peak_luaf_error_transient": _max_abs(result.luaf_error, t < spec.estimation_window_start),
+        "rms_luaf_error_fault": _rms(result.luaf_error, estimation & (t >= first_fault)),
+        "reaching_time": settling_time(t, result.sliding, spec.sliding_tolerance, first_fault),
+        "fault_peak_error": fault_peak,
+        "recovery_time": recovery,
+        "rms_torque": _rms(result.tau, everything),
+        "chattering": chattering,
+        **diagnosis_metrics(result.diagnosis, joint_onsets, first_fault, n),
+    }
+
+
+def diagnosis_metrics(
+    diagnosis: Diagnosis | None, joint_onsets: np.ndarray, first_fault: float, n: int
+) -> dict[str, np.ndarray]:
+    """The diagnosis metrics per joint (see the module docstring); NaN everywhere without a diagnosis."""
+    out = {name: np.full(n, np.nan) for name in DIAGNOSIS_METRICS}
+    if diagnosis is None or diagnosis.t.size == 0:
+        return out
+    t, alarm = diagnosis.t, diagnosis.alarm
+    dt = t[1] - t[0] if t.size > 1 else 0.0
+    raised = diagnosis.raised
+    faulty = np.isfinite(joint_onsets)
+    isolated = diagnosis.isolated(first_fault)
+    for joint in range(n):
+        onset = joint_onsets[joint] if faulty[joint] else np.inf
+        fault_free = diagnosis.armed & (t < onset)
+        out["false_alarms"][joint] = raised[fault_free, joint].sum()
+        seconds = fault_free.sum() * dt
+        if seconds > 0:
+            out["false_alarm_rate"][joint] = out["false_alarms"][joint] / seconds
+        out["isolation_correct"][joint] = float(isolated[joint] == faulty[joint])
+        if not faulty[joint]:
+            continue
+        detected = np.flatnonzero(alarm[:, joint] & (t >= onset))
+        out["missed_detection"][joint] = float(detected.size == 0)
+        if detected.size:
+            first = detected[0]
+            out["detection_delay"][joint] = t[first] - onset
+            error = diagnosis.fault_estimate[first:, joint] - diagnosis.injected[first:, joint]
+            out["fault_estimate_rms"][joint] = np.sqrt(np.mean(error**2))
+    return out

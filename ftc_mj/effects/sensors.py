@@ -1,0 +1,135 @@
+"""Imperfect sensors: what the controller side reads instead of the true joint positions (and velocities).
+
+A channel (``position``: the encoders, ``velocity``: the tachometers) turns the true reading x(t_k) of
+sample k into the measurement, in this order:
+
+1. delay: the true reading of ``delay_samples`` samples ago (before the first sample: the first reading);
+2. plus ``bias`` + ``drift_rate`` t + Gaussian noise of standard deviation ``noise_std``;
+3. quantised to the nearest multiple of the resolution (encoders: 2 pi / ``counts_per_rev``, the count
+   origin at 0; or ``resolution`` in the reading's unit);
+4. stuck: from ``stuck.onset`` until ``stuck.end`` the reading holds its last value before the onset.
+
+Every number is per joint (one value for all joints or a list). Observers and controllers see the corrupted
+measurement; ``qpos`` and the recorded truth stay true. Time-dependent parts (bias, drift, noise, the stuck
+intervals) are tabulated before the loop, the noise drawn from the scenario's seed
+(:mod:`ftc_mj.effects.randomness`); a step reads one row.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Annotated
+
+import numpy as np
+from pydantic import Field, StrictInt, model_validator
+
+from ftc_mj.spec.schema import FiniteFloat, Interval, JointSelection, NonNegativeFloat, PositiveFloat, Strict
+
+PositiveInt = Annotated[StrictInt, Field(gt=0)]
+
+
+class StuckSpec(Interval):
+    """The reading freezes from ``onset`` until ``end`` (for good when absent) [s]."""
+
+    #: Stuck joints, 1-based or by name; all when absent.
+    joints: JointSelection = None
+
+
+class ChannelSpec(Strict):
+    """Effects on one kind of reading; each number is one for all joints or a list with one per joint."""
+
+    #: Quantisation step in the reading's unit (rad or m, rad/s or m/s); none when absent.
+    resolution: PositiveFloat | list[PositiveFloat] | None = None
+    #: Standard deviation of additive white Gaussian noise.
+    noise_std: NonNegativeFloat | list[NonNegativeFloat] = 0.0
+    #: Constant offset.
+    bias: FiniteFloat | list[FiniteFloat] = 0.0
+    #: Offset growing linearly with time [unit/s].
+    drift_rate: FiniteFloat | list[FiniteFloat] = 0.0
+    stuck: StuckSpec | None = None
+    #: Transport delay in whole control periods.
+    delay_samples: Annotated[StrictInt, Field(ge=0)] = 0
+
+
+class EncoderSpec(ChannelSpec):
+    #: Encoder counts per revolution of the joint: quantisation step 2 pi / counts_per_rev [rad].
+    counts_per_rev: PositiveInt | list[PositiveInt] | None = None
+
+    @model_validator(mode="after")
+    def _one_resolution(self) -> "EncoderSpec":
+        if self.counts_per_rev is not None and self.resolution is not None:
+            raise ValueError("give counts_per_rev or resolution, not both")
+        return self
+
+
+class SensorsSpec(Strict):
+    """The ``sensors`` section: effects on the encoders and (with ``robot.sensors: [position, velocity]``)
+    on the tachometers."""
+
+    position: EncoderSpec | None = None
+    velocity: ChannelSpec | None = None
+
+
+@dataclass
+class Channel:
+    """A compiled sensor channel; arrays are per joint."""
+
+    resolution: np.ndarray  # 0 = not quantised
+    noise_std: np.ndarray
+    bias: np.ndarray
+    drift_rate: np.ndarray
+    delay_samples: int = 0
+    stuck_onset: float | None = None
+    stuck_end: float | None = None
+    stuck_joints: np.ndarray | None = None  # boolean mask
+
+    def stuck(self, times: np.ndarray) -> np.ndarray:
+        """Per sample and joint, whether the reading is stuck, ``(N, n)``."""
+        if self.stuck_onset is None:
+            return np.zeros((len(times), len(self.bias)), dtype=bool)
+        on = times >= self.stuck_onset
+        if self.stuck_end is not None:
+            on &= times < self.stuck_end
+        return on[:, None] & self.stuck_joints
+
+
+class Measurement:
+    """One channel of one run: :meth:`read` turns the true reading of sample k into the measurement."""
+
+    def __init__(self, channel: Channel, times: np.ndarray, rng: np.random.Generator):
+        n = len(channel.bias)
+        self.offset = channel.bias + channel.drift_rate * times[:, None]
+        if np.any(channel.noise_std > 0):
+            self.offset += rng.standard_normal((len(times), n)) * channel.noise_std
+        self._offset = bool(np.any(self.offset))
+        self.quantised = channel.resolution > 0
+        self._quantise = bool(self.quantised.any())
+        self.step = channel.resolution
+        self.inverse_step = np.divide(1.0, channel.resolution, out=np.zeros(n), where=self.quantised)
+        self.stuck = channel.stuck(times)
+        self.stuck_at: list[bool] = self.stuck.any(axis=1).tolist()
+        self.delay = channel.delay_samples
+        self._history = np.zeros((self.delay + 1, n))
+        self._last = np.zeros(n)
+        self._scratch = np.zeros(n)
+
+    def read(self, k: int, true: np.ndarray, out: np.ndarray) -> None:
+        """Write the measurement of sample ``k`` (true reading ``true``) into ``out``."""
+        source = true
+        if self.delay:
+            if k == 0:
+                self._history[:] = true
+            self._history[k % (self.delay + 1)] = true
+            source = self._history[(k + 1) % (self.delay + 1)]  # written delay samples ago
+        if self._offset:
+            np.add(source, self.offset[k], out=out)
+        else:
+            np.copyto(out, source)
+        if self._quantise:
+            np.multiply(out, self.inverse_step, out=self._scratch)
+            np.round(self._scratch, out=self._scratch)
+            np.multiply(self._scratch, self.step, out=self._scratch)
+            np.copyto(out, self._scratch, where=self.quantised)
+        if self.stuck_at[k] and k:  # stuck from the first sample: it holds the first reading
+            np.copyto(out, self._last, where=self.stuck[k])
+        np.copyto(self._last, out)

@@ -1,0 +1,126 @@
+"""The controller plugin protocol and the sliding-mode structure the dissertation's laws share.
+
+Every law of Chapters 2-5 has the form
+
+    u = -M(x1) (u_eq + u_c + u_sw)          (2.24), (2.32), (3.26), (3.47), (3.51), (4.16), (4.43), (5.25) ...
+
+with a sliding surface s, an equivalent control u_eq = Psi(x_hat) + (surface terms) - xdd_d, a compensation
+u_c taken from the observer, and a switching law u_sw = K sign(s). :class:`SlidingModeController` implements
+that frame; a concrete law supplies only the surface (and its terms in u_eq) and the switching gain K:
+
+=====================  ==========================================  ==================  =====================
+law                    surface                                     compensation        K
+=====================  ==========================================  ==================  =====================
+``smc``                e_dot + c e  (3.46)                         any                 bound + mu
+``ntsmc``              (3.50), time-varying terminal term          any                 bound + mu
+``nftsmc``             integral NFTSM (2.22), (4.15), (5.15)       any                 bound + mu
+``a_nftsmc``           as ``nftsmc``                               any                 K_hat + mu, (2.36)
+``sigmoid_nftsmc``     (3.18), sigmoid-blended linear/terminal     any                 bound + mu
+=====================  ==========================================  ==================  =====================
+
+The printed laws write M(x) or g(x_hat)^-1 and Psi(x); we use M at the measured position (M depends only on
+x1, which is measured) and Psi at the observer's state (the measured state where the robot has tachometers).
+
+A controller sees the reference, the measured positions, the observer's estimates and the nominal model;
+never MjData. The math runs over arrays whose last axis is the joint.
+"""
+
+from __future__ import annotations
+
+from abc import abstractmethod
+from typing import Literal
+
+import numpy as np
+
+from ftc_mj.methods.gains import GainConfig, NonNegativeJoints, PositiveJoints
+from ftc_mj.methods.observers.base import Observer
+from ftc_mj.methods.plugin import Method
+from ftc_mj.robot.nominal import StepModel
+
+#: What a law takes from the observer: the whole velocity-equation injection (Chapters 3-5), only the LUaF
+#: estimate (Appendix-D-type comparators), or nothing (the switching gain covers the whole LUaF).
+Compensation = Literal["injection", "estimate", "none"]
+
+
+class SwitchingConfig(GainConfig):
+    """What every law's switching part takes: mu (the margin of every reaching condition) and the
+    compensation. Laws with a fixed gain add ``bound`` (:class:`BoundedSwitchingConfig`)."""
+
+    mu: PositiveJoints
+    compensation: Compensation = "injection"
+
+
+class BoundedSwitchingConfig(SwitchingConfig):
+    """A fixed switching gain bound + mu: Delta_d of (3.28), K of (2.27), Xi of (4.18), Lambda of (4.45),
+    Delta_delta of (5.27): the bound the switching term must dominate."""
+
+    bound: NonNegativeJoints
+
+
+class Controller(Method):
+    """Computes the joint torque command once per control period."""
+
+    def __init__(self, config: GainConfig, n_joints: int, dt: float):
+        super().__init__(config, n_joints, dt)
+        #: The sliding variable, recorded beside the torque.
+        self.sliding = np.zeros(n_joints)
+        self.tau = np.zeros(n_joints)
+
+    def reset(self) -> None:
+        self.sliding[:] = 0.0
+        self.tau[:] = 0.0
+
+    @abstractmethod
+    def compute(
+        self,
+        t: float,
+        q_ref: np.ndarray,
+        qd_ref: np.ndarray,
+        qdd_ref: np.ndarray,
+        q_meas: np.ndarray,
+        observer: Observer,
+        model: StepModel,
+    ) -> np.ndarray:
+        """Return the torque command (the controller's own ``tau`` array, valid until the next call)."""
+
+
+class SlidingModeController(Controller):
+    """u = -M(x1) (u_eq + u_c + u_sw) with u_eq = Psi(x_hat) + surface terms - xdd_d.
+
+    Subclasses define :meth:`surface`; the switching gain is ``bound + mu`` unless they override
+    :meth:`switching_gain` (the adaptive law does).
+    """
+
+    def __init__(self, config: SwitchingConfig, n_joints: int, dt: float):
+        super().__init__(config, n_joints, dt)
+        self.compensation: Compensation = config.compensation
+        self._gain = getattr(config, "bound", 0.0) + config.mu
+
+    @abstractmethod
+    def surface(self, t: float, e: np.ndarray, e_dot: np.ndarray) -> np.ndarray:
+        """Update ``self.sliding`` from the tracking errors and return the surface's terms in u_eq
+        (the part of ds/dt that is not e_ddot). ``e_dot`` is the observer's velocity minus the reference's."""
+
+    def switching_gain(self) -> np.ndarray:
+        """The gain K of the switching law K sign(s), called once per period after :meth:`surface`."""
+        return self._gain
+
+    def switching(self) -> np.ndarray:
+        return self.switching_gain() * np.sign(self.sliding)
+
+    def observer_compensation(self, observer: Observer) -> np.ndarray | float:
+        if self.compensation == "injection":
+            return observer.injection
+        if self.compensation == "estimate":
+            return observer.luaf_hat
+        return 0.0
+
+    def compute(self, t, q_ref, qd_ref, qdd_ref, q_meas, observer, model):
+        e = q_meas - q_ref
+        e_dot = observer.qd_hat - qd_ref
+        surface_terms = self.surface(t, e, e_dot)
+        u_eq = model.psi_hat + surface_terms - qdd_ref
+        u = u_eq + self.observer_compensation(observer) + self.switching()
+        np.matmul(u, model.M.T, out=self.tau)  # M u, row-wise so that u may be (batch, n)
+        np.negative(self.tau, out=self.tau)
+        return self.tau

@@ -1,0 +1,88 @@
+"""Chapter 3's proposed law: NFTSMC on a sigmoid-blended surface with TOSMO compensation, eqs. (3.18),
+(3.26)-(3.28), and its "after convergence" form (3.35)-(3.37).
+
+Surface (3.18), with e = x1 - x_d and e_hat = x2_hat - xd_d:
+
+    s = e_hat + a(e) e + b(e) |e|^alpha sign(e),
+    a(e) = 2 k1 / (1 + exp(-m1 (|e| - phi))),   b(e) = 2 k2 / (1 + exp(m2 (|e| - phi))),
+    phi = (k2 / k1)^(1 / (1 - alpha))
+
+so the linear term dominates far from the origin and the terminal term near it (phi is where k1 |e| and
+k2 |e|^alpha are equal). Control (3.26)-(3.28): u = -M(x1) (u_eq + u_c + u_sw), u_sw = (Delta_d + mu) sign(s),
+
+    u_eq = Psi(x_hat) - xdd_d + e_hat d/de[a(e) e + b(e) |e|^alpha sign(e)]
+    d/de[...] = a + 2 k1 m1 |e| E1 / (1 + E1)^2 + b alpha |e|^(alpha - 1) - 2 k2 m2 E2 / (1 + E2)^2 |e|^alpha,
+    E1 = exp(-m1 (|e| - phi)), E2 = exp(m2 (|e| - phi)).
+
+Misprint: (3.27) prints the second term as 2 k1 m1 sign(e) E1 / (1 + E1)^2, without the factor e that the
+chain rule gives (d/de [a(e) e] = a + e a'(e), a'(e) = 2 k1 m1 sign(e) E1 / (1 + E1)^2); we use the
+derivative, so that ds/dt = -K sign(s) holds exactly as (3.32) claims. (3.27) also writes e_dot, which is not
+measured; we use e_hat, as the surface does.
+
+``compensation: injection`` gives the proposed law (3.27): gamma2 |x1~|^(1/3) sign(x1~) + integral gamma3
+sign(x1~), the TOSMO's whole injection. ``compensation: estimate`` drops the gamma2 term: the
+after-convergence law (3.36). The factor |e|^(alpha - 1) is unbounded at e = 0; there it is set to 0.
+"""
+
+from __future__ import annotations
+
+from typing import ClassVar
+
+import numpy as np
+from pydantic import model_validator
+
+from ftc_mj.methods.controllers.base import BoundedSwitchingConfig, SlidingModeController
+from ftc_mj.methods.gains import Exponent, PositiveJoints
+
+
+class SigmoidNFTSMCConfig(BoundedSwitchingConfig):
+    """kappa1, kappa2, mu1, mu2, alpha of (3.18) (Table 3.2: mu1 = 1.2, mu2 = 1.4, alpha = 0.6; the kappas are
+    not given), Delta_d and mu of (3.28)."""
+
+    kappa1: PositiveJoints
+    kappa2: PositiveJoints
+    mu1: PositiveJoints
+    mu2: PositiveJoints
+    alpha: Exponent
+
+    @model_validator(mode="after")
+    def _finite_phi(self) -> "SigmoidNFTSMCConfig":
+        if not np.all(np.isfinite(self.phi())):
+            raise ValueError("phi = (kappa2 / kappa1)^(1 / (1 - alpha)) overflows; choose closer kappas")
+        return self
+
+    def phi(self) -> np.ndarray:
+        """The crossover |e| of (3.18), where kappa1 |e| = kappa2 |e|^alpha."""
+        with np.errstate(over="ignore"):
+            return (self.kappa2 / self.kappa1) ** (1.0 / (1.0 - self.alpha))
+
+
+class SigmoidNFTSMC(SlidingModeController):
+    """Chapter 3's NFTSMC-TOSMO law (3.26)-(3.28), or (3.35)-(3.37) with ``compensation: estimate``."""
+
+    name: ClassVar[str] = "sigmoid_nftsmc"
+    Config: ClassVar[type[SigmoidNFTSMCConfig]] = SigmoidNFTSMCConfig
+
+    def __init__(self, config: SigmoidNFTSMCConfig, n_joints: int, dt: float):
+        super().__init__(config, n_joints, dt)
+        self.phi = config.phi()
+
+    def surface(self, t: float, e: np.ndarray, e_dot: np.ndarray) -> np.ndarray:
+        c = self.config
+        magnitude = np.abs(e)
+        e1 = np.exp(-c.mu1 * (magnitude - self.phi))
+        e2 = np.exp(np.minimum(c.mu2 * (magnitude - self.phi), 700.0))  # large |e|: b -> 0 without overflow
+        a = 2.0 * c.kappa1 / (1.0 + e1)
+        b = 2.0 * c.kappa2 / (1.0 + e2)
+        terminal = magnitude**c.alpha
+        self.sliding[:] = e_dot + a * e + b * np.copysign(terminal, e)
+        nonzero = magnitude > 0.0
+        # |e|^(alpha - 1), set to 0 at e = 0 (unbounded there); computed on a safe copy to avoid 0^(negative).
+        steep = np.where(nonzero, np.where(nonzero, magnitude, 1.0) ** (c.alpha - 1.0), 0.0)
+        slope = (
+            a
+            + 2.0 * c.kappa1 * c.mu1 * magnitude * e1 / (1.0 + e1) ** 2
+            + b * c.alpha * steep
+            - 2.0 * c.kappa2 * c.mu2 * e2 / (1.0 + e2) ** 2 * terminal
+        )
+        return e_dot * slope

@@ -1,0 +1,72 @@
+"""The observer plugin protocol.
+
+An observer sees what a real one would: time, the measured joint positions (and velocities, where the robot
+has tachometers) and the command it applied, plus the nominal model. It never receives MjData. Each control
+period the runner calls
+
+0. :meth:`Observer.measure` with the raw readings, before the nominal model is evaluated;
+1. :meth:`Observer.update` with the new measurement: the observer forms its output injection at this instant;
+2. the controller, which reads ``qd_hat``, ``luaf_hat`` and ``injection``;
+3. :meth:`Observer.advance` with the torque just commanded: the observer integrates over one period.
+
+The split lets a controller cancel exactly the injection the observer applies in the same period, which is
+what the equivalent controls of Chapters 3-5 do (e.g. the terms of eq. (5.26) that come from (5.6)).
+
+All method math is written over arrays whose last axis is the joint, so it also runs on ``(batch, n)``.
+"""
+
+from __future__ import annotations
+
+from abc import abstractmethod
+
+import numpy as np
+
+from ftc_mj.methods.gains import GainConfig
+from ftc_mj.methods.plugin import Method
+from ftc_mj.robot.nominal import StepModel
+
+
+def signed_power(x: np.ndarray, exponent: float) -> np.ndarray:
+    """|x|^exponent sign(x), the building block of every sliding-mode term in the dissertation."""
+    return np.copysign(np.abs(x) ** exponent, x)  # sign(0) = 0 still: |0|^p = 0
+
+
+class Observer(Method):
+    """Estimates joint velocity and the lumped uncertainty and fault (LUaF) from positions.
+
+    Attributes after :meth:`update`:
+        q_hat, qd_hat: state estimate x1_hat, x2_hat.
+        luaf_hat: estimate of the lumped uncertainty and fault, in acceleration units.
+        injection: the whole output injection into the observer's velocity equation (the estimate plus the
+            correction terms); Chapter 3-5 controllers compensate this, Appendix-D-type ones ``luaf_hat``.
+    """
+
+    def __init__(self, config: GainConfig, n_joints: int, dt: float):
+        super().__init__(config, n_joints, dt)
+        self.q_hat = np.zeros(n_joints)
+        self.qd_hat = np.zeros(n_joints)
+        self.luaf_hat = np.zeros(n_joints)
+        self.injection = np.zeros(n_joints)
+
+    def reset(self, q_hat: np.ndarray, qd_hat: np.ndarray) -> None:
+        """Start from the given estimate, with a zero LUaF estimate."""
+        self.q_hat[:] = q_hat
+        self.qd_hat[:] = qd_hat
+        self.luaf_hat[:] = 0.0
+        self.injection[:] = 0.0
+
+    def measure(self, q_meas: np.ndarray, qd_meas: np.ndarray | None) -> None:
+        """Take this period's raw readings (``qd_meas`` is None without tachometers).
+
+        Called before the nominal model is evaluated at ``(q_hat, qd_hat)``. Observers built on measured
+        states (the DO of Chapter 2) set ``q_hat`` and ``qd_hat`` to the readings here, so that Psi is the
+        measured-state H(x) of (2.6) and (2.25). The default does nothing.
+        """
+
+    @abstractmethod
+    def update(self, t: float, q_meas: np.ndarray, model: StepModel) -> None:
+        """Take the measurement of time ``t`` and form this period's injection."""
+
+    @abstractmethod
+    def advance(self, tau: np.ndarray, model: StepModel) -> None:
+        """Integrate the observer over one control period with the applied torque ``tau``."""

@@ -1,0 +1,94 @@
+"""Third-order sliding-mode observers: TOSMO, eq. (3.11)/(4.4), and the high-speed TOSMO, eq. (5.6).
+
+High-speed TOSMO (5.6), with x1_tilde = x1 - x1_hat:
+
+    dx1_hat/dt = k1 |x1_tilde|^(2/3) sign(x1_tilde) + x2_hat + Gamma x1_tilde
+    dx2_hat/dt = Psi(x_hat) + M(x1)^-1 u + k2 |x1_tilde|^(1/3) sign(x1_tilde)
+                 + Gamma (dx1_hat/dt - x2_hat) + integral of k3 sign(x1_tilde)
+
+The printed second line ends in "- dz_hat/dt"; with dz_hat/dt = -k3 sign(x1_tilde) that would feed the
+*derivative* of z_hat back, which contradicts the error dynamics (5.7) the proof uses (they carry "+ z_hat").
+We use "- z_hat" as in (3.11), so the LUaF estimate is the integral of k3 sign(x1_tilde), eq. (5.13).
+With Gamma = 0 the observer is the TOSMO (3.11); its LUaF estimate is (3.15).
+
+Gains follow Remark 5.3 (and Section 3.3.1): k1 = 2 D^(1/3), k2 = 2.12 D^(2/3), k3 = 1.1 D, from the bound D
+on the LUaF's derivative, unless k1, k2, k3 are given explicitly.
+"""
+
+from __future__ import annotations
+
+from typing import ClassVar
+
+import numpy as np
+from pydantic import model_validator
+
+from ftc_mj.methods.gains import GainConfig, NonNegativeFloat, PositiveJoints
+from ftc_mj.methods.observers.base import Observer, signed_power
+from ftc_mj.robot.nominal import StepModel
+
+
+class TOSMOConfig(GainConfig):
+    """Gains of (3.11): either ``D`` (Remark 5.3) or all of ``k1, k2, k3``."""
+
+    D: PositiveJoints | None = None
+    k1: PositiveJoints | None = None
+    k2: PositiveJoints | None = None
+    k3: PositiveJoints | None = None
+
+    @model_validator(mode="after")
+    def _gains_given(self) -> "TOSMOConfig":
+        explicit = [k is not None for k in (self.k1, self.k2, self.k3)]
+        if self.D is None and not all(explicit):
+            raise ValueError("give D (Remark 5.3) or all of k1, k2, k3")
+        if self.D is not None and any(explicit):
+            raise ValueError("give either D or k1, k2, k3, not both")
+        return self
+
+    def gains(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """(k1, k2, k3), from Remark 5.3 when only D is given."""
+        if self.D is not None:
+            return 2.0 * self.D ** (1 / 3), 2.12 * self.D ** (2 / 3), 1.1 * self.D
+        return self.k1, self.k2, self.k3
+
+
+class HighSpeedTOSMOConfig(TOSMOConfig):
+    """Gains of (5.6): those of the TOSMO plus the linear gain Gamma."""
+
+    gamma: NonNegativeFloat
+
+
+class TOSMO(Observer):
+    """Third-order sliding-mode observer, eq. (3.11); LUaF estimate eq. (3.15)."""
+
+    name: ClassVar[str] = "tosmo"
+    Config: ClassVar[type[TOSMOConfig]] = TOSMOConfig
+
+    def __init__(self, config: TOSMOConfig, n_joints: int, dt: float):
+        super().__init__(config, n_joints, dt)
+        self.k1, self.k2, self.k3 = config.gains()
+        self.linear_gain = float(getattr(config, "gamma", 0.0))
+        self._sign = np.zeros(n_joints)
+        self._q_hat_rate = np.zeros(n_joints)
+
+    def update(self, t: float, q_meas: np.ndarray, model: StepModel) -> None:
+        error = q_meas - self.q_hat
+        self._sign[:] = np.sign(error)
+        # dx1_hat/dt - x2_hat: the first line's correction, reused in the second line of (5.6).
+        position_correction = self.k1 * signed_power(error, 2 / 3) + self.linear_gain * error
+        self._q_hat_rate[:] = self.qd_hat + position_correction
+        self.injection[:] = (
+            self.k2 * signed_power(error, 1 / 3) + self.linear_gain * position_correction + self.luaf_hat
+        )
+
+    def advance(self, tau: np.ndarray, model: StepModel) -> None:
+        qdd_hat = model.psi_hat + model.solve_M(tau) + self.injection
+        self.q_hat += self.dt * self._q_hat_rate
+        self.qd_hat += self.dt * qdd_hat
+        self.luaf_hat += self.dt * self.k3 * self._sign
+
+
+class HighSpeedTOSMO(TOSMO):
+    """High-speed TOSMO, eq. (5.6): the TOSMO plus linear terms Gamma x1_tilde; LUaF estimate eq. (5.13)."""
+
+    name: ClassVar[str] = "hs_tosmo"
+    Config: ClassVar[type[HighSpeedTOSMOConfig]] = HighSpeedTOSMOConfig

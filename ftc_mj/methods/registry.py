@@ -1,0 +1,71 @@
+"""Find observer and controller plugins by name.
+
+Built-in methods are always there. A third-party package adds its own by declaring an entry point, e.g. in
+its ``pyproject.toml``::
+
+    [project.entry-points."ftc_mj.observers"]
+    my_observer = "my_package.module:MyObserver"
+
+The class must follow :class:`ftc_mj.methods.observers.Observer` (or :class:`ftc_mj.methods.controllers.Controller`): a
+``name``, a pydantic ``Config`` derived from :class:`ftc_mj.methods.gains.GainConfig`, and the update methods.
+Entry points are imported only when a scenario asks for their name, so a broken third-party package cannot
+stop scenarios that do not use it; one that is asked for and fails to import raises :class:`PluginError`.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Iterator, Mapping
+from functools import cache
+from importlib.metadata import EntryPoint, entry_points
+
+from ftc_mj.methods import controllers, observers
+
+OBSERVER_GROUP = "ftc_mj.observers"
+CONTROLLER_GROUP = "ftc_mj.controllers"
+
+
+class PluginError(Exception):
+    """A declared plugin could not be imported."""
+
+
+class Plugins(Mapping[str, type]):
+    """Name -> class; built-ins first, entry points imported on first use."""
+
+    def __init__(self, builtin: Mapping[str, type], declared: Mapping[str, EntryPoint]):
+        self._loaded = dict(builtin)
+        self._declared = {name: entry for name, entry in declared.items() if name not in builtin}
+
+    def __getitem__(self, name: str) -> type:
+        if name not in self._loaded:
+            entry = self._declared[name]  # KeyError for unknown names, as a Mapping should
+            try:
+                self._loaded[name] = entry.load()
+            except Exception as exc:  # any import-time failure of third-party code
+                raise PluginError(f"plugin {name!r} ({entry.value}) cannot be imported: {exc}") from None
+        return self._loaded[name]
+
+    def __contains__(self, name: object) -> bool:  # without importing anything
+        return name in self._loaded or name in self._declared
+
+    def __iter__(self) -> Iterator[str]:
+        yield from self._loaded
+        yield from (name for name in self._declared if name not in self._loaded)
+
+    def __len__(self) -> int:
+        return len(self._loaded.keys() | self._declared.keys())
+
+
+@cache
+def _discover(group: str) -> Plugins:
+    builtin = observers.BUILTIN if group == OBSERVER_GROUP else controllers.BUILTIN
+    return Plugins(builtin, {entry.name: entry for entry in entry_points(group=group)})
+
+
+def observer_types() -> Plugins:
+    """Every observer plugin, by name."""
+    return _discover(OBSERVER_GROUP)
+
+
+def controller_types() -> Plugins:
+    """Every controller plugin, by name."""
+    return _discover(CONTROLLER_GROUP)

@@ -1,0 +1,496 @@
+"""URDF robots: read and check a URDF file, then build the testbed's MuJoCo model from it.
+
+A URDF is untrusted input. It is parsed strictly (no DTD, no entities), read with yourdfpy and checked element
+by element; any problem raises :class:`~ftc_mj.spec.errors.InputError` naming the URDF file and the element
+(``joint 'elbow'``, ``link 'forearm'``, ``link 'forearm': visual 1: mesh``). Then MuJoCo's own URDF compiler
+builds an ``MjSpec`` from it (visual geometry kept, mesh paths resolved here), which is edited into the
+testbed's conventions, those of ``models/*.xml``:
+
+* locked joints removed, their angle baked into the child body's frame (exact, no constraint);
+* per free joint, in kinematic order: a ``<motor>`` ``motor<k>`` (gear 1; ``ctrlrange`` = +-torque limit when
+  one is known), a ``<jointpos>`` sensor ``<joint>_pos`` and, after all of those, a ``<jointvel>`` sensor
+  ``<joint>_vel`` (read only with ``robot.sensors: [position, velocity]``); optional armature (URDF has none);
+* contacts disabled (``<collision>`` elements are not used), inertia only from ``<inertial>``,
+  ``implicitfast`` integrator, 1 ms timestep (the scenario sets its own).
+
+Kinematic order is depth first from the root link, children in the order their joints appear in the file:
+the order of ``qpos`` in the compiled model.
+"""
+
+from __future__ import annotations
+
+import io
+import math
+import os
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass
+from pathlib import Path
+from typing import TYPE_CHECKING
+from urllib.parse import unquote
+
+import mujoco
+import numpy as np
+from lxml import etree
+
+from ftc_mj.spec.errors import InputError
+
+if TYPE_CHECKING:  # imported when a URDF is read: it takes about 1 s (trimesh), which MJCF runs need not pay
+    import yourdfpy
+
+#: URDF joint types the testbed simulates (a fixed-base arm); floating and planar joints are refused.
+SUPPORTED_JOINTS = ("revolute", "continuous", "prismatic", "fixed")
+#: Mesh formats MuJoCo reads.
+MESH_FORMATS = (".stl", ".obj", ".msh")
+# Relative tolerance of the inertia checks (A + B >= C, eigenvalues >= 0): files round their numbers.
+_INERTIA_TOLERANCE = 1e-9
+
+
+@dataclass(frozen=True)
+class UrdfRobot:
+    """A checked URDF: its parse, and its joints in kinematic order."""
+
+    path: Path
+    urdf: yourdfpy.URDF
+    #: Revolute, continuous and prismatic joints, in kinematic order.
+    movable: tuple[str, ...]
+    #: Absolute mesh file of every <mesh> element used, by its filename as written.
+    meshes: Mapping[str, Path]
+    #: The parsed XML, for MuJoCo's URDF compiler.
+    xml: etree._Element
+
+    def joint(self, name: str) -> yourdfpy.Joint:
+        return self.urdf.joint_map[name]
+
+
+def is_urdf(path: Path) -> bool:
+    """A robot model file is read as URDF when its name ends in ``.urdf`` (any case), else as MJCF."""
+    return path.suffix.lower() == ".urdf"
+
+
+# ------------------------------------------------------------------------------------------- reading
+
+
+def read_urdf(path: Path) -> UrdfRobot:
+    """Parse and check a URDF file.
+
+    Raises:
+        InputError: naming the file and the element, for a malformed file, an unsupported or inconsistent
+            joint, a moving link without a physical inertial, or a mesh that cannot be found or read.
+    """
+    path = Path(path)
+    file = str(path)
+    root = _parse_xml(path)
+    _check_xml(file, root)
+    import yourdfpy
+
+    try:
+        # yourdfpy's own loader falls back to a recovering parser on broken XML; it is only given a tree
+        # that parsed strictly.
+        urdf = yourdfpy.URDF.load(io.BytesIO(etree.tostring(root)), build_scene_graph=False, load_meshes=False,
+                                  mesh_dir=str(path.parent))
+    except Exception as exc:  # noqa: BLE001 - yourdfpy raises KeyError, ValueError, IndexError... on bad values
+        raise InputError(file, "", f"yourdfpy cannot read it: {type(exc).__name__}: {exc}") from None
+    movable = _check_tree(file, urdf)
+    for joint in urdf.robot.joints:
+        _check_joint(file, joint)
+    moving_links = {joint.child for joint in urdf.robot.joints if joint.type != "fixed"}
+    meshes: dict[str, Path] = {}
+    for link in urdf.robot.links:
+        _check_inertial(file, link, link.name in moving_links)
+        for index, geometry in enumerate(_drawn_geometries(link)):
+            _check_geometry(file, f"link {link.name!r}: {geometry.label} {index + 1}", geometry.geometry, path.parent,
+                            meshes)
+    if not urdf.validate(validation_fn=lambda errors: not errors):  # anything yourdfpy knows that we did not
+        raise InputError(file, "", f"invalid URDF: {urdf.errors[0]}")
+    return UrdfRobot(path=path, urdf=urdf, movable=tuple(movable), meshes=meshes, xml=root)
+
+
+def _parse_xml(path: Path) -> etree._Element:
+    file = str(path)
+    try:
+        data = path.read_bytes()
+    except OSError as exc:
+        raise InputError(file, "", f"cannot read the file: {exc.strerror or exc}") from None
+    # No entity expansion and no network: a URDF needs neither, and both are ways to attack a parser.
+    parser = etree.XMLParser(resolve_entities=False, no_network=True, load_dtd=False, huge_tree=False)
+    try:
+        tree = etree.parse(io.BytesIO(data), parser)
+    except etree.XMLSyntaxError as exc:
+        line = f"line {exc.lineno}" if exc.lineno else ""
+        raise InputError(file, line, f"malformed XML: {exc.msg}") from None
+    if tree.docinfo.internalDTD is not None or tree.docinfo.doctype:
+        raise InputError(file, "DOCTYPE", "a URDF file may not declare a DTD")
+    root = tree.getroot()
+    if root.tag != "robot":
+        raise InputError(file, f"<{root.tag}>", "the root element of a URDF file must be <robot>")
+    if not root.get("name"):
+        raise InputError(file, "<robot>", "has no name attribute")
+    return root
+
+
+#: Numeric attributes of URDF elements and how many numbers each holds.
+_NUMBERS = {"xyz": 3, "rpy": 3, "size": 3, "scale": 3, "rgba": 4, "value": 1, "radius": 1, "length": 1,
+            "ixx": 1, "ixy": 1, "ixz": 1, "iyy": 1, "iyz": 1, "izz": 1, "lower": 1, "upper": 1, "effort": 1,
+            "velocity": 1, "damping": 1, "friction": 1, "multiplier": 1, "offset": 1}
+_NUMBER_WORDS = {1: "a number", 3: "three numbers", 4: "four numbers"}
+
+
+def _check_xml(file: str, root: etree._Element) -> None:
+    """What yourdfpy would fail on without saying where: names, joint parts, geometry, numbers."""
+    for kind in ("link", "joint", "material"):
+        for element in root.findall(kind):
+            name = element.get("name")
+            where = f"{kind} {name!r}" if name else f"<{kind}> (line {element.sourceline})"
+            if not name and kind != "material":
+                raise InputError(file, where, "has no name attribute")
+            if kind == "joint":
+                if not element.get("type"):
+                    raise InputError(file, where, "has no type attribute")
+                for part in ("parent", "child"):
+                    if element.find(part) is None or not element.find(part).get("link"):
+                        raise InputError(file, where, f"needs a <{part} link=...>")
+            for shape in element.findall("visual") + element.findall("collision"):
+                if shape.find("geometry") is None:
+                    raise InputError(file, f"{where}: <{shape.tag}> (line {shape.sourceline})", "has no <geometry>")
+            for sub in element.iter():
+                for attribute in set(_NUMBERS) & set(sub.attrib):
+                    text = sub.get(attribute)
+                    try:
+                        count = len([float(v) for v in text.split()])
+                    except ValueError:
+                        count = -1
+                    if count != _NUMBERS[attribute]:
+                        raise InputError(file, f"{where}: <{sub.tag} {attribute}> (line {sub.sourceline})",
+                                         f"{text!r} is not {_NUMBER_WORDS[_NUMBERS[attribute]]}")
+
+
+def _check_tree(file: str, urdf: yourdfpy.URDF) -> list[str]:
+    """Names unique, joints between existing links, one root, a tree; the movable joints in kinematic order."""
+    links = [link.name for link in urdf.robot.links]
+    for kind, names in (("link", links), ("joint", [joint.name for joint in urdf.robot.joints])):
+        for name in names:
+            if not name:
+                raise InputError(file, f"<{kind}>", "has no name attribute")
+            if names.count(name) > 1:
+                raise InputError(file, f"{kind} {name!r}", f"the name is used by {names.count(name)} {kind}s")
+    children: dict[str, list] = {name: [] for name in links}
+    parent_joint: dict[str, str] = {}
+    for joint in urdf.robot.joints:
+        for role, link in (("parent", joint.parent), ("child", joint.child)):
+            if link not in children:
+                raise InputError(file, f"joint {joint.name!r}", f"its {role} link {link!r} does not exist")
+        if joint.child in parent_joint:
+            raise InputError(file, f"joint {joint.name!r}",
+                             f"link {joint.child!r} is already the child of joint {parent_joint[joint.child]!r}")
+        parent_joint[joint.child] = joint.name
+        children[joint.parent].append(joint)
+    roots = [name for name in links if name not in parent_joint]
+    if len(roots) != 1:
+        problem = "no root link (the joints form a loop)" if not roots else f"{len(roots)} root links: {roots}"
+        raise InputError(file, "<robot>", f"must be one tree of links; found {problem}")
+    # Depth first, children in the order of their joints in the file: MuJoCo's body (and so qpos) order.
+    order, seen, stack = [], {roots[0]}, list(reversed(children[roots[0]]))
+    while stack:
+        joint = stack.pop()
+        if joint.type != "fixed":
+            order.append(joint.name)
+        seen.add(joint.child)
+        stack.extend(reversed(children[joint.child]))
+    if len(seen) != len(links):
+        loose = next(name for name in links if name not in seen)
+        raise InputError(file, f"link {loose!r}", "is not connected to the root link (the joints form a loop)")
+    return order
+
+
+def _finite(value: float | None) -> bool:
+    return value is not None and math.isfinite(value)
+
+
+def _check_joint(file: str, joint: yourdfpy.Joint) -> None:
+    element = f"joint {joint.name!r}"
+    if joint.type not in SUPPORTED_JOINTS:
+        raise InputError(file, element, f"type {joint.type!r} is not supported (a fixed-base arm: "
+                                        f"{', '.join(SUPPORTED_JOINTS)})")
+    if joint.mimic is not None:
+        raise InputError(file, element, "mimic joints are not supported (lock it or make it a free joint)")
+    if joint.type == "fixed":
+        return
+    axis = np.asarray(joint.axis, dtype=float)
+    if axis.shape != (3,) or not np.all(np.isfinite(axis)) or np.linalg.norm(axis) < 1e-9:
+        raise InputError(file, f"{element}: axis",
+                         f"{axis.tolist()} is not a direction (three finite numbers, not all 0)")
+    limit = joint.limit
+    if limit is None:
+        if joint.type != "continuous":
+            raise InputError(file, element, f"a {joint.type} joint needs a <limit> with lower and upper")
+        return
+    for attribute in ("effort", "velocity"):
+        value = getattr(limit, attribute)
+        # URDF requires both; 0 is what exporters write for "unknown" and is read as "no limit".
+        if not _finite(value) or value < 0:
+            raise InputError(file, f"{element}: limit", f"{attribute} must be a number >= 0, got {value}")
+    if joint.type != "continuous":
+        if not (_finite(limit.lower) and _finite(limit.upper)) or limit.lower > limit.upper:
+            raise InputError(file, f"{element}: limit", f"needs finite lower <= upper, got lower={limit.lower}, "
+                                                        f"upper={limit.upper}")
+
+
+def _check_inertial(file: str, link: yourdfpy.Link, moving: bool) -> None:
+    element = f"link {link.name!r}"
+    inertial = link.inertial
+    if inertial is None:
+        if moving:
+            raise InputError(file, element, "moves (it is the child of a movable joint) but has no <inertial>")
+        return
+    mass = inertial.mass
+    if not _finite(mass) or mass < 0 or (moving and mass <= 0):
+        raise InputError(file, f"{element}: inertial", f"mass must be a number {'> 0' if moving else '>= 0'}, "
+                                                       f"got {mass}")
+    inertia = np.asarray(inertial.inertia, dtype=float)
+    if not np.all(np.isfinite(inertia)):
+        raise InputError(file, f"{element}: inertial", "inertia has a value that is not a finite number")
+    moments = np.linalg.eigvalsh(inertia)
+    scale = _INERTIA_TOLERANCE * max(float(moments.max()), 1e-12)
+    a, b, c = moments
+    if a < -scale or a + b < c - scale:
+        raise InputError(file, f"{element}: inertial", f"inertia is not physical: principal moments {a:.6g}, "
+                                                       f"{b:.6g}, {c:.6g} (need all >= 0 and A + B >= C)")
+
+
+@dataclass(frozen=True)
+class _Drawn:
+    label: str  # "visual" or "collision"
+    geometry: yourdfpy.Geometry
+
+
+def _drawn_geometries(link: yourdfpy.Link) -> list[_Drawn]:
+    """What the 3-D view shows of a link: its visuals, or its collision shapes if it has no visual."""
+    if link.visuals:
+        return [_Drawn("visual", visual.geometry) for visual in link.visuals]
+    return [_Drawn("collision", collision.geometry) for collision in link.collisions]
+
+
+def _check_geometry(file: str, element: str, geometry: yourdfpy.Geometry | None, base: Path,
+                    meshes: dict[str, Path]) -> None:
+    shapes = [s for s in (geometry.box, geometry.cylinder, geometry.sphere, geometry.mesh) if s is not None] \
+        if geometry is not None else []
+    if len(shapes) != 1:
+        raise InputError(file, element, "needs exactly one of <box>, <cylinder>, <sphere>, <mesh> in <geometry>")
+    if geometry.mesh is None:
+        sizes = ([*geometry.box.size] if geometry.box is not None else
+                 [geometry.cylinder.radius, geometry.cylinder.length] if geometry.cylinder is not None else
+                 [geometry.sphere.radius])
+        if not all(_finite(v) and v > 0 for v in sizes):
+            raise InputError(file, element, f"sizes must be numbers > 0, got {[float(v) for v in sizes]}")
+        return
+    filename = geometry.mesh.filename or ""
+    target = resolve_mesh(filename, base)
+    if target is None:
+        raise InputError(file, f"{element}: mesh", f"file {filename!r} not found (relative names are relative to "
+                                                   "the URDF file; package://NAME/... is looked up in the folders "
+                                                   "above it and in ROS_PACKAGE_PATH)")
+    if target.suffix.lower() not in MESH_FORMATS:
+        raise InputError(file, f"{element}: mesh", f"{filename!r}: MuJoCo reads {', '.join(MESH_FORMATS)} meshes, "
+                                                   f"not {target.suffix or 'files without an extension'}")
+    scale = geometry.mesh.scale
+    if scale is not None and not all(_finite(v) and v != 0 for v in np.atleast_1d(scale)):
+        raise InputError(file, f"{element}: mesh", f"scale must be non-zero numbers, got {scale}")
+    meshes[filename] = target
+
+
+def resolve_mesh(filename: str, base: Path) -> Path | None:
+    """The existing file a URDF mesh ``filename`` names, or None.
+
+    Plain and ``file://`` names are relative to ``base`` (the URDF's folder) unless absolute. For
+    ``package://NAME/rest``, the package folder NAME is looked for among ``base`` and the folders above it
+    (a URDF usually lives in its package), then in each folder of ``ROS_PACKAGE_PATH``.
+    """
+    if filename.startswith("package://"):
+        package, _, rest = unquote(filename[len("package://"):]).partition("/")
+        roots = [folder for folder in (base, *base.parents) if folder.name == package]
+        for entry in filter(None, os.environ.get("ROS_PACKAGE_PATH", "").split(os.pathsep)):
+            entry_path = Path(entry)
+            roots += [entry_path] if entry_path.name == package else [entry_path / package]
+        candidates = [root / rest for root in roots] if package and rest else []
+    else:
+        name = unquote(filename[len("file://"):]) if filename.startswith("file://") else filename
+        candidates = [base / name] if name and "://" not in name else []
+    return next((c.resolve() for c in candidates if c.is_file()), None)
+
+
+# ------------------------------------------------------------------------------------------ building
+
+
+def load_model(
+    path: Path,
+    *,
+    lock: Mapping[str, float] | None = None,
+    torque_limits: float | Sequence[float] | None = None,
+    armature: float | Sequence[float] | None = None,
+    source: str,
+    field: str = "robot",
+) -> mujoco.MjModel:
+    """The testbed's MuJoCo model of a URDF robot.
+
+    Args:
+        path: the URDF file.
+        lock: joints to lock, by name, at an angle [rad] (a position [m] for a prismatic joint).
+        torque_limits: |torque| limit of the free joints' motors [N m or N], one value or one per free joint;
+            replaces the URDF's effort limits. Without it, a joint's effort limit (when > 0) is its torque
+            limit and a joint without one is unlimited.
+        armature: reflected rotor inertia of the free joints [kg m^2], one value or one per free joint
+            (URDF cannot express it).
+        source, field: the file and field path the options come from (a scenario's ``robot``), for errors.
+
+    Raises:
+        InputError: for a problem in the URDF (naming it and the element) or in the options (naming
+            ``source`` and the option's field).
+    """
+    robot = read_urdf(path)
+    lock = dict(lock or {})
+    free = _check_lock(robot, lock, source, field)
+    limits = _torque_limits(robot, free, torque_limits, source, field)
+    armatures = _per_free_joint(armature, free, source, f"{field}.armature")
+
+    spec = _compile_urdf(robot)
+    for name, value in lock.items():
+        _lock(spec, name, value)
+    for k, name in enumerate(free):
+        joint = spec.joint(name)
+        # MuJoCo turns URDF efforts into joint force limits; the motor's ctrlrange is the one limit here.
+        joint.actfrclimited = mujoco.mjtLimited.mjLIMITED_FALSE
+        if armatures is not None:
+            joint.armature = armatures[k]
+        motor = spec.add_actuator(name=f"motor{k + 1}", target=name, trntype=mujoco.mjtTrn.mjTRN_JOINT)
+        motor.ctrllimited = mujoco.mjtLimited.mjLIMITED_FALSE if limits[k] is None else mujoco.mjtLimited.mjLIMITED_TRUE
+        if limits[k] is not None:
+            motor.ctrlrange = [-limits[k], limits[k]]
+        spec.add_sensor(name=f"{name}_pos", type=mujoco.mjtSensor.mjSENS_JOINTPOS, objtype=mujoco.mjtObj.mjOBJ_JOINT,
+                        objname=name)
+    # Tachometers after all encoders, as in models/*.xml; read only if the scenario declares velocity sensing.
+    for name in free:
+        spec.add_sensor(name=f"{name}_vel", type=mujoco.mjtSensor.mjSENS_JOINTVEL, objtype=mujoco.mjtObj.mjOBJ_JOINT,
+                        objname=name)
+    for geom in spec.geoms:  # visual only: contacts are off in this testbed
+        geom.contype = geom.conaffinity = 0
+    spec.option.disableflags |= mujoco.mjtDisableBit.mjDSBL_CONTACT
+    spec.option.integrator = mujoco.mjtIntegrator.mjINT_IMPLICITFAST  # as models/*.xml (see models/README.md)
+    spec.option.timestep = 0.001
+    # URDF semantics: a link's mass is its <inertial>, never its geometry.
+    spec.compiler.inertiafromgeom = mujoco.mjtInertiaFromGeom.mjINERTIAFROMGEOM_FALSE
+    model = _compile(spec, robot.path)
+    compiled = [model.joint(i).name for i in range(model.njnt)]
+    if compiled != free:  # the actuators, sensors and scenario vectors assume this order
+        raise RuntimeError(f"{robot.path}: MuJoCo ordered the joints {compiled}, expected {free}")
+    return model
+
+
+def _check_lock(robot: UrdfRobot, lock: Mapping[str, float], source: str, field: str) -> list[str]:
+    """Check the joints to lock; return the free joints in kinematic order."""
+    name_of_file = robot.path.name
+    for name, value in lock.items():
+        element = f"{field}.lock.{name}"
+        if name not in robot.urdf.joint_map:
+            raise InputError(source, element, f"{name_of_file} has no joint {name!r} (movable joints: "
+                                              f"{', '.join(robot.movable) or 'none'})")
+        joint = robot.joint(name)
+        if joint.type == "fixed":
+            raise InputError(source, element, f"joint {name!r} of {name_of_file} is fixed: there is nothing to lock")
+        if joint.type != "continuous" and not joint.limit.lower <= value <= joint.limit.upper:
+            raise InputError(source, element, f"{value} is outside the limits of joint {name!r} "
+                                              f"[{joint.limit.lower}, {joint.limit.upper}]")
+    free = [name for name in robot.movable if name not in lock]
+    if not free:
+        raise InputError(source, f"{field}.lock", f"locks every movable joint of {name_of_file}: nothing to control")
+    return free
+
+
+def _per_free_joint(value: float | Sequence[float] | None, free: list[str], source: str,
+                    field: str) -> list[float] | None:
+    """One value for every free joint, or one value each."""
+    if value is None:
+        return None
+    if isinstance(value, (int, float)):
+        return [float(value)] * len(free)
+    if len(value) != len(free):
+        raise InputError(source, field, f"has {len(value)} values, the robot has {len(free)} free joints "
+                                        f"({', '.join(free)})")
+    return [float(v) for v in value]
+
+
+def _torque_limits(robot: UrdfRobot, free: list[str], torque_limits: float | Sequence[float] | None, source: str,
+                   field: str) -> list[float | None]:
+    given = _per_free_joint(torque_limits, free, source, f"{field}.torque_limits")
+    if given is not None:
+        return list(given)
+    efforts = [robot.joint(name).limit.effort if robot.joint(name).limit is not None else None for name in free]
+    return [effort if effort else None for effort in efforts]  # effort 0: not given (exporters' "unknown")
+
+
+def _compile_urdf(robot: UrdfRobot) -> mujoco.MjSpec:
+    """MuJoCo's URDF compiler on the checked file: visuals kept, every mesh as an absolute path."""
+    root = etree.fromstring(etree.tostring(robot.xml))  # a copy to edit
+    geom_names: set[str] = set()
+    for link in root.findall("link"):
+        has_visual = link.find("visual") is not None
+        for collision in link.findall("collision"):
+            if has_visual:
+                link.remove(collision)  # contacts are off: collision shapes serve nothing
+            else:
+                collision.tag = "visual"  # drawn in its place, as read_urdf checked it
+        for visual in link.findall("visual"):
+            name = visual.get("name")
+            if name is not None and (not name or name in geom_names):
+                del visual.attrib["name"]  # MuJoCo would warn on stdout and drop it anyway
+            geom_names.add(name)
+    for mesh in root.findall("link/visual/geometry/mesh"):
+        mesh.set("filename", str(robot.meshes[mesh.get("filename", "")]))
+    extension = root.find("mujoco")
+    if extension is None:
+        extension = etree.Element("mujoco")
+        root.insert(0, extension)
+    compiler = extension.find("compiler")
+    if compiler is None:
+        compiler = etree.SubElement(extension, "compiler")
+    # MuJoCo's URDF defaults drop visual geoms, merge bodies joined by fixed joints and strip mesh paths.
+    compiler.attrib.update({"discardvisual": "false", "fusestatic": "false", "strippath": "false"})
+    try:
+        return mujoco.MjSpec.from_string(etree.tostring(root, encoding="unicode"))
+    except ValueError as exc:
+        raise InputError(str(robot.path), "", f"MuJoCo cannot read it: {_first_lines(exc)}") from None
+
+
+def _first_lines(exc: Exception) -> str:
+    """MuJoCo's error, its element included, on one line."""
+    lines = [line.strip() for line in str(exc).strip().splitlines() if line.strip()]
+    return "; ".join(lines[:2]).removeprefix("Error: ") or "unknown error"
+
+
+def _lock(spec: mujoco.MjSpec, name: str, value: float) -> None:
+    """Remove joint ``name``, its body frozen where the joint at ``value`` puts it (exact, no constraint).
+
+    A URDF joint sits at its child link's origin, so the body turns about (or slides along) the axis through
+    its own origin: the lock is a change of the body's frame only.
+    """
+    joint = spec.joint(name)
+    body = joint.parent
+    offset = value - joint.ref
+    axis = np.asarray(joint.axis, dtype=float) / np.linalg.norm(joint.axis)
+    frame = np.asarray(body.quat, dtype=float) / np.linalg.norm(body.quat)
+    if joint.type == mujoco.mjtJoint.mjJNT_HINGE:
+        turn, quat = np.zeros(4), np.zeros(4)
+        mujoco.mju_axisAngle2Quat(turn, axis, offset)
+        mujoco.mju_mulQuat(quat, frame, turn)
+        body.quat = quat
+    else:  # slide: the origin moves along the axis, given in the body frame
+        shift = np.zeros(3)
+        mujoco.mju_rotVecQuat(shift, axis * offset, frame)
+        body.pos = np.asarray(body.pos, dtype=float) + shift
+    spec.delete(joint)
+
+
+def _compile(spec: mujoco.MjSpec, path: Path) -> mujoco.MjModel:
+    try:
+        return spec.compile()
+    except ValueError as exc:
+        raise InputError(str(path), "", f"MuJoCo cannot compile it: {_first_lines(exc)}") from None
