@@ -20,7 +20,7 @@ import mujoco
 from ftc_mj.analysis.metrics import compute_metrics
 from ftc_mj.engine.loop import simulate_variant
 from ftc_mj.outputs.recording import write_recording
-from ftc_mj.spec.scenario import load_scenario
+from ftc_mj.spec.loading import load_scenario
 
 ROOT = Path(__file__).resolve().parents[1]
 

@@ -24,7 +24,8 @@ from ftc_mj.analysis.metrics import METRICS, compute_metrics, unit
 from ftc_mj.engine.loop import simulate_variant
 from ftc_mj.engine.results import VariantResult
 from ftc_mj.spec.errors import InputError
-from ftc_mj.spec.scenario import Scenario, load_scenario
+from ftc_mj.spec.loading import load_scenario
+from ftc_mj.spec.scenario import Scenario
 
 
 class _ArgumentParser(argparse.ArgumentParser):

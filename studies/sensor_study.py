@@ -22,7 +22,7 @@ import numpy as np
 
 from ftc_mj.analysis.metrics import compute_metrics
 from ftc_mj.engine.loop import simulate_variant
-from ftc_mj.spec.scenario import load_scenario
+from ftc_mj.spec.loading import load_scenario
 
 ROOT = Path(__file__).resolve().parents[1]
 SCENARIO = ROOT / "scenarios" / "puma_fault.yaml"

@@ -13,7 +13,8 @@ import yaml
 from ftc_mj.engine.loop import simulate_variant
 from ftc_mj.engine.results import VariantResult
 from ftc_mj.spec.errors import InputError
-from ftc_mj.spec.scenario import Scenario, load_scenario
+from ftc_mj.spec.loading import load_scenario
+from ftc_mj.spec.scenario import Scenario
 
 ROOT = Path(__file__).resolve().parents[1]
 FAULTS = ROOT / "scenarios" / "faults"

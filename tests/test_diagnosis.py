@@ -18,12 +18,13 @@ from fault_scenarios import FAULTS, assert_input_error, run, scenario_data, writ
 from rerun.chunk import RrdReader
 
 from ftc_mj.analysis.diagnosis import Diagnoser, low_pass, persistent
-from ftc_mj.analysis.metrics import compute_metrics, diagnosis_metrics
+from ftc_mj.analysis.diagnosis import diagnosis_metrics
+from ftc_mj.analysis.metrics import compute_metrics
 from ftc_mj.outputs.recording import read_series
 from ftc_mj.robot.nominal import NominalModel
 from ftc_mj.run import main
 from ftc_mj.spec.expressions import StateFunction, parse, state_variables
-from ftc_mj.spec.scenario import load_scenario
+from ftc_mj.spec.loading import load_scenario
 
 DT = 1e-3
 T = np.arange(10000) * DT  # 10 s

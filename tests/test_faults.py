@@ -15,7 +15,7 @@ from ftc_mj.effects.faults import ActuatorFault, ActuatorFaults
 from ftc_mj.effects.profiles import Profile
 from ftc_mj.robot.nominal import NominalModel
 from ftc_mj.spec.errors import InputError
-from ftc_mj.spec.scenario import load_scenario
+from ftc_mj.spec.loading import load_scenario
 
 N, NJ, DT = 1000, 3, 1e-3
 T = np.arange(N) * DT

@@ -10,8 +10,8 @@ import numpy as np
 import pytest
 
 from ftc_mj.analysis.metrics import METRICS, compute_metrics, evaluation_mask, settling_time
+from ftc_mj.analysis.metrics import MetricsSpec
 from ftc_mj.engine.results import VariantResult
-from ftc_mj.spec.scenario import MetricsSpec
 
 DT = 2.0**-10
 N = 2049  # t = 0 .. 2 s

@@ -15,7 +15,7 @@ import pytest
 from ftc_mj.engine.loop import simulate_variant
 from ftc_mj.outputs.recording import read_series
 from ftc_mj.run import main
-from ftc_mj.spec.scenario import load_scenario
+from ftc_mj.spec.loading import load_scenario
 
 ROOT = Path(__file__).resolve().parents[1]
 SCENARIO = ROOT / "scenarios" / "puma_fault.yaml"

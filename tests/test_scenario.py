@@ -20,7 +20,7 @@ import yaml
 
 from ftc_mj.spec.errors import InputError
 from ftc_mj.spec.expressions import ExpressionError
-from ftc_mj.spec.scenario import load_scenario
+from ftc_mj.spec.loading import load_scenario
 
 ROOT = Path(__file__).resolve().parents[1]
 PUMA_YAML = ROOT / "scenarios" / "puma_fault.yaml"

@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 
 from ftc_mj.engine.loop import simulate_variant
-from ftc_mj.spec.scenario import load_scenario
+from ftc_mj.spec.loading import load_scenario
 
 SCENARIOS = sorted((Path(__file__).resolve().parents[1] / "scenarios").glob("*.yaml"))
 

@@ -15,7 +15,7 @@ from ftc_mj.analysis.metrics import compute_metrics
 from ftc_mj.effects import randomness
 from ftc_mj.effects.sensors import Channel, Measurement
 from ftc_mj.engine.loop import simulate_variant
-from ftc_mj.spec.scenario import load_scenario
+from ftc_mj.spec.loading import load_scenario
 
 N, NJ, DT = 2000, 3, 1e-3
 T = np.arange(N) * DT

@@ -21,7 +21,8 @@ from ftc_mj.engine.results import VariantResult
 from ftc_mj.methods import controllers, observers, registry
 from ftc_mj.methods.controllers.nftsmc import NFTSMC
 from ftc_mj.methods.observers.tosmo import HighSpeedTOSMO
-from ftc_mj.spec.scenario import Scenario, load_scenario
+from ftc_mj.spec.loading import load_scenario
+from ftc_mj.spec.scenario import Scenario
 
 ROOT = Path(__file__).resolve().parents[1]
 PUMA = ROOT / "models" / "puma560.xml"

@@ -17,22 +17,52 @@ recorded arrays after the run gives what an online diagnoser would have given):
   it (against chattering-induced alarms); nothing before the diagnoser is armed (``start``, default the
   baseline's end).
 
-The metrics (detection delay, false alarms, missed detections, isolation, fault-estimate error) are in
-:mod:`ftc_mj.analysis.metrics`.
+The section ``diagnosis`` of a scenario (:class:`DiagnosisSpec`) is compiled by :func:`compile_diagnoser`;
+the loop hands every result to :func:`diagnose_result`.
+
+Metrics (:func:`diagnosis_metrics`, part of :func:`ftc_mj.analysis.metrics.compute_metrics`; all NaN without a
+``diagnosis`` section). A joint is faulty from the first onset of a fault acting on it (a fault term or an
+actuator fault; sensor effects are not faults):
+
+* ``detection_delay``: per faulty joint, the first time at or after its onset with its alarm on, minus the
+  onset [s]; NaN on a healthy joint and on a missed one.
+* ``missed_detection``: per faulty joint, 1 if its alarm is never on from the onset to the end, else 0.
+* ``false_alarms``: alarms raised while the joint is fault-free and the diagnoser armed (before the joint's
+  onset; the whole armed run on a healthy joint).
+* ``false_alarm_rate``: that count per second of armed fault-free time [1/s].
+* ``isolation_correct``: 1 if the diagnoser names the joint faulty (an alarm at or after the first fault
+  onset; at any armed time in a run without faults) exactly when it is faulty, else 0.
+* ``fault_estimate_rms``: per detected faulty joint, RMS of the fault estimate minus the injected fault
+  (both in the diagnosis space: rad/s^2 for ``acceleration``, N m for ``torque``) from detection to the end.
 """
 
 from __future__ import annotations
 
 import math
 from dataclasses import dataclass
-from typing import Annotated, Literal
+from typing import TYPE_CHECKING, Annotated, Literal
 
 import numpy as np
 from pydantic import Field, StrictInt, model_validator
 from scipy.signal import lfilter
 
-from ftc_mj.spec.expressions import StateFunction
-from ftc_mj.spec.schema import ExpressionText, NonNegativeFloat, PositiveFloat, Strict
+from ftc_mj.spec.errors import InputError
+from ftc_mj.spec.expressions import StateFunction, state_variables
+from ftc_mj.spec.schema import ExpressionText, NonNegativeFloat, PositiveFloat, Strict, parse_expression, per_joint
+
+if TYPE_CHECKING:
+    from ftc_mj.engine.results import VariantResult
+    from ftc_mj.spec.scenario import ScenarioSpec
+
+#: The diagnosis metrics, in the order of :data:`ftc_mj.analysis.metrics.METRICS` (they close it).
+DIAGNOSIS_METRICS: tuple[str, ...] = (
+    "detection_delay",
+    "missed_detection",
+    "false_alarms",
+    "false_alarm_rate",
+    "isolation_correct",
+    "fault_estimate_rms",
+)
 
 
 class WindowSpec(Strict):
@@ -197,6 +227,46 @@ class Diagnoser:
                          mean=mean, std=std, injected=np.asarray(injected, dtype=float))
 
 
+def compile_diagnoser(spec: DiagnosisSpec, scenario: ScenarioSpec, file: str, n: int,
+                      fault_onsets: list[float]) -> Diagnoser:
+    """The scenario's ``diagnosis`` section for a robot of ``n`` joints (``fault_onsets``: the scenario's)."""
+    dt = scenario.control_dt
+    bound = None
+    if spec.threshold.bound is not None:
+        texts = spec.threshold.bound
+        if len(texts) != n:
+            raise InputError(file, "diagnosis.threshold.bound", f"has {len(texts)} values, the robot has {n} joints")
+        variables = state_variables(n)
+        bound = StateFunction(
+            [parse_expression(text, variables, file, f"diagnosis.threshold.bound.{j}") for j, text in enumerate(texts)], n)
+    baseline = None
+    if spec.baseline is not None:
+        baseline = (spec.baseline.start, spec.baseline.end)
+        if fault_onsets and spec.baseline.end > fault_onsets[0]:
+            raise InputError(file, "diagnosis.baseline.end",
+                             f"the baseline must be fault-free: it ends after the first fault onset ({fault_onsets[0]:g} s)")
+    # Persistence time in whole samples, rounded up (a float just above an integer is that integer).
+    persistence = spec.persistence.samples or math.ceil(spec.persistence.time / dt - 1e-9)
+    start = spec.start
+    if start is None:
+        start = spec.baseline.end if spec.baseline is not None else scenario.metrics.estimation_window_start
+    return Diagnoser(space=spec.space, dt=dt, start=start, k=spec.threshold.k, persistence=max(1, persistence),
+                     fixed=per_joint(spec.threshold.fixed, n, file, "diagnosis.threshold.fixed"), baseline=baseline,
+                     filter_time_constant=spec.filter_time_constant, bound=bound)
+
+
+def diagnose_result(diagnoser: Diagnoser | None, result: VariantResult, luaf_torque: np.ndarray | None) -> None:
+    """Run the scenario's diagnoser, if any, on the result's LUaF estimate (in its diagnosis space) and store
+    the diagnosis in the result. ``luaf_torque``: M(q_meas) luaf_hat, formed in the loop, for torque space."""
+    if diagnoser is None:
+        return
+    if diagnoser.space == "torque":
+        estimate, injected = luaf_torque[:len(result.t)], result.fault_torque
+    else:
+        estimate, injected = result.luaf_hat, result.fault_acceleration
+    result.diagnosis = diagnoser.diagnose(result.t, estimate, result.q_meas, result.qd_hat, injected)
+
+
 def low_pass(x: np.ndarray, dt: float, time_constant: float) -> np.ndarray:
     """First-order low-pass filter along axis 0, exactly discretised, starting at the first sample."""
     a = math.exp(-dt / time_constant)
@@ -223,3 +293,35 @@ def persistent(exceeded: np.ndarray, samples: int) -> np.ndarray:
                 state, since = value, switch
         alarm[since:, j] = state
     return alarm
+
+
+def diagnosis_metrics(
+    diagnosis: Diagnosis | None, joint_onsets: np.ndarray, first_fault: float, n: int
+) -> dict[str, np.ndarray]:
+    """The diagnosis metrics per joint (see the module docstring); NaN everywhere without a diagnosis."""
+    out = {name: np.full(n, np.nan) for name in DIAGNOSIS_METRICS}
+    if diagnosis is None or diagnosis.t.size == 0:
+        return out
+    t, alarm = diagnosis.t, diagnosis.alarm
+    dt = t[1] - t[0] if t.size > 1 else 0.0
+    raised = diagnosis.raised
+    faulty = np.isfinite(joint_onsets)
+    isolated = diagnosis.isolated(first_fault)
+    for joint in range(n):
+        onset = joint_onsets[joint] if faulty[joint] else np.inf
+        fault_free = diagnosis.armed & (t < onset)
+        out["false_alarms"][joint] = raised[fault_free, joint].sum()
+        seconds = fault_free.sum() * dt
+        if seconds > 0:
+            out["false_alarm_rate"][joint] = out["false_alarms"][joint] / seconds
+        out["isolation_correct"][joint] = float(isolated[joint] == faulty[joint])
+        if not faulty[joint]:
+            continue
+        detected = np.flatnonzero(alarm[:, joint] & (t >= onset))
+        out["missed_detection"][joint] = float(detected.size == 0)
+        if detected.size:
+            first = detected[0]
+            out["detection_delay"][joint] = t[first] - onset
+            error = diagnosis.fault_estimate[first:, joint] - diagnosis.injected[first:, joint]
+            out["fault_estimate_rms"][joint] = np.sqrt(np.mean(error**2))
+    return out

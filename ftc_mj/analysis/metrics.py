@@ -26,19 +26,8 @@
   sum |tau[k+1] - tau[k]| / window length [N m / s]. A smooth torque that follows the reference scores low;
   switching at the sampling rate scores high.
 
-Diagnosis (:mod:`ftc_mj.analysis.diagnosis`; all NaN without a ``diagnosis`` section). A joint is faulty from the
-first onset of a fault acting on it (a fault term or an actuator fault; sensor effects are not faults):
-
-* ``detection_delay``: per faulty joint, the first time at or after its onset with its alarm on, minus the
-  onset [s]; NaN on a healthy joint and on a missed one.
-* ``missed_detection``: per faulty joint, 1 if its alarm is never on from the onset to the end, else 0.
-* ``false_alarms``: alarms raised while the joint is fault-free and the diagnoser armed (before the joint's
-  onset; the whole armed run on a healthy joint).
-* ``false_alarm_rate``: that count per second of armed fault-free time [1/s].
-* ``isolation_correct``: 1 if the diagnoser names the joint faulty (an alarm at or after the first fault
-  onset; at any armed time in a run without faults) exactly when it is faulty, else 0.
-* ``fault_estimate_rms``: per detected faulty joint, RMS of the fault estimate minus the injected fault
-  (both in the diagnosis space: rad/s^2 for ``acceleration``, N m for ``torque``) from detection to the end.
+Diagnosis metrics (``detection_delay``, ``missed_detection``, ``false_alarms``, ``false_alarm_rate``,
+``isolation_correct``, ``fault_estimate_rms``): defined and computed in :mod:`ftc_mj.analysis.diagnosis`.
 """
 
 from __future__ import annotations
@@ -47,9 +36,29 @@ from collections.abc import Sequence
 
 import numpy as np
 
-from ftc_mj.analysis.diagnosis import Diagnosis
+from ftc_mj.analysis.diagnosis import DIAGNOSIS_METRICS, diagnosis_metrics
 from ftc_mj.engine.results import VariantResult
-from ftc_mj.spec.scenario import MetricsSpec
+from ftc_mj.spec.schema import NonNegativeFloat, PositiveFloat, Strict
+
+
+class MetricsSpec(Strict):
+    """The scenario's ``metrics`` section: evaluation windows and tolerances."""
+
+    #: Tracking metrics "after convergence" are taken from this time on [s].
+    window_start: NonNegativeFloat
+    #: Estimation metrics (velocity, LUaF) are taken from this time on [s].
+    estimation_window_start: NonNegativeFloat
+    #: Interval excluded after each fault onset [s].
+    fault_settle: NonNegativeFloat = 1.0
+    #: |e| tolerance of convergence_time [rad].
+    tracking_tolerance: PositiveFloat = 0.01
+    #: |velocity error| tolerance of observer_convergence_time [rad/s].
+    velocity_tolerance: PositiveFloat = 0.05
+    #: |LUaF estimation error| tolerance of luaf_convergence_time [rad/s^2].
+    luaf_tolerance: PositiveFloat = 0.5
+    #: |sliding variable| tolerance of reaching_time (units of the surface, rad/s for every built-in law).
+    sliding_tolerance: PositiveFloat = 0.01
+
 
 METRICS: tuple[str, ...] = (
     "rms_error",
@@ -68,12 +77,7 @@ METRICS: tuple[str, ...] = (
     "recovery_time",
     "rms_torque",
     "chattering",
-    "detection_delay",
-    "missed_detection",
-    "false_alarms",
-    "false_alarm_rate",
-    "isolation_correct",
-    "fault_estimate_rms",
+    *DIAGNOSIS_METRICS,
 )
 
 #: Units for display.
@@ -101,9 +105,6 @@ UNITS: dict[str, str] = {
     "isolation_correct": "0/1",
     "fault_estimate_rms": "rad/s^2 or N m",
 }
-
-DIAGNOSIS_METRICS = METRICS[METRICS.index("detection_delay"):]
-
 
 def unit(metric: str, diagnosis_space: str | None = None) -> str:
     """The unit of ``metric``; the fault-estimate error takes the diagnosis space's."""
@@ -216,35 +217,3 @@ def compute_metrics(
         "chattering": chattering,
         **diagnosis_metrics(result.diagnosis, joint_onsets, first_fault, n),
     }
-
-
-def diagnosis_metrics(
-    diagnosis: Diagnosis | None, joint_onsets: np.ndarray, first_fault: float, n: int
-) -> dict[str, np.ndarray]:
-    """The diagnosis metrics per joint (see the module docstring); NaN everywhere without a diagnosis."""
-    out = {name: np.full(n, np.nan) for name in DIAGNOSIS_METRICS}
-    if diagnosis is None or diagnosis.t.size == 0:
-        return out
-    t, alarm = diagnosis.t, diagnosis.alarm
-    dt = t[1] - t[0] if t.size > 1 else 0.0
-    raised = diagnosis.raised
-    faulty = np.isfinite(joint_onsets)
-    isolated = diagnosis.isolated(first_fault)
-    for joint in range(n):
-        onset = joint_onsets[joint] if faulty[joint] else np.inf
-        fault_free = diagnosis.armed & (t < onset)
-        out["false_alarms"][joint] = raised[fault_free, joint].sum()
-        seconds = fault_free.sum() * dt
-        if seconds > 0:
-            out["false_alarm_rate"][joint] = out["false_alarms"][joint] / seconds
-        out["isolation_correct"][joint] = float(isolated[joint] == faulty[joint])
-        if not faulty[joint]:
-            continue
-        detected = np.flatnonzero(alarm[:, joint] & (t >= onset))
-        out["missed_detection"][joint] = float(detected.size == 0)
-        if detected.size:
-            first = detected[0]
-            out["detection_delay"][joint] = t[first] - onset
-            error = diagnosis.fault_estimate[first:, joint] - diagnosis.injected[first:, joint]
-            out["fault_estimate_rms"][joint] = np.sqrt(np.mean(error**2))
-    return out

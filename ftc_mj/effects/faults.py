@@ -26,10 +26,23 @@ from abc import ABC, abstractmethod
 from dataclasses import dataclass
 from typing import Literal
 
+import mujoco
 import numpy as np
 
-from ftc_mj.effects.profiles import AbruptSpec, Profile, ProfileSpec
-from ftc_mj.spec.schema import ExpressionText, JointSelection, PositiveFloat, Strict, tagged_union
+from ftc_mj.effects.profiles import AbruptSpec, Profile, ProfileSpec, compile_profile
+from ftc_mj.spec import expressions
+from ftc_mj.spec.errors import InputError
+from ftc_mj.spec.schema import (
+    ExpressionText,
+    JointSelection,
+    PositiveFloat,
+    Strict,
+    joint_indices,
+    joint_mask,
+    parse_expression,
+    per_selected,
+    tagged_union,
+)
 
 
 class _FaultSpec(Strict):
@@ -219,3 +232,41 @@ def _action(fault: ActuatorFault, times: np.ndarray) -> _Action:
     if fault.kind == "saturation":
         return _Saturate(fault, times)
     raise ValueError(f"unknown actuator fault kind {fault.kind!r}")
+
+
+# ------------------------------------------------------------------------------------------------ compiling
+
+
+def compile_actuator_fault(spec: ActuatorFaultSpec, file: str, field: str, model: mujoco.MjModel,
+                           times: np.ndarray) -> ActuatorFault:
+    """A fault with its time-dependent parameter (alpha, offset) tabulated on the run's time grid."""
+    n = model.nv
+    indices = joint_indices(spec.joints, model, file, f"{field}.joints")
+    parameter = None
+    if spec.kind in ("loss_of_effectiveness", "bias"):
+        key = "alpha" if spec.kind == "loss_of_effectiveness" else "offset"
+        parameter = _time_table(getattr(spec, key), indices, n, times, file, f"{field}.{key}")
+        if key == "alpha" and ((parameter < 0) | (parameter > 1)).any():
+            row = int(np.flatnonzero(((parameter < 0) | (parameter > 1)).any(axis=1))[0])
+            raise InputError(file, f"{field}.alpha", f"must stay within [0, 1]; it is outside at t = {times[row]:g}")
+    elif spec.kind == "saturation":
+        parameter = np.full(n, np.inf)
+        parameter[indices] = per_selected(spec.limit, indices, file, f"{field}.limit")
+    return ActuatorFault(name=spec.name or f"{spec.kind}{field.rsplit('.', 1)[-1]}", kind=spec.kind,
+                         joints=joint_mask(indices, n), parameter=parameter,
+                         profile=compile_profile(spec.profile, file, f"{field}.profile", n))
+
+
+def _time_table(values: ExpressionText | list[ExpressionText], indices: list[int], n: int, times: np.ndarray,
+                file: str, field: str) -> np.ndarray:
+    """Expressions of t for the selected joints, evaluated on the time grid: ``(N, n)``, 0 elsewhere."""
+    texts = per_selected(values, indices, file, field)
+    single = not isinstance(values, list)
+    exprs = [parse_expression(text, ["t"], file, field if single else f"{field}.{i}") for i, text in enumerate(texts)]
+    table = np.zeros((len(times), n))
+    with np.errstate(all="ignore"):
+        table[:, indices] = expressions.TimeFunctions(exprs).evaluate(times)[0]
+    if not np.isfinite(table).all():
+        row = int(np.flatnonzero(~np.isfinite(table).all(axis=1))[0])
+        raise InputError(file, field, f"is not a finite number at t = {times[row]:g}")
+    return table

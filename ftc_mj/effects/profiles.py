@@ -19,7 +19,7 @@ from typing import Annotated, Literal
 import numpy as np
 from pydantic import Field
 
-from ftc_mj.spec.schema import Interval, NonNegativeFloat, PositiveFloat, tagged_union
+from ftc_mj.spec.schema import Interval, NonNegativeFloat, PositiveFloat, per_joint, tagged_union
 
 _PHASE_TOLERANCE = 1e-9
 
@@ -118,3 +118,11 @@ class Profile:
         else:
             value = np.ones_like(elapsed)
         return np.broadcast_to(np.where(self.active(times)[:, None], value, 0.0), (len(times), n_joints)).copy()
+
+
+def compile_profile(spec: ProfileSpec, file: str, field: str, n: int) -> Profile:
+    """The profile of a validated ``profile:`` section, its rate expanded to the robot's ``n`` joints."""
+    rate = getattr(spec, "rate", None)
+    if rate is not None:
+        rate = per_joint(rate, n, file, f"{field}.rate")
+    return Profile.from_spec(spec, rate)

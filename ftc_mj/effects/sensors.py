@@ -20,10 +20,21 @@ from __future__ import annotations
 from dataclasses import dataclass
 from typing import Annotated
 
+import mujoco
 import numpy as np
 from pydantic import Field, StrictInt, model_validator
 
-from ftc_mj.spec.schema import FiniteFloat, Interval, JointSelection, NonNegativeFloat, PositiveFloat, Strict
+from ftc_mj.spec.schema import (
+    FiniteFloat,
+    Interval,
+    JointSelection,
+    NonNegativeFloat,
+    PositiveFloat,
+    Strict,
+    joint_indices,
+    joint_mask,
+    per_joint,
+)
 
 PositiveInt = Annotated[StrictInt, Field(gt=0)]
 
@@ -133,3 +144,27 @@ class Measurement:
         if self.stuck_at[k] and k:  # stuck from the first sample: it holds the first reading
             np.copyto(out, self._last, where=self.stuck[k])
         np.copyto(self._last, out)
+
+
+def compile_channel(spec: ChannelSpec | None, file: str, field: str, model: mujoco.MjModel) -> Channel | None:
+    """The effects of a validated ``sensors.position`` or ``sensors.velocity`` section; None: perfect."""
+    if spec is None:
+        return None
+    n = model.nv
+    resolution = np.zeros(n)
+    if spec.resolution is not None:
+        resolution = per_joint(spec.resolution, n, file, f"{field}.resolution")
+    if isinstance(spec, EncoderSpec) and spec.counts_per_rev is not None:
+        resolution = 2.0 * np.pi / per_joint(spec.counts_per_rev, n, file, f"{field}.counts_per_rev")
+    stuck = spec.stuck
+    return Channel(
+        resolution=resolution,
+        noise_std=per_joint(spec.noise_std, n, file, f"{field}.noise_std"),
+        bias=per_joint(spec.bias, n, file, f"{field}.bias"),
+        drift_rate=per_joint(spec.drift_rate, n, file, f"{field}.drift_rate"),
+        delay_samples=spec.delay_samples,
+        stuck_onset=None if stuck is None else stuck.onset,
+        stuck_end=None if stuck is None else stuck.end,
+        stuck_joints=None if stuck is None else joint_mask(
+            joint_indices(stuck.joints, model, file, f"{field}.stuck.joints"), n),
+    )

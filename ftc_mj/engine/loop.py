@@ -31,73 +31,18 @@ from collections.abc import Callable
 import mujoco
 import numpy as np
 
+from ftc_mj.analysis.diagnosis import diagnose_result
 from ftc_mj.effects import randomness
 from ftc_mj.effects.faults import ActuatorFaults
 from ftc_mj.effects.sensors import Measurement
+from ftc_mj.effects.terms import PlantTerms
 from ftc_mj.engine.results import VariantResult
+from ftc_mj.robot.model import position_sensor_addresses, velocity_sensor_addresses
 from ftc_mj.robot.nominal import NominalModel, StepModel
-from ftc_mj.spec.scenario import (
-    CompiledTerm,
-    Monitor,
-    Scenario,
-    Variant,
-    position_sensor_addresses,
-    velocity_sensor_addresses,
-)
+from ftc_mj.spec.scenario import Monitor, Scenario, Variant
 
 ProgressCallback = Callable[[int], None]
 PROGRESS_EVERY = 500
-
-
-class PlantTerms:
-    """Friction, disturbance and fault terms acting on the true plant through ``qfrc_applied``."""
-
-    def __init__(self, terms: list[CompiledTerm], n_joints: int):
-        self.terms = terms
-        self.torque = np.zeros(n_joints)
-        self.acceleration = np.zeros(n_joints)
-        self.fault = np.zeros(n_joints)
-        #: The generalized force of the fault terms (acceleration-space ones through the true M(q)).
-        self.fault_force = np.zeros(n_joints)
-        self.fault_active = False
-        self._mapped = np.zeros(n_joints)
-        self._fault_acceleration = np.zeros(n_joints)
-        self._has_acceleration = any(term.space == "acceleration" for term in terms)
-        self._has_acceleration_fault = any(term.space == "acceleration" and term.kind == "fault" for term in terms)
-
-    def apply(self, model: mujoco.MjModel, data: mujoco.MjData, t: float) -> None:
-        """Write the sum of all terms at time ``t`` and the current true state to ``data.qfrc_applied``.
-
-        ``t`` is the loop's k * control_dt: MuJoCo's ``data.time`` accumulates rounding (after 40000 steps
-        of 0.25 ms it is 9.99999999999937), which would start a fault due at 10 s one period late.
-        Needs M(q) of the current state, i.e. call after ``mj_step1``.
-        """
-        self.torque[:] = 0.0
-        self.acceleration[:] = 0.0
-        self.fault[:] = 0.0
-        self.fault_force[:] = 0.0
-        self._fault_acceleration[:] = 0.0
-        self.fault_active = False
-        if self.terms:
-            q, qd = data.qpos.tolist(), data.qvel.tolist()
-            for term in self.terms:
-                weight = term.profile(t)
-                if weight is None:
-                    continue
-                value = term.sign * weight * np.asarray(term.function(t, q, qd))
-                acceleration = term.space == "acceleration"
-                (self.acceleration if acceleration else self.torque)[:] += value
-                if term.kind == "fault":
-                    self.fault += value
-                    (self._fault_acceleration if acceleration else self.fault_force)[:] += value
-                    self.fault_active = True
-        data.qfrc_applied[:] = self.torque
-        if self._has_acceleration:
-            mujoco.mj_mulM(model, data, self._mapped, self.acceleration)
-            data.qfrc_applied[:] += self._mapped
-        if self._has_acceleration_fault and self.fault_active:
-            mujoco.mj_mulM(model, data, self._mapped, self._fault_acceleration)
-            self.fault_force += self._mapped
 
 
 class Diverged(Exception):
@@ -293,7 +238,7 @@ def simulate_variant(
     )
     if status != "ok":
         result = result.truncated(done)
-    _diagnose(scenario, result, luaf_torque)
+    diagnose_result(scenario.diagnoser, result, luaf_torque)
     for monitor in monitors:
         kept = len(result.t)
         view = dataclasses.replace(
@@ -301,20 +246,9 @@ def simulate_variant(
             qd_hat=monitor.qd_hat[:kept], luaf_hat=monitor.luaf_hat[:kept],
             body_xpos=body_xpos[:0], body_xquat=body_xquat[:0], extras={}, diagnosis=None, monitors=[],
         )
-        _diagnose(scenario, view, monitor.luaf_torque)
+        diagnose_result(scenario.diagnoser, view, monitor.luaf_torque)
         result.monitors.append(view)
     return result
-
-
-def _diagnose(scenario: Scenario, result: VariantResult, luaf_torque: np.ndarray | None) -> None:
-    """Run the scenario's diagnoser, if any, on the result's LUaF estimate (in its diagnosis space)."""
-    if scenario.diagnoser is None:
-        return
-    if scenario.diagnoser.space == "torque":
-        estimate, injected = luaf_torque[:len(result.t)], result.fault_torque
-    else:
-        estimate, injected = result.luaf_hat, result.fault_acceleration
-    result.diagnosis = scenario.diagnoser.diagnose(result.t, estimate, result.q_meas, result.qd_hat, injected)
 
 
 _BAD_ACCELERATION = int(mujoco.mjtWarning.mjWARN_BADQACC)

@@ -10,6 +10,9 @@ The class must follow :class:`ftc_mj.methods.observers.Observer` (or :class:`ftc
 ``name``, a pydantic ``Config`` derived from :class:`ftc_mj.methods.gains.GainConfig`, and the update methods.
 Entry points are imported only when a scenario asks for their name, so a broken third-party package cannot
 stop scenarios that do not use it; one that is asked for and fails to import raises :class:`PluginError`.
+
+A scenario names a method with a :class:`MethodSpec` (``type`` and ``gains``); :func:`compile_method` finds
+the class and validates the gains with its ``Config``.
 """
 
 from __future__ import annotations
@@ -17,8 +20,14 @@ from __future__ import annotations
 from collections.abc import Iterator, Mapping
 from functools import cache
 from importlib.metadata import EntryPoint, entry_points
+from typing import Any
+
+from pydantic import ValidationError
 
 from ftc_mj.methods import controllers, observers
+from ftc_mj.methods.gains import GainConfig
+from ftc_mj.spec.errors import InputError, validation_error
+from ftc_mj.spec.schema import Strict
 
 OBSERVER_GROUP = "ftc_mj.observers"
 CONTROLLER_GROUP = "ftc_mj.controllers"
@@ -69,3 +78,27 @@ def observer_types() -> Plugins:
 def controller_types() -> Plugins:
     """Every controller plugin, by name."""
     return _discover(CONTROLLER_GROUP)
+
+
+class MethodSpec(Strict):
+    """An observer or controller of a scenario: the plugin's name and its gains."""
+
+    type: str
+    gains: dict[str, Any] = {}
+
+
+def compile_method(file: str, field: str, method: MethodSpec, known: Mapping[str, type], kind: str,
+                   n: int) -> tuple[type, GainConfig]:
+    """The plugin class named by ``method`` among ``known`` (``kind``: observer or controller), and its gains
+    validated by the plugin's ``Config`` for ``n`` joints."""
+    if method.type not in known:
+        raise InputError(file, f"{field}.type", f"unknown {kind} {method.type!r} (known: {', '.join(sorted(known))})")
+    try:
+        plugin = known[method.type]
+    except PluginError as exc:
+        raise InputError(file, f"{field}.type", str(exc)) from None
+    try:
+        config = plugin.Config.model_validate(method.gains, context={"n_joints": n})
+    except ValidationError as exc:
+        raise validation_error(file, f"{field}.gains", exc) from None
+    return plugin, config

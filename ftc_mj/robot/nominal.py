@@ -2,7 +2,7 @@
 
 It owns a private copy of the MjModel and its own MjData, so evaluating it at an estimated state never
 touches the simulation. ``mass_scale`` scales every body's mass and inertia (and the joint armature) of the
-copy, which gives a controlled model mismatch.
+copy, which gives a controlled model mismatch (the scenario's ``nominal`` section, :class:`NominalSpec`).
 """
 
 from __future__ import annotations
@@ -11,6 +11,13 @@ import copy
 
 import mujoco
 import numpy as np
+
+from ftc_mj.spec.schema import PositiveFloat, Strict
+
+
+class NominalSpec(Strict):
+    #: Scales masses, inertias and armature of the controller's model (1 = exact model).
+    mass_scale: PositiveFloat = 1.0
 
 
 class NominalModel:

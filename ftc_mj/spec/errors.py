@@ -1,6 +1,11 @@
-"""Errors that reach the user as one line, without a traceback."""
+"""Errors that reach the user as one line, without a traceback: :class:`InputError`, and
+:func:`validation_error`, which turns a pydantic validation failure into one."""
 
 from __future__ import annotations
+
+from typing import Any
+
+from pydantic import ValidationError
 
 
 class InputError(Exception):
@@ -20,3 +25,34 @@ class InputError(Exception):
 def _one_line(text: str) -> str:
     """Escape line breaks and other control characters (a YAML key may contain them)."""
     return "".join(c if c.isprintable() else c.encode("unicode_escape").decode("ascii") for c in text)
+
+
+def _is_union_tag(part: Any) -> bool:
+    """pydantic puts the union member it tried into an error's location ('constrained-float',
+    'list[constrained-float]', 'str', 'function-after[...]'); those are not fields a user can write."""
+    return isinstance(part, str) and ("[" in part or "-" in part or part in {"str", "int", "float", "bool", "list"})
+
+
+def validation_error(file: str, prefix: str, exc: ValidationError) -> InputError:
+    """The first problem of a pydantic validation failure as one :class:`InputError`, its field path under
+    ``prefix`` (union member tags dropped), with a count of the other problems."""
+    # Group the errors by the value they concern (the location up to the first union tag): a value that fits
+    # no member of a union gives one error per member, and counts as one problem.
+    groups: dict[tuple, list[dict]] = {}
+    for error in exc.errors():
+        loc = error["loc"]
+        cut = next((i for i, part in enumerate(loc) if _is_union_tag(part)), len(loc))
+        groups.setdefault(tuple(loc[:cut]), []).append(error)
+    first_group = next(iter(groups.values()))
+    # The member error that got furthest into the value (e.g. a bad list element) says the most.
+    best = max(first_group, key=lambda error: len(error["loc"]))
+    loc = ".".join(str(part) for part in best["loc"] if not _is_union_tag(part))
+    field = ".".join(p for p in (prefix, loc) if p)
+    message = best["msg"].removeprefix("Value error, ")
+    if best["type"] == "extra_forbidden":
+        message = "unknown key"
+    elif best["type"] == "missing":
+        message = "required field is missing"
+    if len(groups) > 1:
+        message += f" (and {len(groups) - 1} more problem{'s' if len(groups) > 2 else ''})"
+    return InputError(file, field, message)

@@ -1,9 +1,12 @@
 """Building blocks of the scenario schema shared by its sections (plant terms, actuator faults, sensors,
-diagnosis): strict models, checked number types, expressions, per-joint values and joint selections.
+diagnosis): strict models, checked number types, expressions, per-joint values and joint selections; and the
+functions that compile them once the robot is known (per-joint arrays, joint indices, parsed expressions),
+raising :class:`~ftc_mj.spec.errors.InputError` with the field's path.
 
-Each section's pydantic model lives in the module of its concept; :mod:`ftc_mj.spec.scenario` assembles them and
-compiles the validated values. Unions over a ``kind`` or ``shape`` key are discriminated with tags written
-``"<key>-<value>"``: :func:`ftc_mj.spec.scenario._input_error` drops such tags from the field path it reports.
+Each section's pydantic model and its compile function live in the module of its concept;
+:mod:`ftc_mj.spec.scenario` assembles them. Unions over a ``kind`` or ``shape`` key are discriminated with
+tags written ``"<key>-<value>"``: :func:`ftc_mj.spec.errors.validation_error` drops such tags from the field
+path it reports.
 """
 
 from __future__ import annotations
@@ -11,7 +14,12 @@ from __future__ import annotations
 from collections.abc import Mapping
 from typing import Annotated, Any, Union
 
+import mujoco
+import numpy as np
 from pydantic import BaseModel, ConfigDict, Discriminator, Field, StrictFloat, StrictInt, StrictStr, Tag, model_validator
+
+from ftc_mj.spec import expressions
+from ftc_mj.spec.errors import InputError
 
 PositiveFloat = Annotated[float, Field(gt=0, allow_inf_nan=False)]
 NonNegativeFloat = Annotated[float, Field(ge=0, allow_inf_nan=False)]
@@ -53,3 +61,60 @@ def tagged_union(key: str, members: Mapping[str, type[BaseModel]], default: str 
     discriminator = Discriminator(choose, custom_error_type=f"invalid_{key}",
                                   custom_error_message=f"{key} must be one of: {', '.join(members)}")
     return Annotated[union, discriminator]
+
+
+# ------------------------------------------------------------------------------ compiling the building blocks
+
+
+def per_joint(values: float | list[float], n: int, file: str, field: str) -> np.ndarray:
+    """One number for every joint, or a list with one per joint."""
+    if not isinstance(values, list):
+        return np.full(n, float(values))
+    if len(values) != n:
+        raise InputError(file, field, f"has {len(values)} values, the robot has {n} joints")
+    return np.asarray(values, dtype=float)
+
+
+def per_selected(values: Any, indices: list[int], file: str, field: str) -> list:
+    """One value for all selected joints, or a list with one per selected joint."""
+    if not isinstance(values, list):
+        return [values] * len(indices)
+    if len(values) != len(indices):
+        raise InputError(file, field, f"has {len(values)} values for {len(indices)} joints")
+    return values
+
+
+def joint_indices(selection: JointSelection, model: mujoco.MjModel, file: str, field: str) -> list[int]:
+    """DOF indices of a joint selection (1-based numbers or MJCF names), in the order given; all when None."""
+    n = model.nv
+    if selection is None:
+        return list(range(n))
+    names = {mujoco.mj_id2name(model, mujoco.mjtObj.mjOBJ_JOINT, j): int(model.jnt_dofadr[j]) for j in range(model.njnt)}
+    indices: list[int] = []
+    for position, item in enumerate(selection):
+        if isinstance(item, str):
+            if item not in names:
+                raise InputError(file, f"{field}.{position}", f"unknown joint {item!r} (joints: {', '.join(name for name in names if name)})")
+            index = names[item]
+        elif item > n:
+            raise InputError(file, f"{field}.{position}", f"joint {item} does not exist, the robot has {n} joints")
+        else:
+            index = item - 1
+        if index in indices:
+            raise InputError(file, f"{field}.{position}", f"joint {item!r} is listed twice")
+        indices.append(index)
+    return indices
+
+
+def joint_mask(indices: list[int], n: int) -> np.ndarray:
+    mask = np.zeros(n, dtype=bool)
+    mask[indices] = True
+    return mask
+
+
+def parse_expression(text: ExpressionText, variables: list[str], file: str, field: str):
+    """An expression of the scenario file, parsed (:func:`ftc_mj.spec.expressions.parse`)."""
+    try:
+        return expressions.parse(text, variables)
+    except expressions.ExpressionError as exc:
+        raise InputError(file, field, str(exc)) from None

@@ -1,0 +1,160 @@
+"""Plant terms: friction, disturbance and additive fault terms acting on the true plant.
+
+Sign convention: a term with value f and ``sign`` s enters the true plant as
+
+* ``space: torque``:        M(q) qdd + C(q, qd) qd + G(q) = tau + s f
+* ``space: acceleration``:  qdd = M(q)^-1 (tau - C qd - G) + s f    (applied as the torque s M(q) f)
+
+so Chapter 5's (5.1) has friction and disturbance with s = -1 (torque) and the fault with s = +1
+(acceleration). A term with an ``onset`` Tf is multiplied per joint by the profile 1 - exp(-rate (t - Tf))
+for t >= Tf (abrupt, i.e. a step, when ``rate`` is absent) and is zero before; or by any ``profile`` of
+:mod:`ftc_mj.effects.profiles`.
+
+The ``terms`` section (:class:`TermSpec`) is compiled by :func:`compile_terms` into :class:`CompiledTerm`
+objects; :class:`PlantTerms` evaluates them on the true state in the loop.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Literal
+
+import mujoco
+import numpy as np
+
+from ftc_mj.effects.profiles import Profile, ProfileSpec, compile_profile
+from ftc_mj.spec import expressions
+from ftc_mj.spec.errors import InputError
+from ftc_mj.spec.schema import ExpressionText, NonNegativeFloat, PositiveFloat, Strict, parse_expression, per_joint
+
+
+class TermSpec(Strict):
+    """A friction, disturbance or fault term: per-joint expressions of t, q1..qn, qd1..qn."""
+
+    kind: Literal["friction", "disturbance", "fault"]
+    space: Literal["torque", "acceleration"]
+    sign: Literal[1, -1]
+    value: list[ExpressionText]
+    onset: NonNegativeFloat | None = None
+    #: Evolution rate of 1 - exp(-rate (t - onset)), one number or one per joint; abrupt when absent.
+    rate: PositiveFloat | list[PositiveFloat] | None = None
+    #: Any time profile of :mod:`ftc_mj.effects.profiles` (instead of ``onset`` and ``rate``).
+    profile: ProfileSpec | None = None
+    name: str | None = None
+
+
+@dataclass
+class CompiledTerm:
+    """A plant term ready for the loop."""
+
+    name: str
+    kind: str
+    space: str
+    sign: float
+    function: expressions.StateFunction
+    #: None: always on.
+    time_profile: Profile | None
+    #: Joints whose value is not identically zero (a fault "on joint 1" has zeros elsewhere).
+    joints: np.ndarray
+
+    @property
+    def onset(self) -> float | None:
+        return None if self.time_profile is None else self.time_profile.onset
+
+    @property
+    def rate(self) -> np.ndarray | None:
+        """Per joint, for an incipient profile."""
+        return None if self.time_profile is None else self.time_profile.rate
+
+    def profile(self, t: float) -> np.ndarray | float | None:
+        """The time profile per joint, e.g. omega(t - Tf) of (5.1): None while off (before the onset), then
+        1 - exp(-rate (t - Tf)), or 1 when abrupt (see :class:`~ftc_mj.effects.profiles.Profile`)."""
+        return 1.0 if self.time_profile is None else self.time_profile.weight(t)
+
+
+def compile_terms(specs: list[TermSpec], file: str, n: int) -> list[CompiledTerm]:
+    """The ``terms`` section for a robot of ``n`` joints."""
+    state_vars = expressions.state_variables(n)
+    terms = []
+    for index, term in enumerate(specs):
+        field = f"terms.{index}"
+        if len(term.value) != n:
+            raise InputError(file, f"{field}.value", f"has {len(term.value)} values, the robot has {n} joints")
+        exprs = [parse_expression(text, state_vars, file, f"{field}.value.{j}") for j, text in enumerate(term.value)]
+        terms.append(
+            CompiledTerm(
+                name=term.name or f"{term.kind}{index}",
+                kind=term.kind,
+                space=term.space,
+                sign=float(term.sign),
+                function=expressions.StateFunction(exprs, n),
+                time_profile=_term_profile(term, file, field, n),
+                joints=np.array([expr.is_zero is not True for expr in exprs]),
+            )
+        )
+    return terms
+
+
+def _term_profile(term: TermSpec, file: str, field: str, n: int) -> Profile | None:
+    """A plant term's profile: ``profile``, or the dissertation's ``onset`` with an optional ``rate``."""
+    if term.profile is not None:
+        if term.onset is not None or term.rate is not None:
+            raise InputError(file, f"{field}.profile", "give either a profile or onset and rate, not both")
+        return compile_profile(term.profile, file, f"{field}.profile", n)
+    if term.rate is not None and term.onset is None:
+        raise InputError(file, f"{field}.rate", "an evolution rate needs an onset")
+    if term.onset is None:
+        return None
+    rate = None if term.rate is None else per_joint(term.rate, n, file, f"{field}.rate")
+    return Profile("abrupt" if rate is None else "incipient", onset=term.onset, rate=rate)
+
+
+class PlantTerms:
+    """Friction, disturbance and fault terms acting on the true plant through ``qfrc_applied``."""
+
+    def __init__(self, terms: list[CompiledTerm], n_joints: int):
+        self.terms = terms
+        self.torque = np.zeros(n_joints)
+        self.acceleration = np.zeros(n_joints)
+        self.fault = np.zeros(n_joints)
+        #: The generalized force of the fault terms (acceleration-space ones through the true M(q)).
+        self.fault_force = np.zeros(n_joints)
+        self.fault_active = False
+        self._mapped = np.zeros(n_joints)
+        self._fault_acceleration = np.zeros(n_joints)
+        self._has_acceleration = any(term.space == "acceleration" for term in terms)
+        self._has_acceleration_fault = any(term.space == "acceleration" and term.kind == "fault" for term in terms)
+
+    def apply(self, model: mujoco.MjModel, data: mujoco.MjData, t: float) -> None:
+        """Write the sum of all terms at time ``t`` and the current true state to ``data.qfrc_applied``.
+
+        ``t`` is the loop's k * control_dt: MuJoCo's ``data.time`` accumulates rounding (after 40000 steps
+        of 0.25 ms it is 9.99999999999937), which would start a fault due at 10 s one period late.
+        Needs M(q) of the current state, i.e. call after ``mj_step1``.
+        """
+        self.torque[:] = 0.0
+        self.acceleration[:] = 0.0
+        self.fault[:] = 0.0
+        self.fault_force[:] = 0.0
+        self._fault_acceleration[:] = 0.0
+        self.fault_active = False
+        if self.terms:
+            q, qd = data.qpos.tolist(), data.qvel.tolist()
+            for term in self.terms:
+                weight = term.profile(t)
+                if weight is None:
+                    continue
+                value = term.sign * weight * np.asarray(term.function(t, q, qd))
+                acceleration = term.space == "acceleration"
+                (self.acceleration if acceleration else self.torque)[:] += value
+                if term.kind == "fault":
+                    self.fault += value
+                    (self._fault_acceleration if acceleration else self.fault_force)[:] += value
+                    self.fault_active = True
+        data.qfrc_applied[:] = self.torque
+        if self._has_acceleration:
+            mujoco.mj_mulM(model, data, self._mapped, self.acceleration)
+            data.qfrc_applied[:] += self._mapped
+        if self._has_acceleration_fault and self.fault_active:
+            mujoco.mj_mulM(model, data, self._mapped, self._fault_acceleration)
+            self.fault_force += self._mapped
