@@ -21,7 +21,7 @@ from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, T
 from rich.table import Table
 
 from ftc_mj.analysis.metrics import METRICS, compute_metrics, unit
-from ftc_mj.engine.loop import simulate_variant
+from ftc_mj.engine.runner import run_scenario
 from ftc_mj.engine.results import VariantResult
 from ftc_mj.spec.errors import InputError
 from ftc_mj.spec.loading import load_scenario
@@ -47,26 +47,28 @@ def build_parser() -> argparse.ArgumentParser:
     return parser
 
 
-def run_scenario(scenario: Scenario, console: Console | None = None) -> list[VariantResult]:
-    """Simulate every variant (the first one with body poses for the 3-D view), with a progress display.
-    Each variant's monitors follow it in the list as results of their own."""
-    steps = int(round(scenario.spec.duration / scenario.spec.control_dt))
-    results = []
+def run_with_progress(scenario: Scenario, console: Console | None = None) -> list[VariantResult]:
+    """Every variant, stepped together (:func:`ftc_mj.engine.runner.run_scenario`), with a progress display;
+    the first variant with body poses for the 3-D view. Each variant's monitors follow it in the list."""
+    steps = len(scenario.times)
     with Progress(
         TextColumn("{task.description:<16}"), BarColumn(), MofNCompleteColumn(), TimeElapsedColumn(),
         console=console, disable=console is None, transient=False,
     ) as progress:
-        for index, variant in enumerate(scenario.variants):
-            task = progress.add_task(variant.name, total=steps)
-            result = simulate_variant(
-                scenario, variant, record_poses=index == 0,
-                progress=lambda advance, task=task: progress.advance(task, advance),
-            )
-            if result.status != "ok":
-                progress.update(task, description=f"{variant.name} (diverged)")
-            results.append(result)
-            results.extend(result.monitors)  # a column each, beside their host
-    return results
+        task = progress.add_task(f"{len(scenario.variants)} variant(s)", total=steps)
+        results = run_scenario(scenario, record_poses=True,
+                               progress=lambda advance: progress.advance(task, advance))
+    flat = []
+    for result in results:
+        flat.append(result)
+        flat.extend(result.monitors)  # a column each, beside their host
+    return flat
+
+
+def divergence_report(results: Sequence[VariantResult]) -> list[str]:
+    """One line per variant that diverged: its name and when."""
+    return [f"diverged: variant {r.name!r} at t = {r.diverged_at:.6g} s" for r in results
+            if r.status != "ok" and "." not in r.name]
 
 
 def metrics_table(scenario: Scenario, results: Sequence[VariantResult], metrics: dict[str, dict]) -> Table:
@@ -158,7 +160,7 @@ def main(argv: Sequence[str] | None = None) -> int:
         return 2
 
     console = None if args.quiet else Console(stderr=True)
-    results = run_scenario(scenario, console)
+    results = run_with_progress(scenario, console)
     onsets = scenario.fault_onsets
     metrics = {r.name: compute_metrics(r, scenario.spec.metrics, onsets, scenario.joint_fault_onsets) for r in results}
     if not args.quiet:
@@ -186,7 +188,10 @@ def main(argv: Sequence[str] | None = None) -> int:
         return 2
     if written and not args.quiet:
         print(f"recording: {recording_path}  (open with: rerun {recording_path})", file=sys.stderr)
-    return 1 if any(r.status != "ok" for r in results) else 0
+    diverged = divergence_report(results)
+    for line in diverged:  # said whatever --quiet: exit 1 must explain itself
+        print(line, file=sys.stderr)
+    return 1 if diverged else 0
 
 
 if __name__ == "__main__":

@@ -217,8 +217,8 @@ class Diagnoser:
         residual = np.abs(estimate)
         threshold = np.broadcast_to(self.fixed + self.k * std, residual.shape).copy()
         if self.bound is not None:
-            for row in range(len(t)):
-                threshold[row] += self.bound(float(t[row]), q_meas[row].tolist(), qd_hat[row].tolist())
+            for j, column in enumerate(self.bound(t, q_meas.T, qd_hat.T)):  # every sample at once
+                threshold[:, j] += column
         armed = t >= self.start
         threshold[~armed] = np.nan  # no threshold before the diagnoser is armed (also in the plots)
         exceeded = residual > threshold  # NaN compares False: no alarm

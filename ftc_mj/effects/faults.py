@@ -115,13 +115,13 @@ class ActuatorFaults:
     """The actuator faults of one run: each period, the delivered torque from the commanded one.
 
     Attributes after :meth:`apply`: ``delivered`` (what the actuators deliver) and ``torque`` (delivered -
-    commanded, the generalized force the fault adds), both ``(n,)``.
+    commanded, the generalized force the fault adds), both ``shape``: ``(rows, n)`` in a batch.
     """
 
-    def __init__(self, faults: list[ActuatorFault], times: np.ndarray, n_joints: int):
-        self.delivered = np.zeros(n_joints)
-        self.torque = np.zeros(n_joints)
-        self._actions = [_action(fault, times) for fault in faults]
+    def __init__(self, faults: list[ActuatorFault], times: np.ndarray, shape: int | tuple[int, ...]):
+        self.delivered = np.zeros(shape)
+        self.torque = np.zeros(shape)
+        self._actions = [_action(fault, times, shape) for fault in faults]
         #: Per sample, whether any actuator fault is on.
         self.active = np.zeros(len(times), dtype=bool)
         for fault in faults:
@@ -139,12 +139,12 @@ class ActuatorFaults:
 class _Action(ABC):
     """One fault's per-step effect on the torque ``u`` it receives (in place)."""
 
-    def __init__(self, fault: ActuatorFault, times: np.ndarray):
+    def __init__(self, fault: ActuatorFault, times: np.ndarray, shape: int | tuple[int, ...]):
         self.weights = fault.weights(times)
         self.on_joints = fault.on(times)
         #: Plain bools: the loop's check costs no NumPy call.
         self.on: list[bool] = self.on_joints.any(axis=1).tolist()
-        self._scratch = np.zeros(len(fault.joints))
+        self._scratch = np.zeros(shape)
 
     @abstractmethod
     def __call__(self, k: int, u: np.ndarray) -> None:
@@ -154,8 +154,8 @@ class _Action(ABC):
 class _Scale(_Action):
     """u <- (1 - w alpha) u: loss of effectiveness (float is alpha = 1)."""
 
-    def __init__(self, fault: ActuatorFault, times: np.ndarray, alpha: np.ndarray | float):
-        super().__init__(fault, times)
+    def __init__(self, fault: ActuatorFault, times: np.ndarray, shape: int | tuple[int, ...], alpha: np.ndarray | float):
+        super().__init__(fault, times, shape)
         self.factor = 1.0 - self.weights * alpha
 
     def __call__(self, k: int, u: np.ndarray) -> None:
@@ -165,8 +165,8 @@ class _Scale(_Action):
 class _Offset(_Action):
     """u <- u + w offset: bias."""
 
-    def __init__(self, fault: ActuatorFault, times: np.ndarray):
-        super().__init__(fault, times)
+    def __init__(self, fault: ActuatorFault, times: np.ndarray, shape: int | tuple[int, ...]):
+        super().__init__(fault, times, shape)
         self.offset = self.weights * fault.parameter
 
     def __call__(self, k: int, u: np.ndarray) -> None:
@@ -177,8 +177,8 @@ class _Blend(_Action):
     """u <- (1 - w) u + w faulty(u), for the kinds whose faulty output depends on the torque they receive.
     Written so, w = 1 gives faulty(u) exactly and w = 0 gives u exactly."""
 
-    def __init__(self, fault: ActuatorFault, times: np.ndarray):
-        super().__init__(fault, times)
+    def __init__(self, fault: ActuatorFault, times: np.ndarray, shape: int | tuple[int, ...]):
+        super().__init__(fault, times, shape)
         self.keep = 1.0 - self.weights
 
     @abstractmethod
@@ -195,12 +195,12 @@ class _Blend(_Action):
 class _Lock(_Blend):
     """Holds the torque received at the sample the fault comes on (again at each start of an intermittent one)."""
 
-    def __init__(self, fault: ActuatorFault, times: np.ndarray):
-        super().__init__(fault, times)
+    def __init__(self, fault: ActuatorFault, times: np.ndarray, shape: int | tuple[int, ...]):
+        super().__init__(fault, times, shape)
         before = np.vstack([np.zeros((1, len(fault.joints)), dtype=bool), self.on_joints[:-1]])
         self.freezes = self.on_joints & ~before
         self.freeze_at: list[bool] = self.freezes.any(axis=1).tolist()
-        self.frozen = np.zeros(len(fault.joints))
+        self.frozen = np.zeros(shape)
 
     def faulty(self, k: int, u: np.ndarray, out: np.ndarray) -> None:
         if self.freeze_at[k]:
@@ -211,8 +211,8 @@ class _Lock(_Blend):
 class _Saturate(_Blend):
     """Clips the torque received to [-limit, limit]."""
 
-    def __init__(self, fault: ActuatorFault, times: np.ndarray):
-        super().__init__(fault, times)
+    def __init__(self, fault: ActuatorFault, times: np.ndarray, shape: int | tuple[int, ...]):
+        super().__init__(fault, times, shape)
         self.upper = np.asarray(fault.parameter, dtype=float)
         self.lower = -self.upper
 
@@ -220,17 +220,17 @@ class _Saturate(_Blend):
         np.clip(u, self.lower, self.upper, out=out)
 
 
-def _action(fault: ActuatorFault, times: np.ndarray) -> _Action:
+def _action(fault: ActuatorFault, times: np.ndarray, shape: int | tuple[int, ...]) -> _Action:
     if fault.kind == "loss_of_effectiveness":
-        return _Scale(fault, times, fault.parameter)
+        return _Scale(fault, times, shape, fault.parameter)
     if fault.kind == "float":
-        return _Scale(fault, times, 1.0)
+        return _Scale(fault, times, shape, 1.0)
     if fault.kind == "bias":
-        return _Offset(fault, times)
+        return _Offset(fault, times, shape)
     if fault.kind == "lock":
-        return _Lock(fault, times)
+        return _Lock(fault, times, shape)
     if fault.kind == "saturation":
-        return _Saturate(fault, times)
+        return _Saturate(fault, times, shape)
     raise ValueError(f"unknown actuator fault kind {fault.kind!r}")
 
 

@@ -104,15 +104,29 @@ class Channel:
         return on[:, None] & self.stuck_joints
 
 
-class Measurement:
-    """One channel of one run: :meth:`read` turns the true reading of sample k into the measurement."""
+#: Samples of noise drawn at a time, per member.
+NOISE_CHUNK = 1000
 
-    def __init__(self, channel: Channel, times: np.ndarray, rng: np.random.Generator):
+
+class Measurement:
+    """One channel over the rows of a batch: :meth:`read` turns the true readings of sample k into measurements.
+
+    Rows are ``blocks`` variant blocks of the same members (variant-major). Each member draws its noise from its
+    own generator, in chunks of :data:`NOISE_CHUNK` samples (the same numbers as one draw for the whole run, in
+    memory that does not grow with the duration), and every variant's block reads the same noise: a paired
+    comparison.
+    """
+
+    def __init__(self, channel: Channel, times: np.ndarray, generators: list[np.random.Generator], blocks: int = 1):
         n = len(channel.bias)
-        self.offset = channel.bias + channel.drift_rate * times[:, None]
-        if np.any(channel.noise_std > 0):
-            self.offset += rng.standard_normal((len(times), n)) * channel.noise_std
-        self._offset = bool(np.any(self.offset))
+        members = len(generators)
+        self._shape = (blocks, members, n)
+        self.offset = channel.bias + channel.drift_rate * times[:, None]  # (N, n), shared by every member
+        self._generators = generators
+        self._noise_std = channel.noise_std
+        self._noisy = bool(np.any(channel.noise_std > 0))
+        self._offsets = np.zeros((min(NOISE_CHUNK, len(times)), members, n))  # this chunk's offsets per member
+        self._offset = self._noisy or bool(np.any(self.offset))
         self.quantised = channel.resolution > 0
         self._quantise = bool(self.quantised.any())
         self.step = channel.resolution
@@ -120,12 +134,21 @@ class Measurement:
         self.stuck = channel.stuck(times)
         self.stuck_at: list[bool] = self.stuck.any(axis=1).tolist()
         self.delay = channel.delay_samples
-        self._history = np.zeros((self.delay + 1, n))
-        self._last = np.zeros(n)
-        self._scratch = np.zeros(n)
+        rows = blocks * members
+        self._history = np.zeros((self.delay + 1, rows, n))
+        self._last = np.zeros((rows, n))
+        self._scratch = np.zeros((rows, n))
+
+    def _draw(self, k: int) -> None:
+        """The offsets of samples k .. k + NOISE_CHUNK: bias, drift and each member's noise."""
+        chunk = self.offset[k:k + len(self._offsets)]
+        self._offsets[:len(chunk)] = chunk[:, None, :]
+        if self._noisy:
+            for member, generator in enumerate(self._generators):
+                self._offsets[:len(chunk), member] += generator.standard_normal(chunk.shape) * self._noise_std
 
     def read(self, k: int, true: np.ndarray, out: np.ndarray) -> None:
-        """Write the measurement of sample ``k`` (true reading ``true``) into ``out``."""
+        """Write the measurements of sample ``k`` (true readings ``true``, ``(rows, n)``) into ``out``."""
         source = true
         if self.delay:
             if k == 0:
@@ -133,7 +156,10 @@ class Measurement:
             self._history[k % (self.delay + 1)] = true
             source = self._history[(k + 1) % (self.delay + 1)]  # written delay samples ago
         if self._offset:
-            np.add(source, self.offset[k], out=out)
+            index = k % len(self._offsets)
+            if index == 0:
+                self._draw(k)
+            np.add(source.reshape(self._shape), self._offsets[index], out=out.reshape(self._shape))
         else:
             np.copyto(out, source)
         if self._quantise:

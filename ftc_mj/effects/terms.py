@@ -19,7 +19,6 @@ from __future__ import annotations
 from dataclasses import dataclass
 from typing import Literal
 
-import mujoco
 import numpy as np
 
 from ftc_mj.effects.profiles import Profile, ProfileSpec, compile_profile
@@ -72,9 +71,9 @@ class CompiledTerm:
         return 1.0 if self.time_profile is None else self.time_profile.weight(t)
 
 
-def compile_terms(specs: list[TermSpec], file: str, n: int) -> list[CompiledTerm]:
-    """The ``terms`` section for a robot of ``n`` joints."""
-    state_vars = expressions.state_variables(n)
+def compile_terms(specs: list[TermSpec], file: str, n: int, parameters: list[str] = ()) -> list[CompiledTerm]:
+    """The ``terms`` section for a robot of ``n`` joints; the expressions may use the named ``parameters``."""
+    state_vars = expressions.state_variables(n) + list(parameters)
     terms = []
     for index, term in enumerate(specs):
         field = f"terms.{index}"
@@ -87,7 +86,7 @@ def compile_terms(specs: list[TermSpec], file: str, n: int) -> list[CompiledTerm
                 kind=term.kind,
                 space=term.space,
                 sign=float(term.sign),
-                function=expressions.StateFunction(exprs, n),
+                function=expressions.StateFunction(exprs, n, parameters),
                 time_profile=_term_profile(term, file, field, n),
                 joints=np.array([expr.is_zero is not True for expr in exprs]),
             )
@@ -110,51 +109,56 @@ def _term_profile(term: TermSpec, file: str, field: str, n: int) -> Profile | No
 
 
 class PlantTerms:
-    """Friction, disturbance and fault terms acting on the true plant through ``qfrc_applied``."""
+    """Friction, disturbance and fault terms of every row, evaluated on the true states as arrays.
 
-    def __init__(self, terms: list[CompiledTerm], n_joints: int):
+    Attributes after :meth:`apply`, ``(rows, n)``: ``fault`` (the fault terms' sum, each in its own space),
+    ``fault_force`` (their generalized force, acceleration-space ones through the true M(q)); ``fault_active``:
+    whether a fault term is on (profiles depend on time only, so for every row alike).
+    """
+
+    def __init__(self, terms: list[CompiledTerm], rows: int, n_joints: int, parameters: np.ndarray):
         self.terms = terms
-        self.torque = np.zeros(n_joints)
-        self.acceleration = np.zeros(n_joints)
-        self.fault = np.zeros(n_joints)
-        #: The generalized force of the fault terms (acceleration-space ones through the true M(q)).
-        self.fault_force = np.zeros(n_joints)
+        shape = (rows, n_joints)
+        self.torque, self.acceleration = np.zeros(shape), np.zeros(shape)
+        self.fault, self.fault_force = np.zeros(shape), np.zeros(shape)
         self.fault_active = False
-        self._mapped = np.zeros(n_joints)
-        self._fault_acceleration = np.zeros(n_joints)
-        self._has_acceleration = any(term.space == "acceleration" for term in terms)
+        self._value, self._mapped = np.zeros(shape), np.zeros(shape)
+        self._fault_acceleration = np.zeros(shape)
+        #: Parameter columns, one ``(rows,)`` array per name, passed to every term after the state.
+        self._parameters = list(np.asarray(parameters, dtype=float).reshape(rows, -1).T)
+        self.needs_mass = any(term.space == "acceleration" for term in terms)
         self._has_acceleration_fault = any(term.space == "acceleration" and term.kind == "fault" for term in terms)
 
-    def apply(self, model: mujoco.MjModel, data: mujoco.MjData, t: float) -> None:
-        """Write the sum of all terms at time ``t`` and the current true state to ``data.qfrc_applied``.
+    def apply(self, t: float, qpos: np.ndarray, qvel: np.ndarray, mass: np.ndarray | None, out: np.ndarray) -> None:
+        """Write the sum of all terms at time ``t`` and the true states into ``out`` (``qfrc_applied``).
 
         ``t`` is the loop's k * control_dt: MuJoCo's ``data.time`` accumulates rounding (after 40000 steps
-        of 0.25 ms it is 9.99999999999937), which would start a fault due at 10 s one period late.
-        Needs M(q) of the current state, i.e. call after ``mj_step1``.
-        """
-        self.torque[:] = 0.0
-        self.acceleration[:] = 0.0
-        self.fault[:] = 0.0
-        self.fault_force[:] = 0.0
-        self._fault_acceleration[:] = 0.0
+        of 0.25 ms it is 9.99999999999937), which would start a fault due at 10 s one period late. ``mass``
+        is the true M(q) of each row at the sample instant, needed with acceleration-space terms."""
+        for buffer in (self.torque, self.acceleration, self.fault, self.fault_force, self._fault_acceleration):
+            buffer[:] = 0.0
         self.fault_active = False
         if self.terms:
-            q, qd = data.qpos.tolist(), data.qvel.tolist()
             for term in self.terms:
                 weight = term.profile(t)
                 if weight is None:
                     continue
-                value = term.sign * weight * np.asarray(term.function(t, q, qd))
+                for j, column in enumerate(term.function(t, qpos.T, qvel.T, self._parameters)):
+                    self._value[:, j] = column
+                self._value *= term.sign * weight
                 acceleration = term.space == "acceleration"
-                (self.acceleration if acceleration else self.torque)[:] += value
+                (self.acceleration if acceleration else self.torque)[:] += self._value
                 if term.kind == "fault":
-                    self.fault += value
-                    (self._fault_acceleration if acceleration else self.fault_force)[:] += value
+                    self.fault += self._value
+                    (self._fault_acceleration if acceleration else self.fault_force)[:] += self._value
                     self.fault_active = True
-        data.qfrc_applied[:] = self.torque
-        if self._has_acceleration:
-            mujoco.mj_mulM(model, data, self._mapped, self.acceleration)
-            data.qfrc_applied[:] += self._mapped
+        np.copyto(out, self.torque)
+        if self.needs_mass:
+            out += _times(mass, self.acceleration, self._mapped)
         if self._has_acceleration_fault and self.fault_active:
-            mujoco.mj_mulM(model, data, self._mapped, self._fault_acceleration)
-            self.fault_force += self._mapped
+            self.fault_force += _times(mass, self._fault_acceleration, self._mapped)
+
+
+def _times(matrices: np.ndarray, vectors: np.ndarray, out: np.ndarray) -> np.ndarray:
+    """Row by row, ``matrices[r] @ vectors[r]``."""
+    return np.einsum("rij,rj->ri", matrices, vectors, out=out)

@@ -1,282 +1,348 @@
-"""The physics-in-the-loop closed loop: MuJoCo plant, observer and controller plugins, ground truth.
+"""The closed loop of a batch: every variant of a scenario and every member, stepped together.
 
-Per control period k (time t_k, zero-order hold on the command):
+Rows: the plant is one :class:`mujoco.batch.Batch` with a row per (variant, member), variant-major, so that
+the members of one variant are a contiguous block and each variant's observer, controller and monitors work
+on views of that block with state shaped ``(members, joints)``. A single run is one member.
 
-1. ``mj_step1`` brings positions, sensors and M(q) up to date for the current state (a plain ``mj_step``
-   would leave ``sensordata`` one step behind);
-2. the position sensors (and the tachometers, if the scenario declares them) are read and corrupted by the
-   scenario's sensor effects (:mod:`ftc_mj.effects.sensors`); the nominal model is evaluated once (M at the
-   measurement, Psi at the estimate); the observer takes the measurement; the controller computes tau; tau
-   goes to ``ctrl``;
-3. friction, disturbance and fault terms are evaluated on the *true* state and their sum is written to
-   ``qfrc_applied`` (acceleration-space terms through the true M(q)), plus what the actuator faults
-   (:mod:`ftc_mj.effects.faults`) deliver beyond the command, all held like the command over the period;
-4. ``mj_step2`` integrates, ``control_dt / timestep`` physics steps per period; the observer integrates over
-   the period with the command it applied.
+Per control period k (time t_k = k * control_dt, zero-order hold on the command):
 
-Holding the plant terms over the period instead of re-evaluating them at every physics step changes the
-Chapter 5 metrics by less than 0.5% (measured at timestep 0.25 ms), and keeps substeps cheap.
+1. the sensors of every row are current (the batch computes positions, velocities and sensors at the new
+   state after each step, as ``mj_step1`` does); the true readings are corrupted by the scenario's sensor
+   effects, per member (:mod:`ftc_mj.effects.sensors`);
+2. each observer takes the measurement (``measure``); the nominal model is evaluated for all rows at once on
+   a second batch (:class:`~ftc_mj.robot.nominal.NominalBatch`): Psi at each observer's estimate, M at the
+   measured position, and, one period late, the true lumped uncertainty at the previous sample;
+3. each observer forms its injection (``update``); each controller computes its torque; ``ctrl`` = torque;
+4. friction, disturbance and fault terms on the *true* state of all rows, and what the actuator faults
+   deliver beyond the command, go to ``qfrc_applied`` (:mod:`ftc_mj.effects.terms`, :mod:`~.faults`);
+5. the plant steps (:class:`~ftc_mj.engine.plant.Plant`); each observer integrates over the period.
 
-Ground truth (q, qd, qdd, the fault signal, the delivered torque, the generalized fault force and the
-fault's acceleration M(q)^-1 times that force) is copied from the simulation beside every estimate; the true
-lumped uncertainty qdd - (Psi(q, qd) + M(q)^-1 tau), in the nominal model's terms, and the diagnosis
-(:mod:`ftc_mj.analysis.diagnosis`) are computed after the run.
+A row that diverges stops with its own time; the others go on. Observers and controllers never see the
+simulation: only readings, time, the reference, their own commands and the nominal model.
 """
 
 from __future__ import annotations
 
-import dataclasses
+import os
 from collections.abc import Callable
+from dataclasses import dataclass
 
-import mujoco
 import numpy as np
 
-from ftc_mj.analysis.diagnosis import diagnose_result
 from ftc_mj.effects import randomness
 from ftc_mj.effects.faults import ActuatorFaults
 from ftc_mj.effects.sensors import Measurement
 from ftc_mj.effects.terms import PlantTerms
-from ftc_mj.engine.results import VariantResult
-from ftc_mj.robot.model import position_sensor_addresses, velocity_sensor_addresses
-from ftc_mj.robot.nominal import NominalModel, StepModel
-from ftc_mj.spec.scenario import Monitor, Scenario, Variant
+from ftc_mj.engine.members import Members
+from ftc_mj.engine.plant import Plant
+from ftc_mj.methods.controllers.base import Controller
+from ftc_mj.methods.observers.base import Observer
+from ftc_mj.robot.nominal import NominalBatch, StepModel
+from ftc_mj.spec.scenario import Scenario
 
 ProgressCallback = Callable[[int], None]
 PROGRESS_EVERY = 500
 
-
-class Diverged(Exception):
-    """The state left the plausible range or stopped being finite."""
-
-
-class MonitorRun:
-    """An observer that runs beside the variant's own on the same readings and commands and feeds nothing.
-
-    It has its own nominal model (Psi at its own estimate, M at the measurement), as it would alone; its
-    estimates are recorded for a result of their own.
-    """
-
-    def __init__(self, monitor: Monitor, model: mujoco.MjModel, mass_scale: float, steps: int, n: int, dt: float,
-                 torque_space: bool):
-        self.name = monitor.name
-        self.observer = monitor.observer_type(monitor.observer_config, n, dt)
-        self.step_model = StepModel(NominalModel(model, mass_scale))
-        self.qd_hat = np.full((steps, n), np.nan)
-        self.luaf_hat = np.full((steps, n), np.nan)
-        self.luaf_torque = np.full((steps, n), np.nan) if torque_space else None
-
-    def sense(self, k: int, t: float, q_meas: np.ndarray, qd_meas: np.ndarray | None) -> None:
-        """The observer's half of the period before the command: measure, update, record."""
-        observer = self.observer
-        observer.measure(q_meas, qd_meas)
-        self.step_model.update(q_meas, observer.q_hat, observer.qd_hat)
-        observer.update(t, q_meas, self.step_model)
-        self.qd_hat[k] = observer.qd_hat
-        self.luaf_hat[k] = observer.luaf_hat
-        if self.luaf_torque is not None:
-            np.matmul(self.step_model.M, observer.luaf_hat, out=self.luaf_torque[k])
-
-    def advance(self, tau: np.ndarray) -> None:
-        self.observer.advance(tau, self.step_model)
+#: The per-row series a run keeps, each ``(steps, rows, n)``.
+SERIES = ("q_meas", "q_true", "qd_true", "qdd_true", "qd_hat", "luaf_hat", "luaf_true", "tau", "sliding",
+          "fault", "tau_delivered", "fault_torque", "fault_acceleration")
 
 
-def simulate_variant(
+@dataclass
+class VariantBlock:
+    """One variant's methods over its members: rows ``start:stop`` of the plant."""
+
+    name: str
+    rows: slice
+    observer: Observer
+    controller: Controller
+    model: StepModel
+    monitors: list[tuple[str, Observer, StepModel]]
+    q_hat0: np.ndarray | None
+    qd_hat0: np.ndarray
+
+
+@dataclass
+class BatchRun:
+    """What a batch leaves behind: series ``(steps, rows, n)`` (NaN after a row stopped), per-row status."""
+
+    times: np.ndarray
+    members: int
+    variants: list[str]
+    series: dict[str, np.ndarray]
+    #: Per variant: monitor name -> {"qd_hat", "luaf_hat", "luaf_torque"} series ``(steps, members, n)``.
+    monitor_series: dict[str, dict[str, dict[str, np.ndarray]]]
+    #: Plugin signals per variant: name -> ``(steps, members, n)``.
+    extras: dict[str, dict[str, np.ndarray]]
+    fault_active: np.ndarray  # (steps, rows)
+    qd_measured: np.ndarray | None
+    luaf_torque: np.ndarray | None
+    body_xpos: np.ndarray | None
+    body_xquat: np.ndarray | None
+    #: Per row: the number of samples recorded (``steps`` unless it diverged) and the time it diverged.
+    done: np.ndarray
+    diverged_at: np.ndarray
+
+
+def simulate(
     scenario: Scenario,
-    variant: Variant,
+    members: Members,
     *,
     record_poses: bool = False,
     progress: ProgressCallback | None = None,
-) -> VariantResult:
-    """Run one controller-observer variant of a scenario and return its recorded signals."""
+    nthread: int = 0,
+) -> BatchRun:
+    """Run every variant of ``scenario`` for every member of ``members``, stepped together."""
     spec = scenario.spec
-    model = scenario.model
-    data = mujoco.MjData(model)
-    n = scenario.n_joints
-    dt = spec.control_dt
-    times = scenario.times
-    steps = len(times)
+    n, dt, times = scenario.n_joints, spec.control_dt, scenario.times
+    steps, count = len(times), members.count
+    variants = scenario.variants
+    rows = count * len(variants)
+    threads = nthread if nthread > 0 else _default_threads(rows)
 
-    data.qpos[:] = scenario.q0
-    data.qvel[:] = scenario.qd0
-    nominal = NominalModel(model, spec.nominal.mass_scale)
-    step_model = StepModel(nominal)
-    observer = variant.observer_type(variant.observer_config, n, dt)
-    controller = variant.controller_type(variant.controller_config, n, dt)
-    controller.reset()
-    plant = PlantTerms(scenario.terms, n)
-    actuators = ActuatorFaults(scenario.actuator_faults, times, n) if scenario.actuator_faults else None
+    def per_row(values: np.ndarray) -> np.ndarray:  # member values repeated for every variant's block
+        return np.concatenate([values] * len(variants))
+
+    plant = Plant(scenario.model, per_row(members.q0), per_row(members.qd0), scenario.substeps, threads,
+                  mass_scale=per_row(members.plant_mass_scale), max_position=spec.divergence.max_position,
+                  max_velocity=spec.divergence.max_velocity)
+
+    # Nominal evaluation points: Psi at each estimate (host observer and monitors of every variant), M at every
+    # row's measured position, and every row's true lumped uncertainty (one period late).
+    estimators = [1 + len(v.monitors) for v in variants]
+    psi_points = count * sum(estimators)
+    nominal = NominalBatch(
+        scenario.model,
+        np.concatenate([np.concatenate([members.nominal_mass_scale] * sum(estimators)),
+                        per_row(members.nominal_mass_scale), per_row(members.nominal_mass_scale)]),
+        threads,
+    )
+    mass_points = slice(psi_points, psi_points + rows)
+    truth_points = slice(psi_points + rows, psi_points + 2 * rows)
+    mass = nominal.mass_matrices()  # a buffer, refreshed by every mass_matrices() call
+    mass_inverse = np.zeros((rows, n, n))
+
+    blocks: list[VariantBlock] = []
+    point = 0
+    for v, variant in enumerate(variants):
+        block_rows = slice(v * count, (v + 1) * count)
+        config = members.variants[v]
+
+        def step_model(first: int) -> StepModel:
+            return StepModel(M=mass[mass_points][block_rows], M_inverse=mass_inverse[block_rows],
+                             psi_hat=nominal.qacc[first:first + count])
+
+        observer = variant.observer_type(config.observer, n, dt, members=count)
+        controller = variant.controller_type(config.controller, n, dt, members=count)
+        controller.reset()
+        host_model = step_model(point)
+        point += count
+        monitors = []
+        for monitor, monitor_config in zip(variant.monitors, config.monitors):
+            monitors.append((monitor.name, monitor.observer_type(monitor_config, n, dt, members=count),
+                             step_model(point)))
+            point += count
+        blocks.append(VariantBlock(variant.name, block_rows, observer, controller, host_model, monitors,
+                                   config.q_hat0, config.qd_hat0))
+
+    terms = PlantTerms(scenario.terms, rows, n, per_row(members.parameters))
+    actuators = ActuatorFaults(scenario.actuator_faults, times, (rows, n)) if scenario.actuator_faults else None
     has_faults = actuators is not None or any(term.kind == "fault" for term in scenario.terms)
-    sensor_addresses = position_sensor_addresses(model)
-    velocity_addresses = velocity_sensor_addresses(model) if scenario.measures_velocity else None
-    # Random numbers are drawn here, before the loop, from the scenario's seed (ftc_mj.effects.randomness).
+    measures_velocity = scenario.measures_velocity
     position_sensor = velocity_sensor = None
     if scenario.position_sensor is not None:
-        position_sensor = Measurement(scenario.position_sensor, times,
-                                      randomness.generator(spec.seed, randomness.POSITION_NOISE))
-    if scenario.velocity_sensor is not None and velocity_addresses is not None:
-        velocity_sensor = Measurement(scenario.velocity_sensor, times,
-                                      randomness.generator(spec.seed, randomness.VELOCITY_NOISE))
+        position_sensor = Measurement(scenario.position_sensor, times, _generators(members, randomness.POSITION_NOISE),
+                                      len(variants))
+    if scenario.velocity_sensor is not None and measures_velocity:
+        velocity_sensor = Measurement(scenario.velocity_sensor, times, _generators(members, randomness.VELOCITY_NOISE),
+                                      len(variants))
 
     q_ref, qd_ref, qdd_ref = scenario.reference.evaluate(times)
-    series = {name: np.full((steps, n), np.nan) for name in _SERIES}
-    fault_active = np.zeros(steps, dtype=bool)
-    nbody = model.nbody if record_poses else 0
-    body_xpos = np.zeros((steps if record_poses else 0, nbody, 3))
-    body_xquat = np.zeros((steps if record_poses else 0, nbody, 4))
-    q_meas = np.zeros(n)
-    qd_meas = np.zeros(n) if velocity_addresses is not None else None
-    q_true_reading, qd_true_reading = np.zeros(n), np.zeros(n)  # what perfect sensors would read
-    fault_rhs, fault_acceleration = np.zeros((1, n)), np.zeros((1, n))  # for mj_solveM
-    qd_measured = np.full((steps, n), np.nan) if qd_meas is not None else None
-    # A torque-space diagnosis needs M(q_meas) luaf_hat: the loop has that M at hand (StepModel).
+    series = {name: np.full((steps, rows, n), np.nan) for name in SERIES}
+    fault_active = np.zeros((steps, rows), dtype=bool)
+    q_meas, q_read = np.zeros((rows, n)), np.zeros((rows, n))
+    qd_meas = np.zeros((rows, n)) if measures_velocity else None
+    qd_read = np.zeros((rows, n))
+    qd_measured = np.full((steps, rows, n), np.nan) if measures_velocity else None
     torque_space = scenario.diagnoser is not None and scenario.diagnoser.space == "torque"
-    luaf_torque = np.full((steps, n), np.nan) if torque_space else None
-    monitors = [MonitorRun(m, model, spec.nominal.mass_scale, steps, n, dt, torque_space) for m in variant.monitors]
-    # Plugin-specific signals (e.g. an adaptive switching gain), recorded beside the estimates.
-    signals = {**observer.signals, **controller.signals}
-    extras = {name: np.full((steps, n), np.nan) for name in signals}
-    max_position, max_velocity = spec.divergence.max_position, spec.divergence.max_velocity
+    luaf_torque = np.full((steps, rows, n), np.nan) if torque_space else None
+    monitor_series = {
+        block.name: {name: {key: np.full((steps, count, n), np.nan) for key in ("qd_hat", "luaf_hat")}
+                     | ({"luaf_torque": np.full((steps, count, n), np.nan)} if torque_space else {})
+                     for name, _, _ in block.monitors}
+        for block in blocks
+    }
+    signals = [{**b.observer.signals, **b.controller.signals} for b in blocks]
+    extras = {b.name: {name: np.full((steps, count, n), np.nan) for name in s} for b, s in zip(blocks, signals)}
+    body_xpos = body_xquat = None
+    if record_poses:
+        xpos, xquat = plant.batch.bind("xpos"), plant.batch.bind("xquat")
+        body_xpos = np.zeros((steps,) + xpos.shape)
+        body_xquat = np.zeros((steps,) + xquat.shape)
+    tau = np.zeros((rows, n))
+    truth_tau = nominal.applied[truth_points]
+    fault_acceleration = np.zeros((rows, n))
+    done = np.full(rows, steps)
+    diverged_at = np.full(rows, np.nan)
+    alive = plant.alive
 
-    status, diverged_at, done = "ok", None, steps
-    remaining_substeps = scenario.substeps - 1
-    for k in range(steps):
-        t = times[k]
-        try:
-            mujoco.mj_step1(model, data)  # positions, sensors and M(q) of the current state
+    def stop(stopped: np.ndarray, k: int) -> None:
+        done[stopped] = k
+        diverged_at[stopped] = times[k]
+
+    with np.errstate(all="ignore"):  # stopped rows may hold NaN; they are cut off from their time on
+        for k in range(steps):
+            t = times[k]
+            stop(plant.check(), k)
+            if not alive.any():
+                break
+            plant.read_positions(q_read)
             if position_sensor is None:
-                np.take(data.sensordata, sensor_addresses, out=q_meas)
+                np.copyto(q_meas, q_read)
             else:
-                np.take(data.sensordata, sensor_addresses, out=q_true_reading)
-                position_sensor.read(k, q_true_reading, q_meas)
+                position_sensor.read(k, q_read, q_meas)
             if qd_meas is not None:
+                plant.read_velocities(qd_read)
                 if velocity_sensor is None:
-                    np.take(data.sensordata, velocity_addresses, out=qd_meas)
+                    np.copyto(qd_meas, qd_read)
                 else:
-                    np.take(data.sensordata, velocity_addresses, out=qd_true_reading)
-                    velocity_sensor.read(k, qd_true_reading, qd_meas)
-            if k == 0:  # the observers start from the first reading unless the scenario says otherwise
-                q_hat0 = q_meas if variant.q_hat0 is None else variant.q_hat0
-                for estimator in (observer, *(monitor.observer for monitor in monitors)):
-                    estimator.reset(q_hat0, variant.qd_hat0)
-            observer.measure(q_meas, qd_meas)
-            _check_state(data.qpos.tolist(), data.qvel.tolist(), max_position, max_velocity)
-            step_model.update(q_meas, observer.q_hat, observer.qd_hat)
-            observer.update(t, q_meas, step_model)
-            for monitor in monitors:
-                monitor.sense(k, t, q_meas, qd_meas)
-            tau = controller.compute(t, q_ref[k], qd_ref[k], qdd_ref[k], q_meas, observer, step_model)
-            data.ctrl[:] = tau
-            _record(series, k, q_meas, data, observer, controller)
-            if qd_meas is not None:
+                    velocity_sensor.read(k, qd_read, qd_meas)
+            point = 0
+            for block in blocks:
+                q_b = q_meas[block.rows]
+                qd_b = None if qd_meas is None else qd_meas[block.rows]
+                estimators_b = [block.observer] + [observer for _, observer, _ in block.monitors]
+                if k == 0:  # from the first reading unless the scenario says otherwise
+                    q_hat0 = q_b if block.q_hat0 is None else block.q_hat0
+                    for observer in estimators_b:
+                        observer.reset(q_hat0, block.qd_hat0)
+                for observer in estimators_b:
+                    observer.measure(q_b, qd_b)
+                    nominal.qpos[point:point + count] = observer.q_hat
+                    nominal.qvel[point:point + count] = observer.qd_hat
+                    point += count
+            nominal.qpos[mass_points] = q_meas
+            if not alive.all():  # stopped rows may hold NaN or inf: evaluate them at rest instead
+                _rest(nominal, alive, count, estimators, mass_points, truth_points)
+            nominal.evaluate()
+            nominal.mass_matrices()  # refreshes ``mass``
+            np.copyto(mass_inverse, np.linalg.inv(mass[mass_points]))
+            if k:
+                np.subtract(series["qdd_true"][k - 1], nominal.qacc[truth_points], out=series["luaf_true"][k - 1])
+            for b, block in enumerate(blocks):
+                rows_b = block.rows
+                q_b = q_meas[rows_b]
+                block.observer.update(t, q_b, block.model)
+                for name, observer, model in block.monitors:
+                    observer.update(t, q_b, model)
+                    monitor_series[block.name][name]["qd_hat"][k] = observer.qd_hat
+                    monitor_series[block.name][name]["luaf_hat"][k] = observer.luaf_hat
+                    if torque_space:
+                        model.apply_M(observer.luaf_hat, out=monitor_series[block.name][name]["luaf_torque"][k])
+                tau[rows_b] = block.controller.compute(t, q_ref[k], qd_ref[k], qdd_ref[k], q_b, block.observer,
+                                                       block.model)
+                series["qd_hat"][k, rows_b] = block.observer.qd_hat
+                series["luaf_hat"][k, rows_b] = block.observer.luaf_hat
+                series["sliding"][k, rows_b] = block.controller.sliding
+                if luaf_torque is not None:
+                    block.model.apply_M(block.observer.luaf_hat, out=luaf_torque[k, rows_b])
+                for name, signal in signals[b].items():
+                    extras[block.name][name][k] = signal
+            plant.ctrl[:] = tau
+            series["q_meas"][k] = q_meas
+            series["q_true"][k] = plant.qpos
+            series["qd_true"][k] = plant.qvel
+            series["tau"][k] = tau
+            if qd_measured is not None:
                 qd_measured[k] = qd_meas
-            if luaf_torque is not None:
-                np.matmul(step_model.M, observer.luaf_hat, out=luaf_torque[k])
-            for name, signal in signals.items():
-                extras[name][k] = signal
             if record_poses:
-                body_xpos[k] = data.xpos
-                body_xquat[k] = data.xquat
-            plant.apply(model, data, t)
-            series["fault"][k] = plant.fault
-            fault_active[k] = plant.fault_active
+                body_xpos[k] = xpos
+                body_xquat[k] = xquat
+            true_mass = plant.mass_matrices() if terms.needs_mass or has_faults else None
+            terms.apply(t, plant.qpos, plant.qvel, true_mass, plant.applied)
+            series["fault"][k] = terms.fault
+            fault_active[k] = terms.fault_active
+            delivered = tau
             if actuators is not None:
                 # The actuators deliver something else than the command: the difference acts through
                 # qfrc_applied, so ctrl (and the recorded tau) stay what the controller asked for.
                 actuators.apply(k, tau)
-                data.qfrc_applied[:] += actuators.torque
-                plant.fault_force += actuators.torque
+                plant.applied += actuators.torque
+                terms.fault_force += actuators.torque
                 fault_active[k] |= actuators.active[k]
-            series["tau_delivered"][k] = tau if actuators is None else actuators.delivered
+                delivered = actuators.delivered
+            series["tau_delivered"][k] = delivered
             if has_faults:
-                series["fault_torque"][k] = plant.fault_force
-                if fault_active[k]:  # M(q)^-1 of the fault force, with the factorisation mj_step1 made
-                    fault_rhs[0] = plant.fault_force
-                    mujoco.mj_solveM(model, data, fault_acceleration, fault_rhs)
-                    series["fault_acceleration"][k] = fault_acceleration[0]
+                series["fault_torque"][k] = terms.fault_force
+                if fault_active[k].any():  # M(q)^-1 of the fault force, with the true M of the sample instant
+                    np.copyto(fault_acceleration, np.linalg.solve(true_mass, terms.fault_force[..., None])[..., 0])
+                    fault_acceleration[~fault_active[k]] = 0.0
                 else:
-                    series["fault_acceleration"][k] = 0.0
-            mujoco.mj_step2(model, data)
-            series["qdd_true"][k] = data.qacc
-            observer.advance(tau, step_model)
-            for monitor in monitors:
-                monitor.advance(tau)
-            # ctrl and qfrc_applied persist: the rest of the period is plain physics steps (zero-order hold).
-            if remaining_substeps:
-                mujoco.mj_step(model, data, nstep=remaining_substeps)
-            if data.warning[_BAD_ACCELERATION].number:  # MuJoCo reset the state instead of failing
-                raise Diverged
-        except (Diverged, ArithmeticError, ValueError):  # ValueError: e.g. a term's sqrt of a negative number
-            status, diverged_at, done = "diverged", float(t), k
-            break
-        if progress is not None and (k + 1) % PROGRESS_EVERY == 0:
-            progress(PROGRESS_EVERY)
+                    fault_acceleration[:] = 0.0
+                series["fault_acceleration"][k] = fault_acceleration
+            # The truth point of this row, evaluated with the next period's nominal call.
+            nominal.qpos[truth_points] = plant.qpos
+            nominal.qvel[truth_points] = plant.qvel
+            truth_tau[:] = tau
+            stop(plant.step(), k)
+            series["qdd_true"][k] = plant.acceleration
+            for block in blocks:
+                tau_b = tau[block.rows]
+                block.observer.advance(tau_b, block.model)
+                for _, observer, model in block.monitors:
+                    observer.advance(tau_b, model)
+            if progress is not None and (k + 1) % PROGRESS_EVERY == 0:
+                progress(PROGRESS_EVERY)
+        nominal.evaluate()
+        last = min(k, steps - 1)
+        np.subtract(series["qdd_true"][last], nominal.qacc[truth_points], out=series["luaf_true"][last])
     if progress is not None:
-        progress(steps % PROGRESS_EVERY if status == "ok" else 0)
-
+        progress(steps % PROGRESS_EVERY)
     if not has_faults:
         series["fault_torque"][:] = 0.0
         series["fault_acceleration"][:] = 0.0
-    luaf_true = true_lumped_uncertainty(nominal, series["q_true"][:done], series["qd_true"][:done],
-                                        series["qdd_true"][:done], series["tau"][:done])
-    result = VariantResult(
-        name=variant.name,
-        observer=variant.observer_type.name,
-        controller=variant.controller_type.name,
-        t=times,
-        q_ref=q_ref,
-        qd_ref=qd_ref,
-        qdd_ref=qdd_ref,
-        luaf_true=np.concatenate([luaf_true, np.full((steps - done, n), np.nan)]),
-        fault_active=fault_active,
-        body_xpos=body_xpos,
-        body_xquat=body_xquat,
-        status=status,
-        diverged_at=diverged_at,
-        extras=extras,
-        qd_meas=qd_measured,
-        **series,
-    )
-    if status != "ok":
-        result = result.truncated(done)
-    diagnose_result(scenario.diagnoser, result, luaf_torque)
-    for monitor in monitors:
-        kept = len(result.t)
-        view = dataclasses.replace(
-            result, name=f"{variant.name}.{monitor.name}", observer=monitor.observer.name,
-            qd_hat=monitor.qd_hat[:kept], luaf_hat=monitor.luaf_hat[:kept],
-            body_xpos=body_xpos[:0], body_xquat=body_xquat[:0], extras={}, diagnosis=None, monitors=[],
-        )
-        diagnose_result(scenario.diagnoser, view, monitor.luaf_torque)
-        result.monitors.append(view)
-    return result
+    for rows_series in (*series.values(), qd_measured, luaf_torque):
+        if rows_series is not None:
+            _cut(rows_series, done)
+    for block in blocks:
+        block_done = done[block.rows]
+        for name_series in (*monitor_series[block.name].values(), extras[block.name]):
+            for values in name_series.values():
+                _cut(values, block_done)
+    return BatchRun(times=times, members=count, variants=[b.name for b in blocks], series=series,
+                    monitor_series=monitor_series, extras=extras, fault_active=fault_active,
+                    qd_measured=qd_measured, luaf_torque=luaf_torque, body_xpos=body_xpos, body_xquat=body_xquat,
+                    done=done, diverged_at=diverged_at)
 
 
-_BAD_ACCELERATION = int(mujoco.mjtWarning.mjWARN_BADQACC)
-_SERIES = ("q_meas", "q_true", "qd_true", "qdd_true", "qd_hat", "luaf_hat", "tau", "sliding", "fault",
-           "tau_delivered", "fault_torque", "fault_acceleration")
+def _rest(nominal: NominalBatch, alive: np.ndarray, count: int, estimators: list[int], mass_points: slice,
+          truth_points: slice) -> None:
+    stopped = ~alive
+    psi_stopped = np.concatenate([np.tile(stopped[v * count:(v + 1) * count], e) for v, e in enumerate(estimators)])
+    for points, mask in ((slice(0, len(psi_stopped)), psi_stopped), (mass_points, stopped), (truth_points, stopped)):
+        nominal.qpos[points][mask] = 0.0
+        nominal.qvel[points][mask] = 0.0
+        nominal.applied[points][mask] = 0.0
 
 
-def _record(series: dict[str, np.ndarray], k: int, q_meas, data, observer, controller) -> None:
-    series["q_meas"][k] = q_meas
-    series["q_true"][k] = data.qpos
-    series["qd_true"][k] = data.qvel
-    series["qd_hat"][k] = observer.qd_hat
-    series["luaf_hat"][k] = observer.luaf_hat
-    series["tau"][k] = controller.tau
-    series["sliding"][k] = controller.sliding
+def _cut(values: np.ndarray, done: np.ndarray) -> None:
+    """NaN from each row's stop on (``values`` is ``(steps, rows, ...)``)."""
+    for row in np.flatnonzero(done < len(values)):
+        values[done[row]:, row] = np.nan
 
 
-def _check_state(qpos: list[float], qvel: list[float], max_position: float, max_velocity: float) -> None:
-    # Plain floats (cheaper than NumPy reductions on 3 values); NaN fails every comparison, so it is caught.
-    if not (all(abs(x) <= max_position for x in qpos) and all(abs(x) <= max_velocity for x in qvel)):
-        raise Diverged
+def _generators(members: Members, stream: int) -> list[np.random.Generator]:
+    """Each member's generator of one random stream (:mod:`ftc_mj.effects.randomness`)."""
+    return [randomness.generator(int(seed), stream) for seed in members.seeds]
 
 
-def true_lumped_uncertainty(
-    nominal: NominalModel, q: np.ndarray, qd: np.ndarray, qdd: np.ndarray, tau: np.ndarray
-) -> np.ndarray:
-    """qdd - (Psi(q, qd) + M(q)^-1 tau) in the nominal model's terms, eq. (5.2), row by row."""
-    out = np.empty_like(qdd)
-    for k in range(len(qdd)):
-        out[k] = nominal.lumped(q[k], qd[k], qdd[k], tau[k])
-    return out
+def _default_threads(rows: int) -> int:
+    """All cores, but no more threads than rows."""
+    return max(1, min(os.cpu_count() or 1, rows))
+
+
+def series_bytes_per_member(scenario: Scenario) -> int:
+    """Memory one member's kept series take (all variants and monitors), for choosing chunk sizes."""
+    per_variant = len(SERIES) + 2 + 1  # the series, qd_measured and luaf_torque, fault_active
+    per_variant += sum(3 * len(v.monitors) for v in scenario.variants) / max(len(scenario.variants), 1) + 2
+    return int(len(scenario.times) * len(scenario.variants) * scenario.n_joints * 8 * per_variant)

@@ -11,7 +11,19 @@ from ftc_mj.methods.gains import GainConfig
 
 
 class Method(ABC):
-    """Base of observer and controller plugins.
+    """Base of observer and controller plugins. The contract:
+
+    * **Shapes.** A method runs ``members`` copies of itself at once (a batch; a single run is one member).
+      Its state is ``(members, n)`` arrays (``self.shape``), allocated in ``__init__``; every input it gets
+      (readings, reference rows broadcast, the nominal model's ``psi_hat`` ``(members, n)`` and ``M``
+      ``(members, n, n)``) and every output it exposes has the member axis first.
+    * **Gains.** ``config`` is the per-member stack of validated configurations
+      (:func:`ftc_mj.methods.gains.stack`): per-joint gains are ``(members, n)``, single numbers ``(members, 1)``,
+      choices (strings) shared. Use them as arrays: no ``float(...)`` of a gain, no ``if`` on a gain's value
+      (use ``np.where``), so that every member may have its own gains.
+    * **Per step.** Update state in place (``out=``, ``[:] =``); allocate in ``__init__``, not per call.
+    * **Reset.** ``reset`` puts every member back to its initial state; the engine calls it before the first
+      period. A run is reproducible only if everything a method integrates is reset there.
 
     Attributes:
         name: the name scenario files use (``type: ...``).
@@ -23,9 +35,12 @@ class Method(ABC):
     Config: ClassVar[type[GainConfig]]
     requires: ClassVar[frozenset[str]] = frozenset({"position"})
 
-    def __init__(self, config: GainConfig, n_joints: int, dt: float):
+    def __init__(self, config: GainConfig, n_joints: int, dt: float, members: int = 1):
         self.config = config
         self.n = n_joints
+        self.members = members
+        #: The shape of every per-joint state array: ``(members, n)``.
+        self.shape = (members, n_joints)
         self.dt = dt
         #: Internal per-joint signals worth plotting (e.g. an adaptive gain, Fig. 2.8): name -> array that the
         #: method updates in place. The runner records each one every period beside the estimates.

@@ -34,6 +34,15 @@ class RobotSpec(UrdfOptions):
     sensors: list[Literal["position", "velocity"]] = ["position"]
 
 
+class PlantSpec(Strict):
+    """The simulated robot's deviations from its model file: a mismatch the controller's model does not know
+    (``nominal.mass_scale`` is the controller side's). Each member of a batch may have its own values, applied
+    through ``mujoco.batch``'s per-simulation model fields."""
+
+    #: Scales every body's mass and inertia and the joint armature of the simulated robot (1 = as in the file).
+    mass_scale: PositiveFloat = 1.0
+
+
 def load_robot(scenario_path: Path, robot: RobotSpec, file: str) -> tuple[Path, mujoco.MjModel]:
     """The robot's model file (resolved against the scenario file's folder) and its checked MjModel."""
     model_path = (scenario_path.parent / robot.model).resolve()

@@ -8,9 +8,11 @@ copy, which gives a controlled model mismatch (the scenario's ``nominal`` sectio
 from __future__ import annotations
 
 import copy
+from collections.abc import Callable
 
 import mujoco
 import numpy as np
+from mujoco.batch import Batch
 
 from ftc_mj.spec.schema import PositiveFloat, Strict
 
@@ -81,27 +83,117 @@ class NominalModel:
 
 
 class StepModel:
-    """Nominal quantities of one control period, computed once and shared by observer and controller.
+    """Nominal quantities of one control period for a block of members, computed once and shared by the
+    observer and the controller (views of the engine's batched evaluation, :class:`NominalBatch`).
 
     Attributes:
-        M: M(x1) at the measured position.
-        psi_hat: Psi at the observer's state estimate, Psi(x1_hat, x2_hat).
+        M: M(x1) at the measured position, ``(members, n, n)``.
+        M_inverse: its inverse, ``(members, n, n)``.
+        psi_hat: Psi at the observer's state estimate, Psi(x1_hat, x2_hat), ``(members, n)``.
     """
 
-    def __init__(self, nominal: NominalModel):
-        self.nominal = nominal
-        self.M = np.eye(nominal.n)
-        self.psi_hat = np.zeros(nominal.n)
+    def __init__(self, M: np.ndarray, M_inverse: np.ndarray, psi_hat: np.ndarray):
+        self.M, self.M_inverse, self.psi_hat = M, M_inverse, psi_hat
+        self._solution = np.zeros(psi_hat.shape)
 
-    def update(self, q_meas: np.ndarray, q_hat: np.ndarray, qd_hat: np.ndarray) -> None:
-        """Refresh in place for this control period."""
-        self.nominal.psi(q_hat, qd_hat, out=self.psi_hat)
-        # Last, so that the private MjData keeps the factorisation of M(x1) for solve_M.
-        self.nominal.mass_matrix(q_meas, out=self.M)
+    @classmethod
+    def evaluate(cls, nominal: NominalModel, q_meas: np.ndarray, q_hat: np.ndarray, qd_hat: np.ndarray) -> "StepModel":
+        """One member's quantities from a single-state :class:`NominalModel` (tests, studies)."""
+        M = nominal.mass_matrix(np.asarray(q_meas, dtype=float).reshape(-1))[None].copy()
+        psi = nominal.psi(np.asarray(q_hat, dtype=float).reshape(-1), np.asarray(qd_hat, dtype=float).reshape(-1))
+        return cls(M, np.linalg.inv(M), psi[None].copy())
 
     def solve_M(self, vector: np.ndarray) -> np.ndarray:
-        """M(x1)^-1 vector, with MuJoCo's sparse factorisation (no explicit inverse).
+        """M(x1)^-1 vector per member. Returns an internal buffer (no allocation per step): valid until the
+        next call."""
+        return np.einsum("bij,bj->bi", self.M_inverse, vector, out=self._solution)
 
-        Returns a view of an internal buffer (no allocation in the per-step loop): valid until the next call.
-        """
-        return self.nominal.solve_M(vector)
+    def apply_M(self, vector: np.ndarray, out: np.ndarray) -> np.ndarray:
+        """M(x1) vector per member, into ``out``."""
+        return np.einsum("bij,bj->bi", self.M, vector, out=out)
+
+
+#: What the nominal model leaves out of MuJoCo's forward dynamics: constraints (joint limits, contacts,
+#: friction loss), passive forces and actuators. What remains is qacc = M(q)^-1 (qfrc_applied - C(q, qd) qd -
+#: G(q)), the rigid-body model of eq. (5.2).
+_RIGID_BODY_ONLY = (
+    mujoco.mjtDisableBit.mjDSBL_CONSTRAINT
+    | mujoco.mjtDisableBit.mjDSBL_CONTACT
+    | mujoco.mjtDisableBit.mjDSBL_SPRING
+    | mujoco.mjtDisableBit.mjDSBL_DAMPER
+    | mujoco.mjtDisableBit.mjDSBL_ACTUATION
+)
+_ACCELERATION_STAGE = int(mujoco.mjtStage.mjSTAGE_ACC)
+
+
+def scale_masses(fields: Callable[[str], np.ndarray], mass_scale: np.ndarray) -> None:
+    """Multiply masses, inertias and joint armature by ``mass_scale`` (one per simulation), in place.
+
+    ``fields(name)`` gives a model field with the simulations on its first axis (``Batch.expand``)."""
+    scale = np.asarray(mass_scale, dtype=float)
+    for name in ("body_mass", "body_inertia", "dof_armature"):
+        values = fields(name)
+        values *= scale.reshape((-1,) + (1,) * (values.ndim - 1))
+
+
+class DenseMass:
+    """Dense ``(rows, n, n)`` copies of MuJoCo's sparse joint-space inertia ``M`` (lower triangle, CSR)."""
+
+    def __init__(self, model: mujoco.MjModel, rows: int):
+        n = model.nv
+        lower_rows, lower_cols = [], []
+        for i in range(n):
+            start = model.M_rowadr[i]
+            for j in range(model.M_rownnz[i]):
+                lower_rows.append(i)
+                lower_cols.append(model.M_colind[start + j])
+        rows_, cols_ = np.array(lower_rows), np.array(lower_cols)
+        self._lower = rows_ * n + cols_  # flat (i, j) of each sparse entry
+        self._upper = cols_ * n + rows_  # and its mirror
+        self.out = np.zeros((rows, n, n))
+        self._flat = self.out.reshape(rows, n * n)
+
+    def update(self, sparse: np.ndarray) -> np.ndarray:
+        """Fill from the sparse values ``(rows, nM)`` and return the dense matrices."""
+        self._flat[:, self._upper] = sparse
+        self._flat[:, self._lower] = sparse
+        return self.out
+
+
+class NominalBatch:
+    """The controller side's model of many points at once, on a private :class:`mujoco.batch.Batch`.
+
+    Each simulation of the batch is an evaluation point: set its ``qpos``, ``qvel`` and ``qfrc_applied``,
+    call :meth:`evaluate`, and its ``qacc`` is M(q)^-1 (applied - C(q, qd) qd - G(q)) and ``M`` is M(q).
+    With ``applied`` = 0 the acceleration is Psi(q, qd) of eq. (5.2), computed exactly as
+    ``-mj_solveM(bias)`` on one MjData would (bit for bit). ``mass_scale`` (one per point) scales the copy's
+    masses, inertias and armature: the controlled model mismatch of ``nominal.mass_scale``.
+    """
+
+    def __init__(self, model: mujoco.MjModel, mass_scale: np.ndarray, nthread: int):
+        model = copy.deepcopy(model)
+        model.opt.disableflags |= int(_RIGID_BODY_ONLY)
+        points = len(mass_scale)
+        self.batch = Batch(model, points, nthread=nthread)
+        if np.any(np.asarray(mass_scale) != 1.0):
+            scale_masses(self.batch.expand, mass_scale)
+            self.batch.set_const()
+        self.qpos = self.batch.bind("qpos")
+        self.qvel = self.batch.bind("qvel")
+        self.applied = self.batch.bind("qfrc_applied")
+        self._qacc = self.batch.bind("qacc")
+        self._sparse_M = self.batch.bind("M")
+        self._dense = DenseMass(model, points)
+
+    def evaluate(self) -> None:
+        """Forward dynamics at every point (positions, velocities and applied forces as set)."""
+        self.batch.forward(stage=_ACCELERATION_STAGE)
+
+    @property
+    def qacc(self) -> np.ndarray:
+        """``(points, n)``: M^-1 (applied - C qd - G) at each point, from the last :meth:`evaluate`."""
+        return self._qacc
+
+    def mass_matrices(self) -> np.ndarray:
+        """``(points, n, n)``: M(q) at each point, from the last :meth:`evaluate` (an internal buffer)."""
+        return self._dense.update(self._sparse_M)

@@ -13,6 +13,7 @@ from __future__ import annotations
 
 import ast
 import math
+import re
 from collections.abc import Callable, Sequence
 
 import numpy as np
@@ -163,13 +164,6 @@ def _without_impulses(expr: sp.Expr) -> sp.Expr:
     return expr.replace(lambda e: isinstance(e, sp.DiracDelta), lambda e: sp.Integer(0))
 
 
-def _scalar_sign(x: float) -> float:
-    return 0.0 if x == 0 else math.copysign(1.0, x)
-
-
-_SCALAR_MODULES = [{"sign": _scalar_sign, "Abs": abs}, "math"]
-
-
 class TimeFunctions:
     """Several expressions of ``t`` with their exact first and second derivatives, compiled once.
 
@@ -194,19 +188,35 @@ class TimeFunctions:
 
 
 class StateFunction:
-    """A vector of expressions of ``(t, q1..qn, qd1..qn)`` compiled into one scalar-math function.
+    """A vector of expressions of ``(t, q1..qn, qd1..qn, parameters...)`` compiled once into one NumPy function.
 
-    Called once per physics step on the true state, so it is compiled for Python floats (``math``), which
-    is several times faster than NumPy on three-element inputs.
+    Called once per control period on the true states of every row of a batch: each variable is a
+    ``(rows,)`` array, so one call evaluates all members. NumPy's sin and cos are bit-identical to ``math``'s
+    here, and an element's value does not depend on the array's length, so a member's terms are the same
+    whatever the batch size.
     """
 
-    def __init__(self, exprs: Sequence[sp.Expr], n_joints: int):
+    def __init__(self, exprs: Sequence[sp.Expr], n_joints: int, parameters: Sequence[str] = ()):
         self.exprs = list(exprs)
-        names = state_variables(n_joints)
-        self._func = sp.lambdify([symbol(v) for v in names], self.exprs, modules=_SCALAR_MODULES)
+        names = state_variables(n_joints) + list(parameters)
+        self._func = sp.lambdify([symbol(v) for v in names], self.exprs, modules="numpy")
 
-    def __call__(self, t: float, q: Sequence[float], qd: Sequence[float]) -> list[float]:
-        return self._func(t, *q, *qd)
+    def __call__(self, t: float | np.ndarray, q: Sequence, qd: Sequence, parameters: Sequence = ()) -> list:
+        """Values at ``t`` and the state ``q``, ``qd`` (one number or ``(rows,)`` array per joint, e.g. the
+        columns ``qpos.T``) and the parameters: one per expression (a plain number where constant)."""
+        return self._func(t, *q, *qd, *parameters)
+
+
+def is_free_name(name: str) -> bool:
+    """Whether ``name`` may name a user's variable (a scenario parameter): an identifier that is not a
+    function, a constant, ``t``, or a joint variable (``q<k>``, ``qd<k>``)."""
+    return (
+        re.fullmatch(r"[A-Za-z_][A-Za-z0-9_]*", name) is not None
+        and name not in FUNCTIONS
+        and name not in CONSTANTS
+        and name != "t"
+        and re.fullmatch(r"qd?[0-9]+", name) is None
+    )
 
 
 def state_variables(n_joints: int) -> list[str]:

@@ -85,7 +85,9 @@ def load_scenario(
         if unknown:
             raise InputError(file, "variants", f"unknown variant {unknown[0]!r} (known: {', '.join(spec.variants)})")
         spec.variants = {name: spec.variants[name] for name in variants}
-    return compile_scenario(path, spec)
+    scenario = compile_scenario(path, spec)
+    scenario.raw = raw
+    return scenario
 
 
 def _unshared(node: Any) -> Any:
@@ -107,6 +109,11 @@ def _apply_override(raw: dict, item: str, file: str) -> None:
         value = yaml.safe_load(value_text)
     except yaml.YAMLError:
         raise InputError(file, key, f"--set value {value_text!r} is not a valid YAML scalar") from None
+    set_path(raw, key, value, file)
+
+
+def set_path(raw: dict, key: str, value: Any, file: str) -> None:
+    """Set the field at the dotted path ``key`` (list indices as numbers) of a scenario's raw content."""
     parts = key.split(".")
     node: Any = raw
     for depth, part in enumerate(parts):

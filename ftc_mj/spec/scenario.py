@@ -31,7 +31,7 @@ from ftc_mj.effects.sensors import Channel, SensorsSpec, compile_channel
 from ftc_mj.effects.terms import CompiledTerm, TermSpec, compile_terms
 from ftc_mj.methods.gains import GainConfig
 from ftc_mj.methods.registry import MethodSpec, compile_method, controller_types, observer_types
-from ftc_mj.robot.model import RobotSpec, load_robot
+from ftc_mj.robot.model import PlantSpec, RobotSpec, load_robot
 from ftc_mj.robot.nominal import NominalSpec
 from ftc_mj.spec import expressions
 from ftc_mj.spec.errors import InputError
@@ -95,12 +95,25 @@ class ScenarioSpec(Strict):
     actuator_faults: list[ActuatorFaultSpec] = []
     sensors: SensorsSpec = SensorsSpec()
     nominal: NominalSpec = NominalSpec()
+    plant: PlantSpec = PlantSpec()
+    #: Named numbers the terms' expressions may use, e.g. ``fault_scale``; each member of a batch may have its
+    #: own values (:mod:`ftc_mj.engine.members`).
+    parameters: dict[str, FiniteFloat] = {}
     variants: Annotated[dict[str, VariantSpec], Field(min_length=1)]
     metrics: MetricsSpec
     diagnosis: DiagnosisSpec | None = None
     divergence: DivergenceSpec = DivergenceSpec()
     #: Recording path, relative to the working directory.
     output: str | None = None
+
+    @field_validator("parameters")
+    @classmethod
+    def _parameter_names(cls, parameters: dict[str, float]) -> dict[str, float]:
+        for name in parameters:
+            if not expressions.is_free_name(name):
+                raise ValueError(f"{name!r} cannot name a parameter: use letters, digits and _, not a variable "
+                                 "(t, q1, qd1, ...), a constant or a function of the expression language")
+        return parameters
 
     @field_validator("variants")
     @classmethod
@@ -150,6 +163,8 @@ class Scenario:
     position_sensor: Channel | None = None
     velocity_sensor: Channel | None = None
     diagnoser: Diagnoser | None = None
+    #: The file's content after ``--set`` (YAML types), from which members are built with overrides.
+    raw: dict[str, Any] = field(default_factory=dict)
 
     @property
     def name(self) -> str:
@@ -225,7 +240,7 @@ def compile_scenario(path: Path, spec: ScenarioSpec) -> Scenario:
         [parse_expression(text, ["t"], file, f"reference.{i}") for i, text in enumerate(spec.reference)]
     )
 
-    terms = compile_terms(spec.terms, file, n)
+    terms = compile_terms(spec.terms, file, n, list(spec.parameters))
     times = time_grid(spec.duration, spec.control_dt)
     actuator_faults = [compile_actuator_fault(fault, file, f"actuator_faults.{index}", model, times)
                        for index, fault in enumerate(spec.actuator_faults)]

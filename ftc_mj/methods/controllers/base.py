@@ -60,11 +60,11 @@ class BoundedSwitchingConfig(SwitchingConfig):
 class Controller(Method):
     """Computes the joint torque command once per control period."""
 
-    def __init__(self, config: GainConfig, n_joints: int, dt: float):
-        super().__init__(config, n_joints, dt)
+    def __init__(self, config: GainConfig, n_joints: int, dt: float, members: int = 1):
+        super().__init__(config, n_joints, dt, members)
         #: The sliding variable, recorded beside the torque.
-        self.sliding = np.zeros(n_joints)
-        self.tau = np.zeros(n_joints)
+        self.sliding = np.zeros(self.shape)
+        self.tau = np.zeros(self.shape)
 
     def reset(self) -> None:
         self.sliding[:] = 0.0
@@ -91,8 +91,8 @@ class SlidingModeController(Controller):
     :meth:`switching_gain` (the adaptive law does).
     """
 
-    def __init__(self, config: SwitchingConfig, n_joints: int, dt: float):
-        super().__init__(config, n_joints, dt)
+    def __init__(self, config: SwitchingConfig, n_joints: int, dt: float, members: int = 1):
+        super().__init__(config, n_joints, dt, members)
         self.compensation: Compensation = config.compensation
         self._gain = getattr(config, "bound", 0.0) + config.mu
 
@@ -121,6 +121,6 @@ class SlidingModeController(Controller):
         surface_terms = self.surface(t, e, e_dot)
         u_eq = model.psi_hat + surface_terms - qdd_ref
         u = u_eq + self.observer_compensation(observer) + self.switching()
-        np.matmul(u, model.M.T, out=self.tau)  # M u, row-wise so that u may be (batch, n)
+        model.apply_M(u, out=self.tau)
         np.negative(self.tau, out=self.tau)
         return self.tau

@@ -71,9 +71,9 @@ class NFTSMC(SlidingModeController):
     name: ClassVar[str] = "nftsmc"
     Config: ClassVar[type[NFTSMCConfig]] = NFTSMCConfig
 
-    def __init__(self, config: NFTSMCSurfaceConfig, n_joints: int, dt: float):
-        super().__init__(config, n_joints, dt)
-        self._integral = np.zeros(n_joints)
+    def __init__(self, config: NFTSMCSurfaceConfig, n_joints: int, dt: float, members: int = 1):
+        super().__init__(config, n_joints, dt, members)
+        self._integral = np.zeros(self.shape)
 
     def reset(self) -> None:
         super().reset()
@@ -109,12 +109,12 @@ class AdaptiveNFTSMC(NFTSMC):
     name: ClassVar[str] = "a_nftsmc"
     Config: ClassVar[type[AdaptiveNFTSMCConfig]] = AdaptiveNFTSMCConfig
 
-    def __init__(self, config: AdaptiveNFTSMCConfig, n_joints: int, dt: float):
-        super().__init__(config, n_joints, dt)
+    def __init__(self, config: AdaptiveNFTSMCConfig, n_joints: int, dt: float, members: int = 1):
+        super().__init__(config, n_joints, dt, members)
         initial = 0.0 if config.initial_gain is None else config.initial_gain
-        self._initial = np.broadcast_to(initial, np.shape(np.zeros(n_joints))).copy()  # (n,) or (batch, n)
+        self._initial = np.broadcast_to(initial, self.shape).copy()
         self.gain_estimate = self._initial.copy()
-        self._gain = np.zeros(n_joints)
+        self._gain = np.zeros(self.shape)
         self.signals["switching_gain"] = self.gain_estimate
 
     def reset(self) -> None:
@@ -126,7 +126,7 @@ class AdaptiveNFTSMC(NFTSMC):
         np.add(self.gain_estimate, c.mu, out=self._gain)  # the gain of this period, then adapt (Euler)
         magnitude = np.abs(self.sliding)
         rate = c.rho * magnitude
-        if c.dead_zone > 0.0:
-            rate = np.where(magnitude >= c.dead_zone, rate, 0.0)
+        # (2.43): no adaptation inside the dead zone; with epsilon = 0 the plain law (2.36) (|s| >= 0 always).
+        rate = np.where(magnitude >= c.dead_zone, rate, 0.0)
         self.gain_estimate += self.dt * rate
         return self._gain

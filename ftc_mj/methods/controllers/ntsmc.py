@@ -13,7 +13,6 @@ to 0 (their limit along the surface). (3.52) writes e_dot; without tachometers w
 
 from __future__ import annotations
 
-import math
 from typing import ClassVar
 
 import numpy as np
@@ -43,7 +42,7 @@ class NTSMC(SlidingModeController):
         squared = np.sum(e * e, axis=-1, keepdims=True)
         nonzero = squared > 0.0
         safe = np.where(nonzero, squared, 1.0)
-        weight = np.where(nonzero, math.exp(-c.decay * t) * safe ** (-c.alpha), 0.0)
+        weight = np.where(nonzero, np.exp(-c.decay * t) * safe ** (-c.alpha), 0.0)
         inner = np.sum(e * e_dot, axis=-1, keepdims=True)
         a = weight * (-c.decay * e - 2.0 * c.alpha * (inner / safe) * e + e_dot)
         self.sliding[:] = e_dot + c.beta1 * e + c.beta2 * weight * e

@@ -63,8 +63,8 @@ class SigmoidNFTSMC(SlidingModeController):
     name: ClassVar[str] = "sigmoid_nftsmc"
     Config: ClassVar[type[SigmoidNFTSMCConfig]] = SigmoidNFTSMCConfig
 
-    def __init__(self, config: SigmoidNFTSMCConfig, n_joints: int, dt: float):
-        super().__init__(config, n_joints, dt)
+    def __init__(self, config: SigmoidNFTSMCConfig, n_joints: int, dt: float, members: int = 1):
+        super().__init__(config, n_joints, dt, members)
         self.phi = config.phi()
 
     def surface(self, t: float, e: np.ndarray, e_dot: np.ndarray) -> np.ndarray:

@@ -41,12 +41,12 @@ class Observer(Method):
             correction terms); Chapter 3-5 controllers compensate this, Appendix-D-type ones ``luaf_hat``.
     """
 
-    def __init__(self, config: GainConfig, n_joints: int, dt: float):
-        super().__init__(config, n_joints, dt)
-        self.q_hat = np.zeros(n_joints)
-        self.qd_hat = np.zeros(n_joints)
-        self.luaf_hat = np.zeros(n_joints)
-        self.injection = np.zeros(n_joints)
+    def __init__(self, config: GainConfig, n_joints: int, dt: float, members: int = 1):
+        super().__init__(config, n_joints, dt, members)
+        self.q_hat = np.zeros(self.shape)
+        self.qd_hat = np.zeros(self.shape)
+        self.luaf_hat = np.zeros(self.shape)
+        self.injection = np.zeros(self.shape)
 
     def reset(self, q_hat: np.ndarray, qd_hat: np.ndarray) -> None:
         """Start from the given estimate, with a zero LUaF estimate."""

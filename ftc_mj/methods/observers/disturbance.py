@@ -41,12 +41,12 @@ class DisturbanceObserver(Observer):
     Config: ClassVar[type[DisturbanceObserverConfig]] = DisturbanceObserverConfig
     requires: ClassVar[frozenset[str]] = frozenset({"position", "velocity"})
 
-    def __init__(self, config: DisturbanceObserverConfig, n_joints: int, dt: float):
-        super().__init__(config, n_joints, dt)
+    def __init__(self, config: DisturbanceObserverConfig, n_joints: int, dt: float, members: int = 1):
+        super().__init__(config, n_joints, dt, members)
         #: x2_hat of (2.6), the observer's own velocity state.
-        self.velocity_state = np.zeros(n_joints)
-        self._integral = np.zeros(n_joints)  # z
-        self._error = np.zeros(n_joints)  # x2~ of this period
+        self.velocity_state = np.zeros(self.shape)
+        self._integral = np.zeros(self.shape)  # z
+        self._error = np.zeros(self.shape)  # x2~ of this period
 
     def reset(self, q_hat: np.ndarray, qd_hat: np.ndarray) -> None:
         super().reset(q_hat, qd_hat)

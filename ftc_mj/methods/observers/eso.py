@@ -36,11 +36,11 @@ class ESO(Observer):
     name: ClassVar[str] = "eso"
     Config: ClassVar[type[ESOConfig]] = ESOConfig
 
-    def __init__(self, config: ESOConfig, n_joints: int, dt: float):
-        super().__init__(config, n_joints, dt)
+    def __init__(self, config: ESOConfig, n_joints: int, dt: float, members: int = 1):
+        super().__init__(config, n_joints, dt, members)
         w = config.bandwidth
         self.l1, self.l2, self.l3 = 3.0 * w, 3.0 * w**2, w**3
-        self._error = np.zeros(n_joints)
+        self._error = np.zeros(self.shape)
 
     def update(self, t: float, q_meas: np.ndarray, model: StepModel) -> None:
         np.subtract(q_meas, self.q_hat, out=self._error)

@@ -55,12 +55,13 @@ class SOSMO(Observer):
     name: ClassVar[str] = "sosmo"
     Config: ClassVar[type[SOSMOConfig]] = SOSMOConfig
 
-    def __init__(self, config: SOSMOConfig, n_joints: int, dt: float):
-        super().__init__(config, n_joints, dt)
+    def __init__(self, config: SOSMOConfig, n_joints: int, dt: float, members: int = 1):
+        super().__init__(config, n_joints, dt, members)
         self.k1, self.k2 = config.gains()
         # Exact discretisation of d(luaf)/dt = (injection - luaf) / T over one period.
-        self._filter_weight = 1.0 - math.exp(-dt / config.filter_time_constant)
-        self._q_hat_rate = np.zeros(n_joints)
+        # math.exp per member and joint (not np.exp, whose last bit can differ): a constant of the run.
+        self._filter_weight = 1.0 - np.vectorize(math.exp)(-dt / config.filter_time_constant)
+        self._q_hat_rate = np.zeros(self.shape)
 
     def update(self, t: float, q_meas: np.ndarray, model: StepModel) -> None:
         error = q_meas - self.q_hat

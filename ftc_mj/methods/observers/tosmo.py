@@ -63,12 +63,12 @@ class TOSMO(Observer):
     name: ClassVar[str] = "tosmo"
     Config: ClassVar[type[TOSMOConfig]] = TOSMOConfig
 
-    def __init__(self, config: TOSMOConfig, n_joints: int, dt: float):
-        super().__init__(config, n_joints, dt)
+    def __init__(self, config: TOSMOConfig, n_joints: int, dt: float, members: int = 1):
+        super().__init__(config, n_joints, dt, members)
         self.k1, self.k2, self.k3 = config.gains()
-        self.linear_gain = float(getattr(config, "gamma", 0.0))
-        self._sign = np.zeros(n_joints)
-        self._q_hat_rate = np.zeros(n_joints)
+        self.linear_gain = getattr(config, "gamma", 0.0)  # Gamma of (5.6), (members, 1); 0 for the TOSMO
+        self._sign = np.zeros(self.shape)
+        self._q_hat_rate = np.zeros(self.shape)
 
     def update(self, t: float, q_meas: np.ndarray, model: StepModel) -> None:
         error = q_meas - self.q_hat

@@ -1,0 +1,107 @@
+"""The true robots of a run: every row (variant x member) one simulation of a :class:`mujoco.batch.Batch`.
+
+Per control period the engine reads the sensors (current: the batch computes the position and velocity
+stages at the new state after each step), writes ``ctrl`` and ``qfrc_applied``, and calls :meth:`Plant.step`:
+one substep whose acceleration is the period's ground truth (the acceleration at the sampled state under the
+period's inputs), then the remaining substeps with the inputs held (zero-order hold).
+
+A row that diverges stops: NaN or inf, a state beyond ``divergence`` limits, or any of MuJoCo's bad-qacc,
+bad-qpos and bad-qvel warnings (MuJoCo resets such a simulation to its initial state; here that reset is a
+divergence, never a silent restart). The other rows go on.
+"""
+
+from __future__ import annotations
+
+import mujoco
+import numpy as np
+from mujoco.batch import Batch, SimulationError
+
+from ftc_mj.robot.model import position_sensor_addresses, velocity_sensor_addresses
+from ftc_mj.robot.nominal import DenseMass, scale_masses
+
+_POSITION_VELOCITY_STAGE = int(mujoco.mjtStage.mjSTAGE_VEL)
+#: MuJoCo warnings after which it resets a simulation: that is a divergence here.
+_RESET_WARNINGS = [int(w) for w in (mujoco.mjtWarning.mjWARN_BADQACC, mujoco.mjtWarning.mjWARN_BADQPOS,
+                                    mujoco.mjtWarning.mjWARN_BADQVEL)]
+
+
+class Plant:
+    """The simulated robots, one row per variant and member.
+
+    Attributes (live ``(rows, ...)`` arrays of the batch):
+        qpos, qvel: the true state at the current sample instant.
+        ctrl, applied: the command and the generalized force (terms, actuator faults) of this period.
+        acceleration: after :meth:`step`, the true acceleration of the period's first substep.
+        alive: rows still running.
+    """
+
+    def __init__(self, model: mujoco.MjModel, q0: np.ndarray, qd0: np.ndarray, substeps: int, nthread: int,
+                 mass_scale: np.ndarray | None = None, max_position: float = np.inf, max_velocity: float = np.inf):
+        rows = len(q0)
+        self.batch = Batch(model, rows, nthread=nthread, persistent=True)
+        if mass_scale is not None and np.any(mass_scale != 1.0):
+            scale_masses(self.batch.expand, mass_scale)
+            self.batch.set_const()
+        self.substeps = substeps
+        self.qpos, self.qvel = self.batch.bind("qpos"), self.batch.bind("qvel")
+        self.ctrl, self.applied = self.batch.bind("ctrl"), self.batch.bind("qfrc_applied")
+        self.qacc = self.batch.bind("qacc")
+        self.acceleration = np.zeros_like(self.qacc)
+        self._sensordata = self.batch.bind("sensordata")
+        self._sparse_M = self.batch.bind("M")
+        self._dense = DenseMass(model, rows)
+        self._position_addresses = position_sensor_addresses(model)
+        self._velocity_addresses = velocity_sensor_addresses(model)
+        self.max_position, self.max_velocity = max_position, max_velocity
+        self.alive = np.ones(rows, dtype=bool)
+        self._ids: np.ndarray | None = None  # None: all rows step
+        self.qpos[:] = q0
+        self.qvel[:] = qd0
+        self.batch.forward(stage=_POSITION_VELOCITY_STAGE)
+
+    def read_positions(self, out: np.ndarray) -> None:
+        """The encoders' true readings (``jointpos`` sensors) into ``out``, ``(rows, n)``."""
+        np.take(self._sensordata, self._position_addresses, axis=1, out=out)
+
+    def read_velocities(self, out: np.ndarray) -> None:
+        """The tachometers' true readings (``jointvel`` sensors) into ``out``."""
+        np.take(self._sensordata, self._velocity_addresses, axis=1, out=out)
+
+    def mass_matrices(self) -> np.ndarray:
+        """The true M(q) of every row at the current sample instant, ``(rows, n, n)`` (an internal buffer)."""
+        return self._dense.update(self._sparse_M)
+
+    def check(self) -> np.ndarray:
+        """Stop the rows whose state left the plausible range; returns the newly stopped rows (a mask)."""
+        with np.errstate(invalid="ignore"):
+            within = (np.abs(self.qpos) <= self.max_position).all(axis=1)
+            within &= (np.abs(self.qvel) <= self.max_velocity).all(axis=1)
+        return self._stop(~within)
+
+    def step(self) -> np.ndarray:
+        """Advance one control period; returns the rows stopped by MuJoCo (a mask).
+
+        The first substep alone, so that ``acceleration`` is the true qdd at the sampled state under this
+        period's inputs; then the others, ending with the position and velocity stages at the new state
+        (what ``mj_step1`` computes), so that sensors and M(q) are current for the next period."""
+        failed = np.zeros(len(self.alive), dtype=bool)
+        rest = self.substeps - 1
+        self._call(1, 0 if rest else _POSITION_VELOCITY_STAGE, failed)
+        np.copyto(self.acceleration, self.qacc)
+        if rest:
+            self._call(rest, _POSITION_VELOCITY_STAGE, failed)
+        failed |= (self.batch.warning[:, _RESET_WARNINGS, 1] > 0).any(axis=1)
+        return self._stop(failed)
+
+    def _call(self, nstep: int, stage: int, failed: np.ndarray) -> None:
+        try:
+            self.batch.step(ids=self._ids, nstep=nstep, stage=stage)
+        except SimulationError as error:  # those rows kept their state; the others ran
+            failed[error.ids] = True
+
+    def _stop(self, rows: np.ndarray) -> np.ndarray:
+        new = rows & self.alive
+        if new.any():
+            self.alive &= ~new
+            self._ids = np.flatnonzero(self.alive)
+        return new

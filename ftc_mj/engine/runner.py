@@ -1,0 +1,129 @@
+"""The library's entry point: run a scenario, once or as a batch of members.
+
+:func:`run_scenario` is what the command line, the studies and the benchmarks call: one member, every series
+kept, a :class:`~ftc_mj.engine.results.VariantResult` per variant (and per monitor). :func:`run_batch` runs
+many members of one scenario and returns their metrics: members are stepped together in chunks whose series
+are reduced to metrics and dropped, so memory stays within ``memory_budget`` whatever B and the duration.
+Both go through :func:`ftc_mj.engine.loop.simulate`.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+from collections.abc import Callable
+from dataclasses import dataclass
+
+import numpy as np
+
+from ftc_mj.analysis.diagnosis import diagnose_result
+from ftc_mj.analysis.metrics import compute_metrics
+from ftc_mj.engine.loop import BatchRun, ProgressCallback, simulate, series_bytes_per_member
+from ftc_mj.engine.members import Members, single
+from ftc_mj.engine.results import VariantResult
+from ftc_mj.spec.scenario import Scenario, Variant
+
+#: Default memory for the series of one chunk of members [bytes].
+DEFAULT_MEMORY_BUDGET = 2 * 1024**3
+
+
+def run_scenario(
+    scenario: Scenario,
+    *,
+    record_poses: bool = False,
+    progress: ProgressCallback | None = None,
+    nthread: int = 0,
+) -> list[VariantResult]:
+    """Every variant of the scenario as written (one member), with its whole series and diagnosis."""
+    run = simulate(scenario, single(scenario), record_poses=record_poses, progress=progress, nthread=nthread)
+    return [variant_result(scenario, run, v, 0, poses=v == 0) for v in range(len(scenario.variants))]
+
+
+def simulate_variant(scenario: Scenario, variant: Variant, *, record_poses: bool = False,
+                     progress: ProgressCallback | None = None) -> VariantResult:
+    """One variant of the scenario alone (one member): what :func:`run_scenario` gives for it."""
+    alone = dataclasses.replace(scenario, variants=[variant])
+    return run_scenario(alone, record_poses=record_poses, progress=progress)[0]
+
+
+@dataclass
+class MemberOutcome:
+    """The metrics of one variant (or monitor, named ``<variant>.<monitor>``) for one member."""
+
+    member: int
+    variant: str
+    status: str
+    diverged_at: float | None
+    metrics: dict[str, np.ndarray]
+
+
+def run_batch(
+    scenario: Scenario,
+    members: Members,
+    *,
+    memory_budget: int = DEFAULT_MEMORY_BUDGET,
+    nthread: int = 0,
+    progress: ProgressCallback | None = None,
+    on_result: Callable[[int, list[VariantResult]], None] | None = None,
+) -> list[MemberOutcome]:
+    """Every variant for every member; metrics per member (in member order, then variant order).
+
+    ``on_result(member, results)`` sees each member's whole results before they are dropped."""
+    per_member = series_bytes_per_member(scenario)
+    chunk = max(1, min(members.count, memory_budget // max(per_member, 1)))
+    outcomes: list[MemberOutcome] = []
+    for start in range(0, members.count, chunk):
+        stop = min(members.count, start + chunk)
+        run = simulate(scenario, members.select(slice(start, stop)), progress=progress, nthread=nthread)
+        for m in range(stop - start):
+            results = [variant_result(scenario, run, v, m) for v in range(len(scenario.variants))]
+            if on_result is not None:
+                on_result(start + m, results)
+            for result in results:
+                for one in (result, *result.monitors):
+                    metrics = compute_metrics(one, scenario.spec.metrics, scenario.fault_onsets,
+                                              scenario.joint_fault_onsets)
+                    outcomes.append(MemberOutcome(start + m, one.name, one.status, one.diverged_at, metrics))
+        del run
+    return outcomes
+
+
+def variant_result(scenario: Scenario, run: BatchRun, v: int, m: int, poses: bool = False) -> VariantResult:
+    """Member ``m``'s result for variant ``v`` of a batch run (views of its series, cut where it stopped)."""
+    variant = scenario.variants[v]
+    row = v * run.members + m
+    done = int(run.done[row])
+    kept = slice(0, done)
+
+    def of_row(values: np.ndarray | None) -> np.ndarray | None:
+        return None if values is None else values[kept, row]
+
+    q_ref, qd_ref, qdd_ref = scenario.reference.evaluate(run.times[kept])
+    result = VariantResult(
+        name=variant.name,
+        observer=variant.observer_type.name,
+        controller=variant.controller_type.name,
+        t=run.times[kept],
+        q_ref=q_ref,
+        qd_ref=qd_ref,
+        qdd_ref=qdd_ref,
+        fault_active=run.fault_active[kept, row],
+        body_xpos=run.body_xpos[kept, row] if poses and run.body_xpos is not None else np.zeros((0, 0, 3)),
+        body_xquat=run.body_xquat[kept, row] if poses and run.body_xquat is not None else np.zeros((0, 0, 4)),
+        status="ok" if done == len(run.times) else "diverged",
+        diverged_at=None if done == len(run.times) else float(run.diverged_at[row]),
+        extras={name: values[kept, m] for name, values in run.extras[variant.name].items()},
+        qd_meas=of_row(run.qd_measured),
+        **{name: values[kept, row] for name, values in run.series.items()},
+    )
+    diagnose_result(scenario.diagnoser, result, of_row(run.luaf_torque))
+    for name, series in run.monitor_series[variant.name].items():
+        monitor = next(mon for mon in variant.monitors if mon.name == name)
+        view = dataclasses.replace(
+            result, name=f"{variant.name}.{name}", observer=monitor.observer_type.name,
+            qd_hat=series["qd_hat"][kept, m], luaf_hat=series["luaf_hat"][kept, m],
+            body_xpos=result.body_xpos[:0], body_xquat=result.body_xquat[:0], extras={}, diagnosis=None,
+            monitors=[],
+        )
+        diagnose_result(scenario.diagnoser, view, series["luaf_torque"][kept, m] if "luaf_torque" in series else None)
+        result.monitors.append(view)
+    return result
