@@ -18,7 +18,7 @@ from pathlib import Path
 import mujoco
 
 from ftc_mj.analysis.metrics import compute_metrics
-from ftc_mj.engine.loop import simulate_variant
+from ftc_mj.engine.runner import simulate_variant
 from ftc_mj.outputs.recording import write_recording
 from ftc_mj.spec.loading import load_scenario
 

@@ -21,7 +21,7 @@ from pathlib import Path
 import numpy as np
 
 from ftc_mj.analysis.metrics import compute_metrics
-from ftc_mj.engine.loop import simulate_variant
+from ftc_mj.engine.runner import simulate_variant
 from ftc_mj.spec.loading import load_scenario
 
 ROOT = Path(__file__).resolve().parents[1]

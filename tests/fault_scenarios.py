@@ -10,7 +10,7 @@ import numpy as np
 import pytest
 import yaml
 
-from ftc_mj.engine.loop import simulate_variant
+from ftc_mj.engine.runner import simulate_variant
 from ftc_mj.engine.results import VariantResult
 from ftc_mj.spec.errors import InputError
 from ftc_mj.spec.loading import load_scenario

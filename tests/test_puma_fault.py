@@ -12,7 +12,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from ftc_mj.engine.loop import simulate_variant
+from ftc_mj.engine.runner import simulate_variant
 from ftc_mj.outputs.recording import read_series
 from ftc_mj.run import main
 from ftc_mj.spec.loading import load_scenario

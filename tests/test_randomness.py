@@ -15,7 +15,7 @@ from fault_scenarios import FAULTS, ROOT, array_fields, load, scenario_data
 from rerun.chunk import RrdReader
 
 from ftc_mj.effects import randomness
-from ftc_mj.engine.loop import simulate_variant
+from ftc_mj.engine.runner import simulate_variant
 from ftc_mj.outputs.recording import read_series
 
 #: The LoE scenario (noise, quantisation, an actuator fault at 8 s, diagnosis) cut to 8.5 s.

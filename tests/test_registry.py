@@ -18,7 +18,7 @@ import numpy as np
 import pytest
 import yaml
 
-from ftc_mj.engine.loop import simulate_variant
+from ftc_mj.engine.runner import simulate_variant
 from ftc_mj.methods import controllers, observers, registry
 from ftc_mj.methods.controllers.nftsmc import NFTSMC, NFTSMCConfig
 from ftc_mj.methods.gains import GainConfig, PositiveFloat

@@ -7,7 +7,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from ftc_mj.engine.loop import simulate_variant
+from ftc_mj.engine.runner import simulate_variant
 from ftc_mj.spec.loading import load_scenario
 
 SCENARIOS = sorted((Path(__file__).resolve().parents[1] / "scenarios").glob("*.yaml"))

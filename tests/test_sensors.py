@@ -14,7 +14,7 @@ from fault_scenarios import ROOT, assert_input_error, run, scenario_data
 from ftc_mj.analysis.metrics import compute_metrics
 from ftc_mj.effects import randomness
 from ftc_mj.effects.sensors import Channel, Measurement
-from ftc_mj.engine.loop import simulate_variant
+from ftc_mj.engine.runner import simulate_variant
 from ftc_mj.spec.loading import load_scenario
 
 N, NJ, DT = 2000, 3, 1e-3

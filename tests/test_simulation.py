@@ -16,7 +16,7 @@ import pytest
 import yaml
 
 from ftc_mj.analysis.metrics import compute_metrics
-from ftc_mj.engine.loop import simulate_variant
+from ftc_mj.engine.runner import simulate_variant
 from ftc_mj.engine.results import VariantResult
 from ftc_mj.methods import controllers, observers, registry
 from ftc_mj.methods.controllers.nftsmc import NFTSMC

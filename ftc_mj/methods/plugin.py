@@ -35,12 +35,13 @@ class Method(ABC):
     Config: ClassVar[type[GainConfig]]
     requires: ClassVar[frozenset[str]] = frozenset({"position"})
 
-    def __init__(self, config: GainConfig, n_joints: int, dt: float, members: int = 1):
+    def __init__(self, config: GainConfig, n_joints: int, dt: float, members: int | None = None):
         self.config = config
         self.n = n_joints
         self.members = members
-        #: The shape of every per-joint state array: ``(members, n)``.
-        self.shape = (members, n_joints)
+        #: The shape of every per-joint state array: ``(members, n)`` (the engine always gives ``members``;
+        #: without it, a standalone ``(n,)``, as unit tests of one law use).
+        self.shape = (n_joints,) if members is None else (members, n_joints)
         self.dt = dt
         #: Internal per-joint signals worth plotting (e.g. an adaptive gain, Fig. 2.8): name -> array that the
         #: method updates in place. The runner records each one every period beside the estimates.

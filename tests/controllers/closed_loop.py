@@ -22,9 +22,15 @@ MASS = 2.0
 
 
 def fake_step(M, psi_hat=None) -> SimpleNamespace:
-    """What a controller reads from a StepModel: ``M`` and ``psi_hat`` (zero unless given)."""
+    """What a controller reads from a StepModel: ``M``, ``psi_hat`` (zero unless given) and ``apply_M``."""
     M = np.asarray(M, dtype=float)
-    return SimpleNamespace(M=M, psi_hat=np.zeros(len(M)) if psi_hat is None else np.asarray(psi_hat, dtype=float))
+
+    def apply_M(v, out):
+        out[...] = (M @ np.asarray(v, dtype=float).T).T
+        return out
+
+    return SimpleNamespace(M=M, psi_hat=np.zeros(len(M)) if psi_hat is None else np.asarray(psi_hat, dtype=float),
+                           apply_M=apply_M)
 
 
 class FakeObserver:

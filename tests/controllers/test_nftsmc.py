@@ -195,7 +195,7 @@ def test_no_compensation_tracks_only_with_a_large_gain_and_chatters_more():
 
 def test_controller_math_on_batched_arrays():
     n = 2
-    batched = NFTSMC(NFTSMC.Config.model_validate(GAINS, context={"n_joints": n}), (n, n), DT)
+    batched = NFTSMC(NFTSMC.Config.model_validate(GAINS, context={"n_joints": n}), n, DT, members=n)
     M = np.array([[2.0, 0.4], [0.4, 1.0]])
     step = fake_step(M, psi_hat=[0.3, -1.7])
     observer = FakeObserver(n)

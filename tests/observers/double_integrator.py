@@ -25,6 +25,10 @@ class FakeStepModel:
         # Works on (n,) and on (batch, n).
         return np.linalg.solve(self.M, np.asarray(v, dtype=float).T).T
 
+    def apply_M(self, v, out):
+        out[...] = (self.M @ np.asarray(v, dtype=float).T).T
+        return out
+
 
 class Sinusoid:
     """d(t) = amp sin(w t) + offset with its first and second integrals from 0."""

@@ -113,6 +113,6 @@ def test_batched_state_matches_row_by_row():
         return np.stack([observer.q_hat, observer.qd_hat, observer.luaf_hat])
 
     config = ESO.Config.model_validate({"bandwidth": [10.0, 30.0]}, context={"n_joints": n})
-    batched = run(ESO(config, (batch, n), DT), slice(None))
+    batched = run(ESO(config, n, DT, members=batch), slice(None))
     for b in range(batch):
         np.testing.assert_allclose(batched[:, b], run(ESO(config, n, DT), b), rtol=1e-12)

@@ -240,7 +240,7 @@ def test_batched_state_matches_row_by_row():
     rng = np.random.default_rng(2)
     batch, n = 4, 2
     config = HighSpeedTOSMO.Config.model_validate({"D": [5.0, 20.0], "gamma": GAMMA}, context={"n_joints": n})
-    batched = HighSpeedTOSMO(config, (batch, n), DT)
+    batched = HighSpeedTOSMO(config, n, DT, members=batch)
     rows = [HighSpeedTOSMO(config, n, DT) for _ in range(batch)]
     M = np.array([[2.0, 0.3], [0.3, 0.5]])
     q0, qd0 = rng.normal(size=(batch, n)), rng.normal(size=(batch, n))

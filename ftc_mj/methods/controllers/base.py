@@ -60,7 +60,7 @@ class BoundedSwitchingConfig(SwitchingConfig):
 class Controller(Method):
     """Computes the joint torque command once per control period."""
 
-    def __init__(self, config: GainConfig, n_joints: int, dt: float, members: int = 1):
+    def __init__(self, config: GainConfig, n_joints: int, dt: float, members: int | None = None):
         super().__init__(config, n_joints, dt, members)
         #: The sliding variable, recorded beside the torque.
         self.sliding = np.zeros(self.shape)
@@ -91,7 +91,7 @@ class SlidingModeController(Controller):
     :meth:`switching_gain` (the adaptive law does).
     """
 
-    def __init__(self, config: SwitchingConfig, n_joints: int, dt: float, members: int = 1):
+    def __init__(self, config: SwitchingConfig, n_joints: int, dt: float, members: int | None = None):
         super().__init__(config, n_joints, dt, members)
         self.compensation: Compensation = config.compensation
         self._gain = getattr(config, "bound", 0.0) + config.mu

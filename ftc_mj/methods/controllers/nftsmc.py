@@ -71,7 +71,7 @@ class NFTSMC(SlidingModeController):
     name: ClassVar[str] = "nftsmc"
     Config: ClassVar[type[NFTSMCConfig]] = NFTSMCConfig
 
-    def __init__(self, config: NFTSMCSurfaceConfig, n_joints: int, dt: float, members: int = 1):
+    def __init__(self, config: NFTSMCSurfaceConfig, n_joints: int, dt: float, members: int | None = None):
         super().__init__(config, n_joints, dt, members)
         self._integral = np.zeros(self.shape)
 
@@ -109,7 +109,7 @@ class AdaptiveNFTSMC(NFTSMC):
     name: ClassVar[str] = "a_nftsmc"
     Config: ClassVar[type[AdaptiveNFTSMCConfig]] = AdaptiveNFTSMCConfig
 
-    def __init__(self, config: AdaptiveNFTSMCConfig, n_joints: int, dt: float, members: int = 1):
+    def __init__(self, config: AdaptiveNFTSMCConfig, n_joints: int, dt: float, members: int | None = None):
         super().__init__(config, n_joints, dt, members)
         initial = 0.0 if config.initial_gain is None else config.initial_gain
         self._initial = np.broadcast_to(initial, self.shape).copy()

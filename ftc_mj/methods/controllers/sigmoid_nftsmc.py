@@ -63,7 +63,7 @@ class SigmoidNFTSMC(SlidingModeController):
     name: ClassVar[str] = "sigmoid_nftsmc"
     Config: ClassVar[type[SigmoidNFTSMCConfig]] = SigmoidNFTSMCConfig
 
-    def __init__(self, config: SigmoidNFTSMCConfig, n_joints: int, dt: float, members: int = 1):
+    def __init__(self, config: SigmoidNFTSMCConfig, n_joints: int, dt: float, members: int | None = None):
         super().__init__(config, n_joints, dt, members)
         self.phi = config.phi()
 

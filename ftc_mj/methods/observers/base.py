@@ -41,7 +41,7 @@ class Observer(Method):
             correction terms); Chapter 3-5 controllers compensate this, Appendix-D-type ones ``luaf_hat``.
     """
 
-    def __init__(self, config: GainConfig, n_joints: int, dt: float, members: int = 1):
+    def __init__(self, config: GainConfig, n_joints: int, dt: float, members: int | None = None):
         super().__init__(config, n_joints, dt, members)
         self.q_hat = np.zeros(self.shape)
         self.qd_hat = np.zeros(self.shape)

@@ -41,7 +41,7 @@ class DisturbanceObserver(Observer):
     Config: ClassVar[type[DisturbanceObserverConfig]] = DisturbanceObserverConfig
     requires: ClassVar[frozenset[str]] = frozenset({"position", "velocity"})
 
-    def __init__(self, config: DisturbanceObserverConfig, n_joints: int, dt: float, members: int = 1):
+    def __init__(self, config: DisturbanceObserverConfig, n_joints: int, dt: float, members: int | None = None):
         super().__init__(config, n_joints, dt, members)
         #: x2_hat of (2.6), the observer's own velocity state.
         self.velocity_state = np.zeros(self.shape)

@@ -36,7 +36,7 @@ class ESO(Observer):
     name: ClassVar[str] = "eso"
     Config: ClassVar[type[ESOConfig]] = ESOConfig
 
-    def __init__(self, config: ESOConfig, n_joints: int, dt: float, members: int = 1):
+    def __init__(self, config: ESOConfig, n_joints: int, dt: float, members: int | None = None):
         super().__init__(config, n_joints, dt, members)
         w = config.bandwidth
         self.l1, self.l2, self.l3 = 3.0 * w, 3.0 * w**2, w**3

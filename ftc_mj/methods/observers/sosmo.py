@@ -55,7 +55,7 @@ class SOSMO(Observer):
     name: ClassVar[str] = "sosmo"
     Config: ClassVar[type[SOSMOConfig]] = SOSMOConfig
 
-    def __init__(self, config: SOSMOConfig, n_joints: int, dt: float, members: int = 1):
+    def __init__(self, config: SOSMOConfig, n_joints: int, dt: float, members: int | None = None):
         super().__init__(config, n_joints, dt, members)
         self.k1, self.k2 = config.gains()
         # Exact discretisation of d(luaf)/dt = (injection - luaf) / T over one period.

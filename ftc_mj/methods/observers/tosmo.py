@@ -63,7 +63,7 @@ class TOSMO(Observer):
     name: ClassVar[str] = "tosmo"
     Config: ClassVar[type[TOSMOConfig]] = TOSMOConfig
 
-    def __init__(self, config: TOSMOConfig, n_joints: int, dt: float, members: int = 1):
+    def __init__(self, config: TOSMOConfig, n_joints: int, dt: float, members: int | None = None):
         super().__init__(config, n_joints, dt, members)
         self.k1, self.k2, self.k3 = config.gains()
         self.linear_gain = getattr(config, "gamma", 0.0)  # Gamma of (5.6), (members, 1); 0 for the TOSMO

@@ -1,0 +1,69 @@
+"""Cost of the batched closed loop against the bare physics batch, on the same machine in the same process.
+
+The Chapter 5 ``proposed`` variant (high-speed TOSMO + NFTSMC, PUMA560) with B members stepped together
+(:func:`ftc_mj.engine.runner.run_batch`, metrics computed, series dropped per chunk), against a bare
+``mujoco.batch.Batch`` of the same model, substeps, B and thread count that only writes ``ctrl`` between
+steps. Prints the cost per member and control period of both, the peak memory, and as its last line the
+ratio (goal <= 1.5, must stay below 2.0).
+
+    python benchmarks/batch_cost.py [--members 1000] [--duration 2.0] [--threads 0]
+"""
+
+from __future__ import annotations
+
+import argparse
+import os
+import resource
+import time
+from pathlib import Path
+
+import mujoco
+import numpy as np
+from mujoco.batch import Batch
+
+from ftc_mj.engine.members import replicates
+from ftc_mj.engine.runner import run_batch
+from ftc_mj.spec.loading import load_scenario
+
+SCENARIO = Path(__file__).resolve().parents[1] / "scenarios" / "puma_fault.yaml"
+
+
+def bare(model: mujoco.MjModel, members: int, substeps: int, periods: int, threads: int) -> float:
+    """Seconds per member and period of a Batch that only writes ``ctrl`` (a PD law) between steps."""
+    batch = Batch(model, members, nthread=threads, persistent=True)
+    qpos, ctrl = batch.bind("qpos"), batch.bind("ctrl")
+    stage = int(mujoco.mjtStage.mjSTAGE_VEL)
+    start = time.perf_counter()
+    for _ in range(periods):
+        ctrl[:] = -10.0 * qpos
+        batch.step(nstep=substeps, stage=stage)
+    return (time.perf_counter() - start) / (periods * members)
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    parser.add_argument("--members", type=int, default=1000)
+    parser.add_argument("--duration", type=float, default=2.0, help="simulated seconds per member")
+    parser.add_argument("--threads", type=int, default=0, help="0: all cores")
+    args = parser.parse_args()
+    threads = args.threads or os.cpu_count() or 1
+
+    scenario = load_scenario(SCENARIO, duration=args.duration, variants=["proposed"])
+    periods = len(scenario.times)
+    members = replicates(scenario, args.members)
+    start = time.perf_counter()
+    outcomes = run_batch(scenario, members, nthread=threads)
+    closed = (time.perf_counter() - start) / (periods * args.members)
+    assert len(outcomes) == args.members
+    physics = bare(scenario.model, args.members, scenario.substeps, periods, threads)
+    peak = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024  # KiB on Linux
+    print(f"members {args.members}, {periods} control periods of {scenario.substeps} physics steps, {threads} threads")
+    print(f"batched closed loop: {closed * 1e6:.2f} us per member and control period")
+    print(f"bare batch:          {physics * 1e6:.2f} us per member and control period")
+    print(f"peak memory: {peak:.0f} MiB")
+    print(f"ratio batched closed loop / bare batch: {closed / physics:.2f}")
+
+
+if __name__ == "__main__":
+    np.seterr(all="ignore")
+    main()
