@@ -3,6 +3,9 @@
 Runs every controller-observer variant of the scenario, prints their metrics, and writes a Rerun recording
 (and optionally a JSON file of the metrics). Exit status: 0 on success, 1 if a variant diverged, 2 on bad
 input (one line on stderr naming the file, the field and the problem; nothing is written).
+
+A thin client of the library: :func:`ftc_mj.load_scenario`, :func:`ftc_mj.run_scenario` (given the progress
+bars), :func:`ftc_mj.analysis.metrics.compute_metrics`, :func:`ftc_mj.outputs.recording.write_recording`.
 """
 
 from __future__ import annotations
@@ -21,8 +24,8 @@ from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, T
 from rich.table import Table
 
 from ftc_mj.analysis.metrics import METRICS, compute_metrics, unit
-from ftc_mj.engine.loop import simulate_variant
 from ftc_mj.engine.results import VariantResult
+from ftc_mj.engine.runner import run_scenario
 from ftc_mj.spec.errors import InputError
 from ftc_mj.spec.loading import load_scenario
 from ftc_mj.spec.scenario import Scenario
@@ -47,25 +50,25 @@ def build_parser() -> argparse.ArgumentParser:
     return parser
 
 
-def run_scenario(scenario: Scenario, console: Console | None = None) -> list[VariantResult]:
-    """Simulate every variant (the first one with body poses for the 3-D view), with a progress display.
-    Each variant's monitors follow it in the list as results of their own."""
-    steps = int(round(scenario.spec.duration / scenario.spec.control_dt))
-    results = []
+def _run_with_progress(scenario: Scenario, console: Console | None) -> list[VariantResult]:
+    """:func:`run_scenario` with a progress bar per variant on ``console`` (none when None)."""
+    if console is None:
+        return run_scenario(scenario)
+    steps = len(scenario.times)
     with Progress(
         TextColumn("{task.description:<16}"), BarColumn(), MofNCompleteColumn(), TimeElapsedColumn(),
-        console=console, disable=console is None, transient=False,
-    ) as progress:
-        for index, variant in enumerate(scenario.variants):
-            task = progress.add_task(variant.name, total=steps)
-            result = simulate_variant(
-                scenario, variant, record_poses=index == 0,
-                progress=lambda advance, task=task: progress.advance(task, advance),
-            )
-            if result.status != "ok":
-                progress.update(task, description=f"{variant.name} (diverged)")
-            results.append(result)
-            results.extend(result.monitors)  # a column each, beside their host
+        console=console, transient=False,
+    ) as display:
+        tasks = {}
+
+        def start(variant: str):
+            tasks[variant] = task = display.add_task(variant, total=steps)
+            return lambda advance: display.advance(task, advance)
+
+        results = run_scenario(scenario, progress=start)
+        for result in results:
+            if result.status != "ok" and result.name in tasks:
+                display.update(tasks[result.name], description=f"{result.name} (diverged)")
     return results
 
 
@@ -158,7 +161,7 @@ def main(argv: Sequence[str] | None = None) -> int:
         return 2
 
     console = None if args.quiet else Console(stderr=True)
-    results = run_scenario(scenario, console)
+    results = _run_with_progress(scenario, console)
     onsets = scenario.fault_onsets
     metrics = {r.name: compute_metrics(r, scenario.spec.metrics, onsets, scenario.joint_fault_onsets) for r in results}
     if not args.quiet:
