@@ -17,10 +17,9 @@ from pathlib import Path
 
 import mujoco
 
+from ftc_mj import load_scenario, run_scenario
 from ftc_mj.analysis.metrics import compute_metrics
-from ftc_mj.engine.runner import simulate_variant
 from ftc_mj.outputs.recording import write_recording
-from ftc_mj.spec.loading import load_scenario
 
 ROOT = Path(__file__).resolve().parents[1]
 
@@ -47,12 +46,13 @@ def main() -> None:
     bare = min(bare_loop_seconds(scenario.model, physics_steps) for _ in range(3))
 
     start = time.perf_counter()
-    result = simulate_variant(scenario, scenario.variants[0], record_poses=True)
+    results = run_scenario(scenario, record_poses=True)
     loop_done = time.perf_counter()
-    compute_metrics(result, scenario.spec.metrics, scenario.fault_onsets, scenario.joint_fault_onsets)
+    for result in results:
+        compute_metrics(result, scenario.spec.metrics, scenario.fault_onsets, scenario.joint_fault_onsets)
     with tempfile.TemporaryDirectory() as folder:
         write_recording(Path(folder) / "bench.rrd", scenario=scenario.name, model=scenario.model,
-                        results=[result], fault_onsets=scenario.fault_onsets, seed=scenario.spec.seed)
+                        results=results, fault_onsets=scenario.fault_onsets, seed=scenario.spec.seed)
     end = time.perf_counter()
 
     per_step = lambda seconds: seconds / steps * 1e6  # noqa: E731

@@ -3,6 +3,9 @@
 Runs every controller-observer variant of the scenario, prints their metrics, and writes a Rerun recording
 (and optionally a JSON file of the metrics). Exit status: 0 on success, 1 if a variant diverged, 2 on bad
 input (one line on stderr naming the file, the field and the problem; nothing is written).
+
+A thin client of the library: :func:`ftc_mj.load_scenario`, :func:`ftc_mj.run_scenario` (given the progress
+bars), :func:`ftc_mj.analysis.metrics.compute_metrics`, :func:`ftc_mj.outputs.recording.write_recording`.
 """
 
 from __future__ import annotations
@@ -21,8 +24,8 @@ from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, T
 from rich.table import Table
 
 from ftc_mj.analysis.metrics import METRICS, compute_metrics, unit
-from ftc_mj.engine.runner import run_scenario
 from ftc_mj.engine.results import VariantResult
+from ftc_mj.engine.runner import run_scenario
 from ftc_mj.spec.errors import InputError
 from ftc_mj.spec.loading import load_scenario
 from ftc_mj.spec.scenario import Scenario
@@ -47,28 +50,23 @@ def build_parser() -> argparse.ArgumentParser:
     return parser
 
 
-def run_with_progress(scenario: Scenario, console: Console | None = None) -> list[VariantResult]:
-    """Every variant, stepped together (:func:`ftc_mj.engine.runner.run_scenario`), with a progress display;
-    the first variant with body poses for the 3-D view. Each variant's monitors follow it in the list."""
+def _run_with_progress(scenario: Scenario, console: Console | None) -> list[VariantResult]:
+    """:func:`run_scenario` with a progress bar on ``console`` (none when None): the variants step together."""
+    if console is None:
+        return run_scenario(scenario)
     steps = len(scenario.times)
     with Progress(
         TextColumn("{task.description:<16}"), BarColumn(), MofNCompleteColumn(), TimeElapsedColumn(),
-        console=console, disable=console is None, transient=False,
-    ) as progress:
-        task = progress.add_task(f"{len(scenario.variants)} variant(s)", total=steps)
-        results = run_scenario(scenario, record_poses=True,
-                               progress=lambda advance: progress.advance(task, advance))
-    flat = []
-    for result in results:
-        flat.append(result)
-        flat.extend(result.monitors)  # a column each, beside their host
-    return flat
+        console=console, transient=False,
+    ) as display:
+        tasks = {}
 
+        def start(variants: str):
+            tasks[variants] = task = display.add_task(variants, total=steps)
+            return lambda advance: display.advance(task, advance)
 
-def divergence_report(results: Sequence[VariantResult]) -> list[str]:
-    """One line per variant that diverged: its name and when."""
-    return [f"diverged: variant {r.name!r} at t = {r.diverged_at:.6g} s" for r in results
-            if r.status != "ok" and "." not in r.name]
+        results = run_scenario(scenario, progress=start)
+    return results
 
 
 def metrics_table(scenario: Scenario, results: Sequence[VariantResult], metrics: dict[str, dict]) -> Table:
@@ -160,7 +158,7 @@ def main(argv: Sequence[str] | None = None) -> int:
         return 2
 
     console = None if args.quiet else Console(stderr=True)
-    results = run_with_progress(scenario, console)
+    results = _run_with_progress(scenario, console)
     onsets = scenario.fault_onsets
     metrics = {r.name: compute_metrics(r, scenario.spec.metrics, onsets, scenario.joint_fault_onsets) for r in results}
     if not args.quiet:
@@ -188,9 +186,9 @@ def main(argv: Sequence[str] | None = None) -> int:
         return 2
     if written and not args.quiet:
         print(f"recording: {recording_path}  (open with: rerun {recording_path})", file=sys.stderr)
-    diverged = divergence_report(results)
-    for line in diverged:  # said whatever --quiet: exit 1 must explain itself
-        print(line, file=sys.stderr)
+    diverged = [r for r in results if r.status != "ok" and "." not in r.name]  # monitors share their host's run
+    for r in diverged:  # said whatever --quiet: an exit 1 explains itself
+        print(f"diverged: variant {r.name!r} at t = {r.diverged_at:.6g} s", file=sys.stderr)
     return 1 if diverged else 0
 
 

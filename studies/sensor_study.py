@@ -20,9 +20,8 @@ from pathlib import Path
 
 import numpy as np
 
+from ftc_mj import load_scenario, run_scenario
 from ftc_mj.analysis.metrics import compute_metrics
-from ftc_mj.engine.runner import simulate_variant
-from ftc_mj.spec.loading import load_scenario
 
 ROOT = Path(__file__).resolve().parents[1]
 SCENARIO = ROOT / "scenarios" / "puma_fault.yaml"
@@ -45,13 +44,12 @@ def run_setting(overrides: tuple[str, ...], duration: float, seed: int) -> dict[
     scenario = load_scenario(SCENARIO, overrides=[*overrides, f"seed={seed}", "diagnosis=null"], duration=duration,
                              variants=[variant for _, variant in OBSERVERS])
     out: dict[str, dict[str, float] | None] = {}
-    for variant in scenario.variants:
-        result = simulate_variant(scenario, variant)
+    for result in run_scenario(scenario, record_poses=False):
         if result.status != "ok":
-            out[variant.name] = None
+            out[result.name] = None
             continue
         metrics = compute_metrics(result, scenario.spec.metrics, scenario.fault_onsets, scenario.joint_fault_onsets)
-        out[variant.name] = {
+        out[result.name] = {
             "velocity": float(np.sqrt(np.mean(metrics["rms_velocity_error"] ** 2))),
             "luaf": float(np.sqrt(np.mean(metrics["rms_luaf_error"] ** 2))),
         }

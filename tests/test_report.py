@@ -7,7 +7,8 @@ from pathlib import Path
 
 import pytest
 
-from ftc_mj.report import main, markdown_table
+from ftc_mj.outputs.report import markdown_table
+from ftc_mj.report import main
 
 DOCUMENT = {
     "scenario": "demo",

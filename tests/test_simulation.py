@@ -535,7 +535,7 @@ def test_monitors_estimate_the_host_trajectory_without_touching_it(tmp_path: Pat
 
 
 def test_monitors_become_columns_of_the_run(tmp_path: Path) -> None:
-    from ftc_mj.run import run_scenario
+    from ftc_mj import run_scenario
 
     spec = scenario_dict()
     spec["variants"]["proposed"]["monitors"] = {"tosmo": {"type": "tosmo", "gains": {"D": 22.0}}}

@@ -1,7 +1,13 @@
 """The library's entry point: run a scenario, once or as a batch of members.
 
 :func:`run_scenario` is what the command line, the studies and the benchmarks call: one member, every series
-kept, a :class:`~ftc_mj.engine.results.VariantResult` per variant (and per monitor). :func:`run_batch` runs
+kept, a :class:`~ftc_mj.engine.results.VariantResult` per variant, each followed by its monitors'::
+
+    from ftc_mj import load_scenario, run_scenario
+
+    scenario = load_scenario("scenarios/puma_fault.yaml", overrides=["seed=3"])
+    results = run_scenario(scenario)
+ :func:`run_batch` runs
 many members of one scenario and returns their metrics: members are stepped together in chunks whose series
 are reduced to metrics and dropped, so memory stays within ``memory_budget`` whatever B and the duration.
 Both go through :func:`ftc_mj.engine.loop.simulate`.
@@ -26,23 +32,43 @@ from ftc_mj.spec.scenario import Scenario, Variant
 DEFAULT_MEMORY_BUDGET = 2 * 1024**3
 
 
+#: Called once with the names of the variants a run steps together; returns the callback that the loop then
+#: calls with the number of control steps done since the last call.
+RunProgress = Callable[[str], ProgressCallback]
+
+
 def run_scenario(
     scenario: Scenario,
     *,
-    record_poses: bool = False,
-    progress: ProgressCallback | None = None,
+    record_poses: bool = True,
+    progress: RunProgress | None = None,
     nthread: int = 0,
 ) -> list[VariantResult]:
-    """Every variant of the scenario as written (one member), with its whole series and diagnosis."""
-    run = simulate(scenario, single(scenario), record_poses=record_poses, progress=progress, nthread=nthread)
-    return [variant_result(scenario, run, v, 0, poses=v == 0) for v in range(len(scenario.variants))]
+    """Every variant of the scenario as written (one member, all variants stepped together), with its whole
+    series and diagnosis, in the scenario's order; each variant's monitors follow it (``<variant>.<monitor>``).
+
+    Args:
+        scenario: a compiled scenario (:func:`ftc_mj.spec.loading.load_scenario`).
+        record_poses: keep the body poses of the first variant, for the recording's 3-D view.
+        progress: progress display, e.g. the command line's bar; None: none.
+        nthread: threads of the physics batches (0: as many as cores and rows allow).
+    """
+    advance = None if progress is None else progress(", ".join(v.name for v in scenario.variants))
+    run = simulate(scenario, single(scenario), record_poses=record_poses, progress=advance, nthread=nthread)
+    results = []
+    for v in range(len(scenario.variants)):
+        result = variant_result(scenario, run, v, 0, poses=v == 0)
+        results.append(result)
+        results.extend(result.monitors)
+    return results
 
 
 def simulate_variant(scenario: Scenario, variant: Variant, *, record_poses: bool = False,
                      progress: ProgressCallback | None = None) -> VariantResult:
     """One variant of the scenario alone (one member): what :func:`run_scenario` gives for it."""
     alone = dataclasses.replace(scenario, variants=[variant])
-    return run_scenario(alone, record_poses=record_poses, progress=progress)[0]
+    run = simulate(alone, single(alone), record_poses=record_poses, progress=progress)
+    return variant_result(alone, run, 0, 0, poses=True)
 
 
 @dataclass
