@@ -1,0 +1,180 @@
+"""The batched engine: every member of a batch equals its own run alone (B = 1), for every built-in observer and
+controller, with per-member gains, seeds, parameters, mass mismatch of the plant and of the nominal model, and a
+member that diverges while the others finish. B = 5 members of a 3-joint robot (B != n, so that a mixed-up
+member and joint axis shows)."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+import pytest
+import yaml
+
+from ftc_mj.engine.loop import simulate
+from ftc_mj.engine.members import Members, members_from_overrides, replicates
+from ftc_mj.engine.runner import run_batch, variant_result
+from ftc_mj.spec.errors import InputError
+from ftc_mj.spec.loading import load_scenario
+from ftc_mj.spec.scenario import Scenario
+
+ROOT = Path(__file__).resolve().parents[2]
+PUMA = ROOT / "models" / "puma560.xml"
+NFTSMC = {"beta1": 15.0, "beta2": 10.0, "beta3": 10.0, "beta4": 5.0, "gamma1": 0.5, "bound": 0.5, "mu": 0.5}
+
+#: One variant per built-in observer and controller (the DO reads the tachometers).
+VARIANTS = {
+    "hs_nftsmc": {"observer": {"type": "hs_tosmo", "gains": {"D": 22.0, "gamma": 5.0}},
+                  "controller": {"type": "nftsmc", "gains": NFTSMC},
+                  "monitors": {"eso": {"type": "eso", "gains": {"bandwidth": 60.0}}}},
+    "tosmo_sigmoid": {"observer": {"type": "tosmo", "gains": {"D": 22.0}},
+                      "controller": {"type": "sigmoid_nftsmc", "gains": {
+                          "kappa1": 6.0, "kappa2": 4.0, "mu1": 1.2, "mu2": 1.4, "alpha": 0.6, "bound": 0.5,
+                          "mu": 0.5}}},
+    "sosmo_ntsmc": {"observer": {"type": "sosmo", "gains": {"L": 22.0, "filter_time_constant": 0.01}},
+                    "controller": {"type": "ntsmc", "gains": {"beta1": 1.5, "beta2": 0.4, "decay": 0.7,
+                                                              "alpha": 0.3, "bound": 5.0, "mu": 0.5}}},
+    "eso_smc": {"observer": {"type": "eso", "gains": {"bandwidth": 60.0}},
+                "controller": {"type": "smc", "gains": {"c": 10.0, "bound": 5.0, "mu": 0.5}}},
+    "do_adaptive": {"observer": {"type": "do", "gains": {"k1": 8.0, "k2": 18.0, "p1": 10.0, "p2": 10.0}},
+                    "controller": {"type": "a_nftsmc", "gains": {
+                        "beta1": 15.0, "beta2": 10.0, "gamma1": 0.5, "rho": 5.0, "dead_zone": 0.01, "mu": 0.5}}},
+}
+
+#: Per member: its own seed, gains, parameter, masses; member 3 diverges at once (its velocity is beyond
+#: ``divergence.max_velocity``), member 4 differs only in its seed.
+MEMBERS = [
+    {},
+    {"seed": 11, "parameters.fault_scale": 0.5, "variants.hs_nftsmc.controller.gains.mu": 2.0,
+     "variants.eso_smc.observer.gains.bandwidth": 40.0, "variants.hs_nftsmc.monitors.eso.gains.bandwidth": 90.0},
+    {"nominal.mass_scale": 1.2, "plant.mass_scale": 0.9, "variants.do_adaptive.controller.gains.rho": [1.0, 2.0, 3.0],
+     "variants.tosmo_sigmoid.observer.gains.D": 30.0, "initial.q": [-0.4, -0.6, -0.5]},
+    {"initial.qd.1": 5000.0},
+    {"seed": 7, "variants.sosmo_ntsmc.controller.gains.decay": 1.1},
+]
+
+
+def scenario_dict() -> dict:
+    return {
+        "name": "batch_test",
+        "robot": {"model": str(PUMA), "sensors": ["position", "velocity"]},
+        "seed": 3,
+        "duration": 0.25,
+        "control_dt": 1e-3,
+        "timestep": 5e-4,
+        "initial": {"q": [-0.5, -0.5, -0.5], "qd": [0.0, 0.0, 0.0]},
+        "observer_initial": {"qd_hat": [0.5, 0.5, 0.5]},
+        "parameters": {"fault_scale": 1.0},
+        "reference": ["cos(pi*t/5) - 1", "sin(pi*t/5 + pi/2) - 1", "0.3*sin(2*t) - 0.5"],
+        "terms": [
+            {"kind": "friction", "space": "torque", "sign": -1, "value": ["1.9*sin(qd1)", "2.03*sin(qd2)", "1.76*sin(qd3)"]},
+            {"kind": "fault", "space": "acceleration", "sign": 1, "onset": 0.1, "rate": 20.0,
+             "value": ["fault_scale*(10*sin(q1*q2) + 3.7*cos(qd1*q2))", "fault_scale*15*sin(q1*q2)", "0"]},
+        ],
+        "actuator_faults": [{"kind": "lock", "joints": [3], "profile": {"onset": 0.15, "end": 0.2}}],
+        "sensors": {"position": {"counts_per_rev": 65536, "noise_std": 1e-5, "delay_samples": 1},
+                    "velocity": {"noise_std": 1e-3}},
+        "diagnosis": {"space": "torque", "baseline": {"start": 0.02, "end": 0.09}, "threshold": {"k": 5.0},
+                      "persistence": {"samples": 3}},
+        "variants": VARIANTS,
+        "metrics": {"window_start": 0.05, "estimation_window_start": 0.05},
+        "divergence": {"max_velocity": 1000.0},
+    }
+
+
+@pytest.fixture(scope="module")
+def scenario(tmp_path_factory) -> Scenario:
+    path = tmp_path_factory.mktemp("batch") / "batch.yaml"
+    path.write_text(yaml.safe_dump(scenario_dict(), sort_keys=False), encoding="utf-8")
+    return load_scenario(path)
+
+
+@pytest.fixture(scope="module")
+def batch_run(scenario):
+    return simulate(scenario, members_from_overrides(scenario, MEMBERS), nthread=2)
+
+
+SERIES = ("q_meas", "q_true", "qd_true", "qdd_true", "qd_hat", "luaf_hat", "luaf_true", "tau", "sliding", "fault",
+          "tau_delivered", "fault_torque", "fault_acceleration", "qd_meas")
+
+
+@pytest.mark.parametrize("member", range(len(MEMBERS)))
+def test_every_member_equals_its_own_run(scenario, batch_run, member):
+    alone = simulate(scenario, members_from_overrides(scenario, [MEMBERS[member]]), nthread=1)
+    for v, variant in enumerate(scenario.variants):
+        batched, single = variant_result(scenario, batch_run, v, member), variant_result(scenario, alone, v, 0)
+        assert batched.status == single.status and batched.diverged_at == single.diverged_at
+        for name in SERIES:
+            np.testing.assert_allclose(getattr(batched, name), getattr(single, name), rtol=0, atol=1e-12,
+                                       err_msg=f"{variant.name}: {name}")
+        for name, values in batched.extras.items():
+            np.testing.assert_allclose(values, single.extras[name], rtol=0, atol=1e-12)
+        for a, b in zip(batched.monitors, single.monitors):
+            np.testing.assert_allclose(a.luaf_hat, b.luaf_hat, rtol=0, atol=1e-12)
+        np.testing.assert_array_equal(batched.diagnosis.alarm, single.diagnosis.alarm)
+
+
+def test_members_differ_where_they_should(scenario, batch_run):
+    """Not a batch of copies: each override changes its member (else the test above proves little)."""
+    first = variant_result(scenario, batch_run, 0, 0)
+    for member in (1, 2, 4):
+        other = variant_result(scenario, batch_run, 0, member)
+        assert np.abs(other.q_meas - first.q_meas).max() > 1e-7, member
+
+
+def test_the_diverging_member_stops_and_the_others_finish(scenario, batch_run):
+    for v in range(len(scenario.variants)):
+        for member in range(len(MEMBERS)):
+            result = variant_result(scenario, batch_run, v, member)
+            if member == 3:
+                assert result.status == "diverged" and result.diverged_at == 0.0 and len(result.t) == 0
+            else:
+                assert result.status == "ok" and len(result.t) == len(scenario.times)
+                assert np.isfinite(result.q_true).all()
+
+
+def test_replicates_differ_in_their_seed_only(scenario):
+    members = replicates(scenario, 3)
+    np.testing.assert_array_equal(members.seeds, scenario.spec.seed + np.arange(3))
+    run = simulate(scenario, members)
+    noise = [variant_result(scenario, run, 0, m).q_meas - variant_result(scenario, run, 0, m).q_true for m in range(3)]
+    assert not np.allclose(noise[0], noise[1])
+
+
+def test_thread_count_does_not_change_a_run(scenario):
+    members = members_from_overrides(scenario, MEMBERS[:3])
+    one, two = simulate(scenario, members, nthread=1), simulate(scenario, members, nthread=2)
+    for name in ("q_true", "tau", "luaf_hat"):
+        np.testing.assert_array_equal(one.series[name], two.series[name])
+
+
+def test_chunks_give_the_metrics_of_one_batch(scenario):
+    """Members stepped in chunks (a small memory budget) give the same metrics as all at once."""
+    members = members_from_overrides(scenario, [MEMBERS[0], MEMBERS[1], MEMBERS[4]])
+    whole = run_batch(scenario, members)
+    chunked = run_batch(scenario, members, memory_budget=1)  # one member per chunk
+    assert [(o.member, o.variant) for o in whole] == [(o.member, o.variant) for o in chunked]
+    for a, b in zip(whole, chunked):
+        assert a.status == b.status
+        for metric, values in a.metrics.items():
+            np.testing.assert_allclose(values, b.metrics[metric], rtol=1e-12, atol=0, err_msg=metric)  # sums in another order
+
+
+@pytest.mark.parametrize("override, message", [
+    ({"duration": 1.0}, "cannot differ between the members"),
+    ({"variants.eso_smc.observer.type": "sosmo"}, "cannot differ between the members"),
+    ({"variants.hs_nftsmc.controller.gains.compensation": "none"}, "selects the law's form"),
+    ({"parameters.other": 1.0}, "do not add any"),
+    ({"nominal.mass_scale": -1.0}, "nominal.mass_scale"),
+])
+def test_member_overrides_are_checked(scenario, override, message):
+    with pytest.raises((InputError, ValueError), match=message):
+        members_from_overrides(scenario, [{}, override])
+
+
+def test_members_select_keeps_member_values(scenario):
+    members = members_from_overrides(scenario, MEMBERS)
+    picked = members.select(slice(1, 3))
+    assert isinstance(picked, Members) and picked.count == 2
+    np.testing.assert_array_equal(picked.seeds, members.seeds[1:3])
+    np.testing.assert_array_equal(picked.variants[0].controller.mu, members.variants[0].controller.mu[1:3])
