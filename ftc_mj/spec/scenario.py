@@ -16,6 +16,7 @@ Reading a file (YAML, ``--set``) is :mod:`ftc_mj.spec.loading`.
 
 from __future__ import annotations
 
+import os
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Annotated, Any
@@ -204,6 +205,31 @@ class Scenario:
         return Path(self.spec.output or f"recordings/{self.spec.name}.rrd")
 
 
+#: At most this many physics steps per control period (a timestep far below the control period is a mistake).
+MAX_SUBSTEPS = 10_000
+#: Series a run keeps per joint, variant and monitor (float64), for the memory check; a generous count.
+SERIES_PER_JOINT = 24
+#: A run's series may take at most this share of the machine's memory.
+MEMORY_SHARE = 0.5
+
+
+def machine_memory() -> int:
+    """Physical memory of this machine [bytes]."""
+    return os.sysconf("SC_PAGE_SIZE") * os.sysconf("SC_PHYS_PAGES")
+
+
+def _check_run_size(spec: ScenarioSpec, n: int, file: str) -> None:
+    """Refuse a run whose control periods or kept series cannot fit, before anything is allocated."""
+    periods = spec.duration / spec.control_dt
+    estimators = sum(1 + len(variant.monitors) for variant in spec.variants.values())
+    needed = periods * estimators * n * 8 * SERIES_PER_JOINT
+    available = MEMORY_SHARE * machine_memory()
+    if needed > available:
+        raise InputError(file, "duration", f"{spec.duration:g} s is {periods:.3g} control periods of {spec.control_dt:g} s, "
+                         f"whose series would need {needed / 2**30:.3g} GiB, more than half of this machine's "
+                         f"{machine_memory() / 2**30:.3g} GiB (shorten the run or lengthen control_dt)")
+
+
 def time_grid(duration: float, control_dt: float) -> np.ndarray:
     """The control instants k * control_dt of a run of ``duration``."""
     return np.arange(int(round(duration / control_dt))) * control_dt
@@ -221,8 +247,12 @@ def compile_scenario(path: Path, spec: ScenarioSpec) -> Scenario:
     substeps = round(ratio)
     if substeps < 1 or abs(ratio - substeps) > 1e-9 * max(ratio, 1.0):
         raise InputError(file, "control_dt", f"{spec.control_dt} is not an integer multiple of the timestep {timestep}")
+    if substeps > MAX_SUBSTEPS:
+        raise InputError(file, "timestep", f"{timestep:g} s gives {substeps:.3g} physics steps per control period of "
+                         f"{spec.control_dt:g} s; at most {MAX_SUBSTEPS} are allowed")
     if spec.duration < spec.control_dt:
         raise InputError(file, "duration", f"{spec.duration} is shorter than one control period")
+    _check_run_size(spec, n, file)
 
     def vector(values: list[float] | None, field: str, default: float | None = 0.0) -> np.ndarray | None:
         if values is None:
