@@ -44,5 +44,5 @@ class Method(ABC):
         self.shape = (n_joints,) if members is None else (members, n_joints)
         self.dt = dt
         #: Internal per-joint signals worth plotting (e.g. an adaptive gain, Fig. 2.8): name -> array that the
-        #: method updates in place. The runner records each one every period beside the estimates.
+        #: method updates in place. The loop records each one every period beside the estimates.
         self.signals: dict[str, np.ndarray] = {}

@@ -2,7 +2,7 @@
 
 An observer sees what a real one would: time, the measured joint positions (and velocities, where the robot
 has tachometers) and the command it applied, plus the nominal model. It never receives MjData. Each control
-period the runner calls
+period the loop (:mod:`ftc_mj.engine.loop`) calls
 
 0. :meth:`Observer.measure` with the raw readings, before the nominal model is evaluated;
 1. :meth:`Observer.update` with the new measurement: the observer forms its output injection at this instant;

@@ -16,7 +16,7 @@ import mujoco
 import numpy as np
 import pytest
 
-MODELS = Path(__file__).resolve().parents[1] / "models"
+MODELS = Path(__file__).resolve().parents[2] / "models"
 
 DOF = {"two_link": 2, "puma560": 3}
 

@@ -22,7 +22,7 @@ from ftc_mj.spec.errors import InputError
 from ftc_mj.spec.expressions import ExpressionError
 from ftc_mj.spec.loading import load_scenario
 
-ROOT = Path(__file__).resolve().parents[1]
+ROOT = Path(__file__).resolve().parents[2]
 PUMA_YAML = ROOT / "scenarios" / "puma_fault.yaml"
 PUMA_MODEL = ROOT / "models" / "puma560.xml"
 VARIANTS = ["proposed", "nftsmc_tosmo", "nftsmc_sosmo", "nftsmc"]
@@ -615,7 +615,7 @@ def test_monitor_is_checked_like_an_observer(tmp_path):
 
 
 def test_velocity_sensing_needs_tachometers_in_the_model(tmp_path):
-    source = (Path(__file__).resolve().parents[1] / "models" / "puma560.xml").read_text(encoding="utf-8")
+    source = (Path(__file__).resolve().parents[2] / "models" / "puma560.xml").read_text(encoding="utf-8")
     without = "\n".join(line for line in source.splitlines() if "<jointvel" not in line)
     (tmp_path / "encoders_only.xml").write_text(without, encoding="utf-8")
     data = mutate(mutate(base_dict(), "robot.model", "encoders_only.xml"), "robot.sensors", ["position", "velocity"])

@@ -17,7 +17,7 @@ from ftc_mj.outputs.recording import read_series
 from ftc_mj.run import main
 from ftc_mj.spec.loading import load_scenario
 
-ROOT = Path(__file__).resolve().parents[1]
+ROOT = Path(__file__).resolve().parents[2]
 SCENARIO = ROOT / "scenarios" / "puma_fault.yaml"
 
 

@@ -14,7 +14,7 @@ import numpy as np
 
 from ftc_mj.run import main
 
-ROOT = Path(__file__).resolve().parents[1]
+ROOT = Path(__file__).resolve().parents[2]
 SCENARIOS = ROOT / "scenarios"
 
 Metrics = dict[str, dict[str, np.ndarray]]

@@ -18,13 +18,14 @@ import yaml
 from ftc_mj.analysis.metrics import compute_metrics
 from ftc_mj.engine.runner import simulate_variant
 from ftc_mj.engine.results import VariantResult
+from ftc_mj.engine.runner import run_scenario
 from ftc_mj.methods import controllers, observers, registry
 from ftc_mj.methods.controllers.nftsmc import NFTSMC
 from ftc_mj.methods.observers.tosmo import HighSpeedTOSMO
 from ftc_mj.spec.loading import load_scenario
 from ftc_mj.spec.scenario import Scenario
 
-ROOT = Path(__file__).resolve().parents[1]
+ROOT = Path(__file__).resolve().parents[2]
 PUMA = ROOT / "models" / "puma560.xml"
 DT = 1e-3
 
@@ -535,8 +536,6 @@ def test_monitors_estimate_the_host_trajectory_without_touching_it(tmp_path: Pat
 
 
 def test_monitors_become_columns_of_the_run(tmp_path: Path) -> None:
-    from ftc_mj import run_scenario
-
     spec = scenario_dict()
     spec["variants"]["proposed"]["monitors"] = {"tosmo": {"type": "tosmo", "gains": {"D": 22.0}}}
     spec["variants"]["second"] = copy.deepcopy(PROPOSED)

@@ -2,7 +2,7 @@
 
 Named ``closed_loop`` rather than ``double_integrator``: the test folders have no ``__init__.py``, so pytest
 imports helpers by their bare module name and a second ``double_integrator`` would shadow
-``tests/observers/double_integrator.py`` in the same session.
+``tests/methods/observers/double_integrator.py`` in the same session.
 
 Plant: M = m I, d(t) = 2 sin t + 1 on every joint, integrated in closed form over each control period with the
 torque held, so every error left is the controller's. The observer is a fake with exact estimates: ``qd_hat``

@@ -23,7 +23,7 @@ from ftc_mj.spec.errors import InputError
 from ftc_mj.spec.loading import load_scenario
 
 GAINS = {"k1": 8.0, "k2": 18.0, "p1": 10.0, "p2": 10.0}  # Table 2.2
-ROOT = Path(__file__).resolve().parents[2]
+ROOT = Path(__file__).resolve().parents[3]
 
 
 def make(n_joints: int = 1, **gains) -> DisturbanceObserver:

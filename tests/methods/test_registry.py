@@ -27,7 +27,7 @@ from ftc_mj.methods.observers.tosmo import TOSMO
 from ftc_mj.spec.errors import InputError
 from ftc_mj.spec.loading import load_scenario
 
-ROOT = Path(__file__).resolve().parents[1]
+ROOT = Path(__file__).resolve().parents[2]
 TWO_LINK = ROOT / "models" / "two_link.xml"
 PLUGIN_MODULE = "ftc_mj_test_thirdparty_plugins"
 

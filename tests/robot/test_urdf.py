@@ -37,7 +37,7 @@ from ftc_mj.run import main
 from ftc_mj.spec.errors import InputError
 from ftc_mj.spec.loading import load_scenario
 
-ROOT = Path(__file__).resolve().parents[1]
+ROOT = Path(__file__).resolve().parents[2]
 MODELS = ROOT / "models"
 PUMA_YAML = ROOT / "scenarios" / "puma_fault.yaml"
 PUMA_URDF_YAML = ROOT / "scenarios" / "puma_fault_urdf.yaml"

@@ -15,7 +15,7 @@ import pytest
 
 from ftc_mj.robot.nominal import NominalModel, StepModel
 
-PUMA = Path(__file__).resolve().parents[1] / "models" / "puma560.xml"
+PUMA = Path(__file__).resolve().parents[2] / "models" / "puma560.xml"
 CHECK_QD = np.array([0.4, -0.3, 0.9])
 
 # shared/reference/puma560.md: q, M(q) rows, G(q), C(q, qd) qd for qd = (0.4, -0.3, 0.9).
