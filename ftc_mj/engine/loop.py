@@ -208,6 +208,7 @@ def _simulate(scenario: Scenario, members: Members, record_poses: bool, progress
         done[stopped] = k
         diverged_at[stopped] = times[k]
 
+    pending: int | None = None  # the sample whose true lumped uncertainty the next evaluation gives
     with np.errstate(all="ignore"):  # stopped rows may hold NaN; they are cut off from their time on
         for k in range(steps):
             t = times[k]
@@ -241,12 +242,13 @@ def _simulate(scenario: Scenario, members: Members, record_poses: bool, progress
                     point += count
             nominal.qpos[mass_points] = q_meas
             if not alive.all():  # stopped rows may hold NaN or inf: evaluate them at rest instead
-                _rest(nominal, alive, count, estimators, mass_points, truth_points)
+                _rest(nominal, alive, done < k, count, estimators, mass_points, truth_points)
             nominal.evaluate()
             nominal.mass_matrices()  # refreshes ``mass``
             np.copyto(mass_inverse, np.linalg.inv(mass[mass_points]))
-            if k:
-                np.subtract(series["qdd_true"][k - 1], nominal.qacc[truth_points], out=series["luaf_true"][k - 1])
+            if pending is not None:  # last period's truth: qdd - (Psi(q, qd) + M(q)^-1 tau) at its true state
+                np.subtract(series["qdd_true"][pending], nominal.qacc[truth_points], out=series["luaf_true"][pending])
+            pending = k
             for b, block in enumerate(blocks):
                 rows_b = block.rows
                 q_b = q_meas[rows_b]
@@ -311,9 +313,9 @@ def _simulate(scenario: Scenario, members: Members, record_poses: bool, progress
                     observer.advance(tau_b, model)
             if progress is not None and (k + 1) % PROGRESS_EVERY == 0:
                 progress(PROGRESS_EVERY)
-        nominal.evaluate()
-        last = min(k, steps - 1)
-        np.subtract(series["qdd_true"][last], nominal.qacc[truth_points], out=series["luaf_true"][last])
+        if pending is not None:  # the last recorded sample's truth
+            nominal.evaluate()
+            np.subtract(series["qdd_true"][pending], nominal.qacc[truth_points], out=series["luaf_true"][pending])
     if progress is not None:
         progress(steps % PROGRESS_EVERY)
     if not has_faults:
@@ -333,11 +335,14 @@ def _simulate(scenario: Scenario, members: Members, record_poses: bool, progress
                     done=done, diverged_at=diverged_at)
 
 
-def _rest(nominal: NominalBatch, alive: np.ndarray, count: int, estimators: list[int], mass_points: slice,
-          truth_points: slice) -> None:
+def _rest(nominal: NominalBatch, alive: np.ndarray, stopped_before: np.ndarray, count: int, estimators: list[int],
+          mass_points: slice, truth_points: slice) -> None:
+    """Evaluate the stopped rows' points at rest: they may hold NaN or inf. The truth point of a row that stopped
+    this period still holds its last recorded sample's state, which is finite and still wanted."""
     stopped = ~alive
     psi_stopped = np.concatenate([np.tile(stopped[v * count:(v + 1) * count], e) for v, e in enumerate(estimators)])
-    for points, mask in ((slice(0, len(psi_stopped)), psi_stopped), (mass_points, stopped), (truth_points, stopped)):
+    for points, mask in ((slice(0, len(psi_stopped)), psi_stopped), (mass_points, stopped),
+                         (truth_points, stopped_before)):
         nominal.qpos[points][mask] = 0.0
         nominal.qvel[points][mask] = 0.0
         nominal.applied[points][mask] = 0.0

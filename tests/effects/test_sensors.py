@@ -29,7 +29,7 @@ def channel(**kwargs) -> Channel:
 
 
 def read_all(ch: Channel, true: np.ndarray = TRUE, seed: int = 3) -> np.ndarray:
-    measurement = Measurement(ch, T, np.random.default_rng(seed))
+    measurement = Measurement(ch, T, [np.random.default_rng(seed)])
     out = np.empty_like(true)
     for k in range(len(true)):
         measurement.read(k, true[k], out[k])

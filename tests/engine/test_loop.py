@@ -11,6 +11,7 @@ import copy
 from pathlib import Path
 
 import mujoco
+import mujoco.batch
 import numpy as np
 import pytest
 import yaml
@@ -461,47 +462,42 @@ def _reachable(obj, depth: int, seen: set[int]):
         yield from _reachable(child, depth - 1, seen)
 
 
-def test_plugins_never_receive_the_simulation_mjdata(tmp_path: Path, spies, monkeypatch: pytest.MonkeyPatch) -> None:
-    real_mjdata = mujoco.MjData
-    created: list[tuple[mujoco.MjModel, mujoco.MjData]] = []
+def test_plugins_never_receive_the_simulation(tmp_path: Path, spies, monkeypatch: pytest.MonkeyPatch) -> None:
+    """Observers and controllers get readings, time, the reference and the nominal model's arrays: never the
+    plant's batch, an MjData, or a view of any array the plant's batch binds (its live state)."""
+    from ftc_mj.engine import plant as plant_module
 
-    def tracking_mjdata(model):
-        data = real_mjdata(model)
-        created.append((model, data))
-        return data
+    plants: list = []
+    real_plant = plant_module.Plant
 
-    monkeypatch.setattr(mujoco, "MjData", tracking_mjdata)
+    def tracking_plant(*args, **kwargs):
+        plants.append(real_plant(*args, **kwargs))
+        return plants[-1]
+
+    monkeypatch.setattr("ftc_mj.engine.loop.Plant", tracking_plant)
     spec = scenario_dict(variants={"spy": {"observer": {"type": "spy_observer", "gains": {"D": 22.0, "gamma": 5.0}},
                                            "controller": {"type": "spy_controller", "gains": NFTSMC_GAINS}}})
     scenario, result = run(tmp_path, spec)
-    monkeypatch.setattr(mujoco, "MjData", real_mjdata)
     assert result.status == "ok"
     assert (result.observer, result.controller) == ("spy_observer", "spy_controller")
-
-    sim_data = [data for model, data in created if model is scenario.model]
-    assert len(sim_data) == 1
-    sim_data = sim_data[0]
-    sim_buffers = [sim_data.qpos, sim_data.qvel, sim_data.qacc, sim_data.sensordata, sim_data.ctrl,
-                   sim_data.qfrc_applied, sim_data.xpos, sim_data.xquat, sim_data.qfrc_bias]
+    assert len(plants) == 1
+    plant = plants[0]
+    plant_buffers = [plant.qpos, plant.qvel, plant.qacc, plant.ctrl, plant.applied, plant.acceleration,
+                     plant.batch.bind("sensordata"), plant.batch.bind("M")]
 
     calls = spies.calls
-    # The walk below is deep enough to find MjData: the nominal model's own, private one (allowed).
-    private = [obj for obj in _reachable(calls, depth=6, seen=set()) if isinstance(obj, real_mjdata)]
-    assert private and all(obj is not sim_data for obj in private)
     kinds = {kind for kind, _ in calls}
     assert kinds == {"observer.reset", "observer.update", "observer.advance", "controller.reset", "controller.compute"}
     steps = len(result.t)
     assert sum(kind == "controller.compute" for kind, _ in calls) == steps
     for kind, args in calls:
-        for arg in args:
-            assert not isinstance(arg, real_mjdata), f"{kind} received an MjData"
         for obj in _reachable(args, depth=5, seen=set()):
-            assert obj is not sim_data, f"{kind} can reach the simulation's MjData"
+            assert not isinstance(obj, (mujoco.MjData, mujoco.batch.Batch)), f"{kind} can reach {type(obj).__name__}"
             if isinstance(obj, np.ndarray):
-                for buffer in sim_buffers:
-                    assert not np.shares_memory(obj, buffer), f"{kind} received a view of the simulation's MjData"
+                for buffer in plant_buffers:
+                    assert not np.shares_memory(obj, buffer), f"{kind} received a view of the plant's state"
     # What the controller saw as the measurement is the true position of its sample.
-    np.testing.assert_array_equal(np.array(spies.q_meas), result.q_true)
+    np.testing.assert_array_equal(np.array(spies.q_meas).reshape(result.q_true.shape), result.q_true)
 
 
 # ------------------------------------------------------------------------------------------ monitors

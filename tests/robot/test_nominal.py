@@ -13,7 +13,7 @@ import mujoco
 import numpy as np
 import pytest
 
-from ftc_mj.robot.nominal import NominalModel, StepModel
+from ftc_mj.robot.nominal import NominalBatch, NominalModel, StepModel
 
 PUMA = Path(__file__).resolve().parents[2] / "models" / "puma560.xml"
 CHECK_QD = np.array([0.4, -0.3, 0.9])
@@ -120,12 +120,13 @@ def test_nominal_never_modifies_the_callers_model():
 
     before = snapshot()
     nominal = NominalModel(m, mass_scale=2.0)
-    step = StepModel(nominal)
+    batch = NominalBatch(m, np.array([2.0, 0.5]), nthread=1)
     for q, qd in random_states(3, seed=2):
         nominal.psi(q, qd)
         nominal.mass_matrix(q)
-        step.update(q, q + 0.1, qd)
-        step.solve_M(qd)
+        StepModel.evaluate(nominal, q, q + 0.1, qd).solve_M(qd[None])
+        batch.qpos[:], batch.qvel[:] = q, qd
+        batch.evaluate()
     assert nominal.model is not m
     after = snapshot()
     for field in fields:
@@ -138,24 +139,40 @@ def test_nominal_never_modifies_the_callers_model():
 
 
 def test_step_model_solves_with_M_at_the_measured_position(model):
-    """psi_hat is evaluated at (q_hat, qd_hat) but M and solve_M must be those of q_meas."""
-    step = StepModel(NominalModel(model))
+    """psi_hat is evaluated at (q_hat, qd_hat) but M, solve_M and apply_M must be those of q_meas."""
+    nominal = NominalModel(model)
     rng = np.random.default_rng(4)
     for _ in range(5):
         q_meas, q_hat = rng.uniform(-np.pi, np.pi, 3), rng.uniform(-np.pi, np.pi, 3)
         qd_hat = rng.uniform(-2.0, 2.0, 3)
-        step.update(q_meas, q_hat, qd_hat)
+        step = StepModel.evaluate(nominal, q_meas, q_hat, qd_hat)
         M_meas, _ = reference_dynamics(model, q_meas, np.zeros(3))
         M_hat, bias_hat = reference_dynamics(model, q_hat, qd_hat)
         assert np.abs(M_meas - M_hat).max() > 1e-2  # the two states really differ
-        np.testing.assert_allclose(step.M, M_meas, rtol=0, atol=1e-10)
-        np.testing.assert_allclose(step.psi_hat, -np.linalg.solve(M_hat, bias_hat), rtol=0, atol=1e-10)
+        np.testing.assert_allclose(step.M[0], M_meas, rtol=0, atol=1e-10)
+        np.testing.assert_allclose(step.psi_hat[0], -np.linalg.solve(M_hat, bias_hat), rtol=0, atol=1e-10)
         for v in rng.normal(size=(3, 3)):
-            np.testing.assert_allclose(step.solve_M(v), np.linalg.solve(M_meas, v), rtol=0, atol=1e-10)
+            np.testing.assert_allclose(step.solve_M(v[None])[0], np.linalg.solve(M_meas, v), rtol=0, atol=1e-10)
+            np.testing.assert_allclose(step.apply_M(v[None], np.zeros((1, 3)))[0], M_meas @ v, rtol=0, atol=1e-10)
 
 
-def test_step_model_update_is_in_place(model):
-    step = StepModel(NominalModel(model))
-    M, psi_hat = step.M, step.psi_hat
-    step.update(np.zeros(3), np.zeros(3), CHECK_QD)
-    assert step.M is M and step.psi_hat is psi_hat
+def test_nominal_batch_is_the_single_state_model_at_every_point(model):
+    """Each point of the engine's batched evaluation: qacc with no applied force is Psi of NominalModel bit for
+    bit (both are -mj_solveM of the bias), M its dense M; with an applied force f, M^-1 (f - bias); a point's
+    mass scale is its own. Five points, three joints."""
+    scales = np.array([1.0, 1.0, 2.0, 0.5, 1.0])
+    batch = NominalBatch(model, scales, nthread=2)
+    rng = np.random.default_rng(9)
+    q, qd, applied = rng.uniform(-np.pi, np.pi, (5, 3)), rng.uniform(-2.0, 2.0, (5, 3)), rng.normal(size=(5, 3))
+    applied[:2] = 0.0
+    batch.qpos[:], batch.qvel[:], batch.applied[:] = q, qd, applied
+    batch.evaluate()
+    mass = batch.mass_matrices()
+    for point, scale in enumerate(scales):
+        single = NominalModel(model, mass_scale=scale)
+        np.testing.assert_allclose(mass[point], single.mass_matrix(q[point]), rtol=0, atol=1e-12)
+        if point < 2:
+            np.testing.assert_array_equal(batch.qacc[point], single.psi(q[point], qd[point]))
+        else:
+            expected = np.linalg.solve(single.mass_matrix(q[point]), applied[point] - single.bias(q[point], qd[point]))
+            np.testing.assert_allclose(batch.qacc[point], expected, rtol=1e-12, atol=1e-12)

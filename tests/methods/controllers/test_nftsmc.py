@@ -301,10 +301,10 @@ def test_adaptive_reaching_law_and_drift(dead_zone):
 
 
 def test_adaptive_controller_on_batched_arrays():
-    """As NFTSMC above: gains validated for n joints, a (batch, n) ``n_joints`` gives a batched controller.
+    """As NFTSMC above: gains validated for n joints, ``members`` gives a batched controller.
     Regression: ``initial_gain`` used to stay (n,), and K_hat's in-place update with the (batch, n) rate failed."""
     config = AdaptiveNFTSMC.Config.model_validate({**ADAPTIVE, "initial_gain": 0.3}, context={"n_joints": 2})
-    controller = AdaptiveNFTSMC(config, (3, 2), DT)
+    controller = AdaptiveNFTSMC(config, 2, DT, members=3)
     observer = FakeObserver((3, 2))
     observer.qd_hat[:] = [0.1, -0.2]  # s = e_hat at the first period
     zeros = np.zeros((3, 2))
