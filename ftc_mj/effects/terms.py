@@ -17,6 +17,7 @@ objects; :class:`PlantTerms` evaluates them on the true state in the loop.
 from __future__ import annotations
 
 from dataclasses import dataclass
+from collections.abc import Sequence
 from typing import Literal
 
 import numpy as np
@@ -109,23 +110,29 @@ def _term_profile(term: TermSpec, file: str, field: str, n: int) -> Profile | No
 
 
 class PlantTerms:
-    """Friction, disturbance and fault terms of every row, evaluated on the true states as arrays.
+    """Friction, disturbance and fault terms of every row, evaluated on the true states.
 
-    Attributes after :meth:`apply`, ``(rows, n)``: ``fault`` (the fault terms' sum, each in its own space),
-    ``fault_force`` (their generalized force, acceleration-space ones through the true M(q)); ``fault_active``:
-    whether a fault term is on (profiles depend on time only, so for every row alike).
+    Every term's expressions are compiled into one function (:class:`~ftc_mj.spec.expressions.StateFunction`),
+    called once per period for all rows. Attributes after :meth:`apply`, ``(rows, n)``: ``fault`` (the fault
+    terms' sum, each in its own space), ``fault_force`` (their generalized force, acceleration-space ones through
+    the true M(q)); ``fault_active``: whether a fault term is on (profiles depend on time only, so for every row
+    alike).
     """
 
-    def __init__(self, terms: list[CompiledTerm], rows: int, n_joints: int, parameters: np.ndarray):
+    def __init__(self, terms: list[CompiledTerm], rows: int, n_joints: int, parameters: np.ndarray,
+                 parameter_names: Sequence[str] = ()):
         self.terms = terms
         shape = (rows, n_joints)
-        self.torque, self.acceleration = np.zeros(shape), np.zeros(shape)
-        self.fault, self.fault_force = np.zeros(shape), np.zeros(shape)
+        #: torque, acceleration, fault, fault force and fault acceleration sums, zeroed at once each period.
+        self._sums = np.zeros((5,) + shape)
+        self.torque, self.acceleration, self.fault, self.fault_force, self._fault_acceleration = self._sums
         self.fault_active = False
-        self._value, self._mapped = np.zeros(shape), np.zeros(shape)
-        self._fault_acceleration = np.zeros(shape)
-        #: Parameter columns, one ``(rows,)`` array per name, passed to every term after the state.
-        self._parameters = list(np.asarray(parameters, dtype=float).reshape(rows, -1).T)
+        self._mapped = np.zeros(shape)
+        self._parameters = np.asarray(parameters, dtype=float).reshape(rows, -1)
+        self._function = expressions.StateFunction([e for term in terms for e in term.function.exprs], n_joints,
+                                                   list(parameter_names))
+        self._values = np.zeros((rows, len(terms) * n_joints))
+        self._blocks = [self._values[:, i * n_joints:(i + 1) * n_joints] for i in range(len(terms))]
         self.needs_mass = any(term.space == "acceleration" for term in terms)
         self._has_acceleration_fault = any(term.space == "acceleration" and term.kind == "fault" for term in terms)
 
@@ -135,22 +142,20 @@ class PlantTerms:
         ``t`` is the loop's k * control_dt: MuJoCo's ``data.time`` accumulates rounding (after 40000 steps
         of 0.25 ms it is 9.99999999999937), which would start a fault due at 10 s one period late. ``mass``
         is the true M(q) of each row at the sample instant, needed with acceleration-space terms."""
-        for buffer in (self.torque, self.acceleration, self.fault, self.fault_force, self._fault_acceleration):
-            buffer[:] = 0.0
+        self._sums[:] = 0.0
         self.fault_active = False
         if self.terms:
-            for term in self.terms:
+            self._function.evaluate(t, qpos, qvel, self._parameters, self._values)
+            for term, value in zip(self.terms, self._blocks):
                 weight = term.profile(t)
                 if weight is None:
                     continue
-                for j, column in enumerate(term.function(t, qpos.T, qvel.T, self._parameters)):
-                    self._value[:, j] = column
-                self._value *= term.sign * weight
+                value *= term.sign * weight
                 acceleration = term.space == "acceleration"
-                (self.acceleration if acceleration else self.torque)[:] += self._value
+                (self.acceleration if acceleration else self.torque)[:] += value
                 if term.kind == "fault":
-                    self.fault += self._value
-                    (self._fault_acceleration if acceleration else self.fault_force)[:] += self._value
+                    self.fault += value
+                    (self._fault_acceleration if acceleration else self.fault_force)[:] += value
                     self.fault_active = True
         np.copyto(out, self.torque)
         if self.needs_mass:

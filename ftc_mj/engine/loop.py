@@ -38,7 +38,7 @@ from ftc_mj.engine.members import Members
 from ftc_mj.engine.plant import Plant
 from ftc_mj.methods.controllers.base import Controller
 from ftc_mj.methods.observers.base import Observer
-from ftc_mj.robot.nominal import NominalBatch, StepModel
+from ftc_mj.robot.nominal import NominalBatch, StepModel, invert
 from ftc_mj.spec.scenario import Scenario
 
 ProgressCallback = Callable[[int], None]
@@ -163,7 +163,7 @@ def _simulate(scenario: Scenario, members: Members, record_poses: bool, progress
         blocks.append(VariantBlock(variant.name, block_rows, observer, controller, host_model, monitors,
                                    config.q_hat0, config.qd_hat0))
 
-    terms = PlantTerms(scenario.terms, rows, n, per_row(members.parameters))
+    terms = PlantTerms(scenario.terms, rows, n, per_row(members.parameters), list(spec.parameters))
     actuators = ActuatorFaults(scenario.actuator_faults, times, (rows, n)) if scenario.actuator_faults else None
     has_faults = actuators is not None or any(term.kind == "fault" for term in scenario.terms)
     measures_velocity = scenario.measures_velocity
@@ -200,6 +200,7 @@ def _simulate(scenario: Scenario, members: Members, record_poses: bool, progress
     tau = np.zeros((rows, n))
     truth_tau = nominal.applied[truth_points]
     fault_acceleration = np.zeros((rows, n))
+    true_mass_inverse = np.zeros((rows, n, n))
     done = np.full(rows, steps)
     diverged_at = np.full(rows, np.nan)
     alive = plant.alive
@@ -245,7 +246,7 @@ def _simulate(scenario: Scenario, members: Members, record_poses: bool, progress
                 _rest(nominal, alive, done < k, count, estimators, mass_points, truth_points)
             nominal.evaluate()
             nominal.mass_matrices()  # refreshes ``mass``
-            np.copyto(mass_inverse, np.linalg.inv(mass[mass_points]))
+            invert(mass[mass_points], mass_inverse)
             if pending is not None:  # last period's truth: qdd - (Psi(q, qd) + M(q)^-1 tau) at its true state
                 np.subtract(series["qdd_true"][pending], nominal.qacc[truth_points], out=series["luaf_true"][pending])
             pending = k
@@ -295,7 +296,8 @@ def _simulate(scenario: Scenario, members: Members, record_poses: bool, progress
             if has_faults:
                 series["fault_torque"][k] = terms.fault_force
                 if fault_active[k].any():  # M(q)^-1 of the fault force, with the true M of the sample instant
-                    np.copyto(fault_acceleration, np.linalg.solve(true_mass, terms.fault_force[..., None])[..., 0])
+                    invert(true_mass, true_mass_inverse)
+                    np.einsum("rij,rj->ri", true_mass_inverse, terms.fault_force, out=fault_acceleration)
                     fault_acceleration[~fault_active[k]] = 0.0
                 else:
                     fault_acceleration[:] = 0.0

@@ -54,6 +54,7 @@ class Plant:
         self._velocity_addresses = velocity_sensor_addresses(model)
         self.max_position, self.max_velocity = max_position, max_velocity
         self.alive = np.ones(rows, dtype=bool)
+        self._position, self._velocity = np.zeros_like(self.qpos), np.zeros_like(self.qvel)
         self._ids: np.ndarray | None = None  # None: all rows step
         self.qpos[:] = q0
         self.qvel[:] = qd0
@@ -73,9 +74,10 @@ class Plant:
 
     def check(self) -> np.ndarray:
         """Stop the rows whose state left the plausible range; returns the newly stopped rows (a mask)."""
-        with np.errstate(invalid="ignore"):
-            within = (np.abs(self.qpos) <= self.max_position).all(axis=1)
-            within &= (np.abs(self.qvel) <= self.max_velocity).all(axis=1)
+        # NaN fails every comparison, so it stops its row too (the engine runs under np.errstate(all="ignore")).
+        np.abs(self.qpos, out=self._position)
+        np.abs(self.qvel, out=self._velocity)
+        within = (self._position <= self.max_position).all(axis=1) & (self._velocity <= self.max_velocity).all(axis=1)
         return self._stop(~within)
 
     def step(self) -> np.ndarray:
@@ -90,7 +92,9 @@ class Plant:
         np.copyto(self.acceleration, self.qacc)
         if rest:
             self._call(rest, _POSITION_VELOCITY_STAGE, failed)
-        failed |= (self.batch.warning[:, _RESET_WARNINGS, 1] > 0).any(axis=1)
+        warned = self.batch.warning[:, _RESET_WARNINGS, 1]  # counts since the start: a warned row stops
+        if warned.any():
+            failed |= warned.any(axis=1)
         return self._stop(failed)
 
     def _call(self, nstep: int, stage: int, failed: np.ndarray) -> None:

@@ -18,6 +18,8 @@ from collections.abc import Callable, Sequence
 
 import numpy as np
 import sympy as sp
+from sympy.printing.numpy import NumPyPrinter
+from sympy.printing.precedence import precedence
 
 MAX_SOURCE_LENGTH = 2000
 MAX_DEPTH = 60
@@ -187,24 +189,106 @@ class TimeFunctions:
         return out[0], out[1], out[2]
 
 
-class StateFunction:
-    """A vector of expressions of ``(t, q1..qn, qd1..qn, parameters...)`` compiled once into one NumPy function.
+#: Up to this many rows a state function is evaluated row by row on Python floats (much cheaper than NumPy
+#: on tiny arrays), beyond it on whole columns; both give the same bits (:class:`StateFunction`).
+SCALAR_ROWS = 16
 
-    Called once per control period on the true states of every row of a batch: each variable is a
-    ``(rows,)`` array, so one call evaluates all members. NumPy's sin and cos are bit-identical to ``math``'s
-    here, and an element's value does not depend on the array's length, so a member's terms are the same
-    whatever the batch size.
+
+class _ScalarPrinter(NumPyPrinter):
+    """NumPy's code for an expression with every power written ``_pow(base, exponent)``, so that the same code
+    evaluates one row on Python floats with the functions of :data:`_SCALAR_NUMPY`."""
+
+    def _hprint_Pow(self, expr, rational=False, sqrt="numpy.sqrt"):
+        text = super()._hprint_Pow(expr, rational=rational, sqrt=sqrt)
+        if "**" not in text:  # sqrt(x), 1/sqrt(x), 1/x: already calls or divisions
+            return text
+        precedence_ = precedence(expr)
+        return f"_pow({self.parenthesize(expr.base, precedence_)}, {self.parenthesize(expr.exp, precedence_)})"
+
+
+def _one_element(ufunc: Callable[..., np.ndarray]) -> Callable[..., float]:
+    """``ufunc`` on a one-element array: exactly what it gives that element inside any array (NumPy's SIMD
+    loops compute each element alike), where Python's math may differ in the last bit (exp, log, tanh, tan)."""
+    buffers = [np.zeros(1), np.zeros(1)]
+
+    def call(*arguments: float) -> float:
+        for buffer, argument in zip(buffers, arguments):
+            buffer[0] = argument
+        return float(ufunc(*buffers[:len(arguments)])[0])
+
+    return call
+
+
+def _sqrt(x: float) -> float:
+    return math.sqrt(x) if x >= 0.0 else math.nan  # correctly rounded, as NumPy's; NaN where NumPy gives NaN
+
+
+def _sign(x: float) -> float:
+    return math.copysign(1.0, x) if x != 0.0 and x == x else x  # 0 stays 0 (its sign too), NaN stays NaN
+
+
+class _ScalarNumPy:
+    """The ``numpy`` of the row-by-row code: math's sin and cos (bit-identical to NumPy's, checked by the
+    tests), exactly rounded operations as Python floats, NumPy's own ufuncs on one element for the rest."""
+
+    sin, cos = math.sin, math.cos
+    sqrt, sign = staticmethod(_sqrt), staticmethod(_sign)
+    pi, e = math.pi, math.e
+
+    def __getattr__(self, name: str) -> Callable[..., float]:
+        function = _one_element(getattr(np, name))
+        setattr(self, name, function)
+        return function
+
+
+_SCALAR_NUMPY = _ScalarNumPy()
+_POW_BASE = np.zeros(1)
+
+
+def _pow(base: float, exponent: float) -> float:
+    """``base ** exponent`` as an array with a scalar exponent computes it, fast paths included (x * x for 2,
+    sqrt for 0.5, ...): NumPy's power, not the C library's."""
+    _POW_BASE[0] = base
+    return float((_POW_BASE ** exponent)[0])
+
+
+class StateFunction:
+    """A vector of expressions of ``(t, q1..qn, qd1..qn, parameters...)`` compiled once, evaluated for every row
+    of a batch (a row: one variant of one member).
+
+    Two compiled forms of the same code (common subexpressions shared, the same NumPy functions): on whole
+    columns of ``(rows,)`` arrays, and row by row on Python floats (up to :data:`SCALAR_ROWS` rows, where
+    NumPy's per-call cost would dominate). Both give the same bits, so a member's terms are the same whatever
+    the batch size.
     """
 
     def __init__(self, exprs: Sequence[sp.Expr], n_joints: int, parameters: Sequence[str] = ()):
         self.exprs = list(exprs)
-        names = state_variables(n_joints) + list(parameters)
-        self._func = sp.lambdify([symbol(v) for v in names], self.exprs, modules="numpy")
+        symbols = [symbol(v) for v in state_variables(n_joints) + list(parameters)]
+        self._columns = sp.lambdify(symbols, self.exprs, modules="numpy", cse=True)
+        self._row = sp.lambdify(symbols, self.exprs, modules=[{"numpy": _SCALAR_NUMPY, "_pow": _pow}],
+                                printer=_ScalarPrinter, cse=True)
 
     def __call__(self, t: float | np.ndarray, q: Sequence, qd: Sequence, parameters: Sequence = ()) -> list:
         """Values at ``t`` and the state ``q``, ``qd`` (one number or ``(rows,)`` array per joint, e.g. the
         columns ``qpos.T``) and the parameters: one per expression (a plain number where constant)."""
-        return self._func(t, *q, *qd, *parameters)
+        return self._columns(t, *q, *qd, *parameters)
+
+    def evaluate(self, t: float, q: np.ndarray, qd: np.ndarray, parameters: np.ndarray, out: np.ndarray) -> None:
+        """Every row at once into ``out`` ``(rows, expressions)``, from ``q``, ``qd`` ``(rows, n)`` and
+        ``parameters`` ``(rows, p)``."""
+        rows = len(out)
+        if rows <= SCALAR_ROWS:
+            t = float(t)
+            for row, (q_row, qd_row, p_row) in enumerate(zip(q.tolist(), qd.tolist(), parameters.tolist())):
+                try:
+                    out[row] = self._row(t, *q_row, *qd_row, *p_row)
+                except (ArithmeticError, ValueError):  # Python raises where NumPy gives inf or NaN: its answer
+                    values = self._columns(t, *q[row:row + 1].T, *qd[row:row + 1].T, *parameters[row:row + 1].T)
+                    out[row] = [np.ravel(value)[0] for value in values]
+        else:
+            for column, values in enumerate(self._columns(t, *q.T, *qd.T, *parameters.T)):
+                out[:, column] = values
 
 
 def is_free_name(name: str) -> bool:
