@@ -38,7 +38,7 @@ from ftc_mj.engine.members import Members
 from ftc_mj.engine.plant import Plant
 from ftc_mj.methods.controllers.base import Controller
 from ftc_mj.methods.observers.base import Observer
-from ftc_mj.robot.nominal import NominalBatch, StepModel, invert
+from ftc_mj.robot.nominal import NominalBatch, SparseSolver, StepModel
 from ftc_mj.spec.scenario import Scenario
 
 ProgressCallback = Callable[[int], None]
@@ -126,19 +126,23 @@ def _simulate(scenario: Scenario, members: Members, record_poses: bool, progress
                   max_velocity=spec.divergence.max_velocity)
 
     # Nominal evaluation points: Psi at each estimate (host observer and monitors of every variant), M at every
-    # row's measured position, and every row's true lumped uncertainty (one period late).
+    # row's measured position, and, where the controller's model differs from the plant's (a mass scale), every
+    # row's true lumped uncertainty in the nominal terms (one period late). Where they are the same model, the
+    # plant's own M(q) and C qd + G at the sample instant give it, at no extra evaluation.
+    plant_is_nominal = bool(np.all(members.nominal_mass_scale == 1.0) and np.all(members.plant_mass_scale == 1.0))
     estimators = [1 + len(v.monitors) for v in variants]
     psi_points = count * sum(estimators)
+    truth_rows = 0 if plant_is_nominal else rows
     nominal = NominalBatch(
         scenario.model,
         np.concatenate([np.concatenate([members.nominal_mass_scale] * sum(estimators)),
-                        per_row(members.nominal_mass_scale), per_row(members.nominal_mass_scale)]),
+                        per_row(members.nominal_mass_scale), per_row(members.nominal_mass_scale)[:truth_rows]]),
         threads,
     )
     mass_points = slice(psi_points, psi_points + rows)
-    truth_points = slice(psi_points + rows, psi_points + 2 * rows)
+    truth_points = slice(psi_points + rows, psi_points + rows + truth_rows)
     mass = nominal.mass_matrices()  # a buffer, refreshed by every mass_matrices() call
-    mass_inverse = np.zeros((rows, n, n))
+    solver = SparseSolver(scenario.model)
 
     blocks: list[VariantBlock] = []
     point = 0
@@ -147,7 +151,8 @@ def _simulate(scenario: Scenario, members: Members, record_poses: bool, progress
         config = members.variants[v]
 
         def step_model(first: int) -> StepModel:
-            return StepModel(M=mass[mass_points][block_rows], M_inverse=mass_inverse[block_rows],
+            return StepModel(M=mass[mass_points][block_rows], factor=nominal.factor[mass_points][block_rows],
+                             diagonal_inverse=nominal.diagonal_inverse[mass_points][block_rows], solver=solver,
                              psi_hat=nominal.qacc[first:first + count])
 
         observer = variant.observer_type(config.observer, n, dt, members=count)
@@ -200,7 +205,9 @@ def _simulate(scenario: Scenario, members: Members, record_poses: bool, progress
     tau = np.zeros((rows, n))
     truth_tau = nominal.applied[truth_points]
     fault_acceleration = np.zeros((rows, n))
-    true_mass_inverse = np.zeros((rows, n, n))
+    plant_factor, plant_diagonal_inverse = plant.batch.bind("qLD"), plant.batch.bind("qLDiagInv")
+    plant_bias = plant.batch.bind("qfrc_bias")  # C(q, qd) qd + G(q) at the sample instant
+    truth_force, truth_acceleration = np.zeros((rows, n)), np.zeros((rows, n))
     done = np.full(rows, steps)
     diverged_at = np.full(rows, np.nan)
     alive = plant.alive
@@ -246,10 +253,9 @@ def _simulate(scenario: Scenario, members: Members, record_poses: bool, progress
                 _rest(nominal, alive, done < k, count, estimators, mass_points, truth_points)
             nominal.evaluate()
             nominal.mass_matrices()  # refreshes ``mass``
-            invert(mass[mass_points], mass_inverse)
             if pending is not None:  # last period's truth: qdd - (Psi(q, qd) + M(q)^-1 tau) at its true state
                 np.subtract(series["qdd_true"][pending], nominal.qacc[truth_points], out=series["luaf_true"][pending])
-            pending = k
+            pending = None if plant_is_nominal else k
             for b, block in enumerate(blocks):
                 rows_b = block.rows
                 q_b = q_meas[rows_b]
@@ -279,7 +285,10 @@ def _simulate(scenario: Scenario, members: Members, record_poses: bool, progress
             if record_poses:
                 body_xpos[k] = xpos
                 body_xquat[k] = xquat
-            true_mass = plant.mass_matrices() if terms.needs_mass or has_faults else None
+            true_mass = plant.mass_matrices() if terms.needs_mass else None
+            if plant_is_nominal:  # M(q)^-1 tau + Psi(q, qd) = M^-1 (tau - C qd - G) at the true state
+                np.subtract(tau, plant_bias, out=truth_force)
+                solver.solve(plant_factor, plant_diagonal_inverse, truth_force, truth_acceleration)
             terms.apply(t, plant.qpos, plant.qvel, true_mass, plant.applied)
             series["fault"][k] = terms.fault
             fault_active[k] = terms.fault_active
@@ -296,18 +305,19 @@ def _simulate(scenario: Scenario, members: Members, record_poses: bool, progress
             if has_faults:
                 series["fault_torque"][k] = terms.fault_force
                 if fault_active[k].any():  # M(q)^-1 of the fault force, with the true M of the sample instant
-                    invert(true_mass, true_mass_inverse)
-                    np.einsum("rij,rj->ri", true_mass_inverse, terms.fault_force, out=fault_acceleration)
+                    solver.solve(plant_factor, plant_diagonal_inverse, terms.fault_force, fault_acceleration)
                     fault_acceleration[~fault_active[k]] = 0.0
                 else:
                     fault_acceleration[:] = 0.0
                 series["fault_acceleration"][k] = fault_acceleration
-            # The truth point of this row, evaluated with the next period's nominal call.
-            nominal.qpos[truth_points] = plant.qpos
-            nominal.qvel[truth_points] = plant.qvel
-            truth_tau[:] = tau
+            if not plant_is_nominal:  # the truth point of this row, evaluated with the next period's nominal call
+                nominal.qpos[truth_points] = plant.qpos
+                nominal.qvel[truth_points] = plant.qvel
+                truth_tau[:] = tau
             stop(plant.step(), k)
             series["qdd_true"][k] = plant.acceleration
+            if plant_is_nominal:
+                np.subtract(plant.acceleration, truth_acceleration, out=series["luaf_true"][k])
             for block in blocks:
                 tau_b = tau[block.rows]
                 block.observer.advance(tau_b, block.model)

@@ -14,12 +14,6 @@ import mujoco
 import numpy as np
 from mujoco.batch import Batch
 
-try:  # the gufunc behind np.linalg.inv
-    from numpy.linalg._umath_linalg import inv as _inverse
-except ImportError:  # pragma: no cover - a NumPy that moved it
-
-    def _inverse(matrices: np.ndarray, signature: str, out: np.ndarray) -> None:
-        out[...] = np.linalg.inv(matrices)
 
 from ftc_mj.spec.schema import PositiveFloat, Strict
 
@@ -95,25 +89,27 @@ class StepModel:
 
     Attributes:
         M: M(x1) at the measured position, ``(members, n, n)``.
-        M_inverse: its inverse, ``(members, n, n)``.
         psi_hat: Psi at the observer's state estimate, Psi(x1_hat, x2_hat), ``(members, n)``.
     """
 
-    def __init__(self, M: np.ndarray, M_inverse: np.ndarray, psi_hat: np.ndarray):
-        self.M, self.M_inverse, self.psi_hat = M, M_inverse, psi_hat
+    def __init__(self, M: np.ndarray, factor: np.ndarray, diagonal_inverse: np.ndarray, psi_hat: np.ndarray,
+                 solver: SparseSolver):
+        self.M, self.psi_hat = M, psi_hat
+        self._factor, self._diagonal_inverse, self._solver = factor, diagonal_inverse, solver
         self._solution = np.zeros(psi_hat.shape)
 
     @classmethod
     def evaluate(cls, nominal: NominalModel, q_meas: np.ndarray, q_hat: np.ndarray, qd_hat: np.ndarray) -> "StepModel":
         """One member's quantities from a single-state :class:`NominalModel` (tests, studies)."""
-        M = nominal.mass_matrix(np.asarray(q_meas, dtype=float).reshape(-1))[None].copy()
         psi = nominal.psi(np.asarray(q_hat, dtype=float).reshape(-1), np.asarray(qd_hat, dtype=float).reshape(-1))
-        return cls(M, np.linalg.inv(M), psi[None].copy())
+        M = nominal.mass_matrix(np.asarray(q_meas, dtype=float).reshape(-1))[None].copy()  # last: its factor stays
+        data = nominal.data
+        return cls(M, data.qLD[None].copy(), data.qLDiagInv[None].copy(), psi[None].copy(), SparseSolver(nominal.model))
 
     def solve_M(self, vector: np.ndarray) -> np.ndarray:
-        """M(x1)^-1 vector per member. Returns an internal buffer (no allocation per step): valid until the
-        next call."""
-        return np.einsum("bij,bj->bi", self.M_inverse, vector, out=self._solution)
+        """M(x1)^-1 vector per member, as ``mj_solveM`` computes it. Returns an internal buffer (no allocation
+        per step): valid until the next call."""
+        return self._solver.solve(self._factor, self._diagonal_inverse, vector, self._solution)
 
     def apply_M(self, vector: np.ndarray, out: np.ndarray) -> np.ndarray:
         """M(x1) vector per member, into ``out``."""
@@ -167,10 +163,33 @@ class DenseMass:
         return self.out
 
 
-def invert(matrices: np.ndarray, out: np.ndarray) -> None:
-    """``out[i] = inv(matrices[i])``: LAPACK's inverse through NumPy's gufunc, without ``np.linalg.inv``'s
-    per-call checks (a tenth of a small batch's cost)."""
-    _inverse(matrices, signature="d->d", out=out)
+class SparseSolver:
+    """M(q)^-1 v for many rows at once with MuJoCo's own factorisation ``qLD``, ``qLDiagInv`` of each row: the
+    operations of ``mj_solveM`` in its order, over a batch, so each row's answer is bit for bit what
+    ``mj_solveM`` gives on one MjData (tested), and costs a few array operations whatever the batch size."""
+
+    def __init__(self, model: mujoco.MjModel):
+        def off_diagonal(i: int) -> list[tuple[int, int]]:  # (address, column) of row i's entries left of the diagonal
+            start = model.M_rowadr[i]
+            return [(start + j, int(model.M_colind[start + j])) for j in range(model.M_rownnz[i] - 1)]
+
+        self._rows = [(i, off_diagonal(i)) for i in range(model.nv)]
+        self._rows = [(i, entries) for i, entries in self._rows if entries]
+
+    def solve(self, factor: np.ndarray, diagonal_inverse: np.ndarray, vector: np.ndarray, out: np.ndarray) -> np.ndarray:
+        """``out = M^-1 vector`` per row, from the rows' ``qLD`` ``(rows, nM)`` and ``qLDiagInv`` ``(rows, n)``."""
+        np.copyto(out, vector)
+        for i, entries in reversed(self._rows):  # x <- L'^-1 x
+            for address, column in entries:
+                out[:, column] -= factor[:, address] * out[:, i]
+        out *= diagonal_inverse  # x <- D^-1 x
+        for i, entries in self._rows:  # x <- L^-1 x, each row's sparse dot product summed from the left
+            (address, column), *rest = entries
+            dot = factor[:, address] * out[:, column]
+            for address, column in rest:
+                dot += factor[:, address] * out[:, column]
+            out[:, i] -= dot
+        return out
 
 
 class NominalBatch:
@@ -196,6 +215,8 @@ class NominalBatch:
         self.applied = self.batch.bind("qfrc_applied")
         self._qacc = self.batch.bind("qacc")
         self._sparse_M = self.batch.bind("M")
+        #: MuJoCo's factorisation of M at each point (for :class:`SparseSolver`), from the last evaluate().
+        self.factor, self.diagonal_inverse = self.batch.bind("qLD"), self.batch.bind("qLDiagInv")
         self._dense = DenseMass(model, points)
 
     def evaluate(self) -> None:
