@@ -126,22 +126,30 @@ def _simulate(scenario: Scenario, members: Members, record_poses: bool, progress
                   max_velocity=spec.divergence.max_velocity)
 
     # Nominal evaluation points: Psi at each estimate (host observer and monitors of every variant), M at every
-    # row's measured position, and, where the controller's model differs from the plant's (a mass scale), every
-    # row's true lumped uncertainty in the nominal terms (one period late). Where they are the same model, the
-    # plant's own M(q) and C qd + G at the sample instant give it, at no extra evaluation.
+    # row's measured position, and every row's true lumped uncertainty in the nominal terms (one period late).
+    # Where the controller's model is the plant's (no mass scale), the plant's own M(q), its factorisation and
+    # C qd + G at the sample instant are the same numbers: they give the truth, and, where the encoders read the
+    # state exactly (no sensor effects), M at the measured position, at no extra evaluation.
     plant_is_nominal = bool(np.all(members.nominal_mass_scale == 1.0) and np.all(members.plant_mass_scale == 1.0))
+    mass_from_plant = plant_is_nominal and scenario.position_sensor is None and plant.reads_state_exactly
     estimators = [1 + len(v.monitors) for v in variants]
     psi_points = count * sum(estimators)
+    mass_rows = 0 if mass_from_plant else rows
     truth_rows = 0 if plant_is_nominal else rows
     nominal = NominalBatch(
         scenario.model,
         np.concatenate([np.concatenate([members.nominal_mass_scale] * sum(estimators)),
-                        per_row(members.nominal_mass_scale), per_row(members.nominal_mass_scale)[:truth_rows]]),
+                        per_row(members.nominal_mass_scale)[:mass_rows],
+                        per_row(members.nominal_mass_scale)[:truth_rows]]),
         threads,
     )
-    mass_points = slice(psi_points, psi_points + rows)
-    truth_points = slice(psi_points + rows, psi_points + rows + truth_rows)
-    mass = nominal.mass_matrices()  # a buffer, refreshed by every mass_matrices() call
+    mass_points = slice(psi_points, psi_points + mass_rows)
+    truth_points = slice(psi_points + mass_rows, psi_points + mass_rows + truth_rows)
+    if mass_from_plant:  # buffers refreshed by every mass_matrices() call
+        mass, factor, diagonal_inverse = plant.mass_matrices(), plant.factor, plant.diagonal_inverse
+    else:
+        mass = nominal.mass_matrices()[mass_points]
+        factor, diagonal_inverse = nominal.factor[mass_points], nominal.diagonal_inverse[mass_points]
     solver = SparseSolver(scenario.model)
 
     blocks: list[VariantBlock] = []
@@ -151,8 +159,8 @@ def _simulate(scenario: Scenario, members: Members, record_poses: bool, progress
         config = members.variants[v]
 
         def step_model(first: int) -> StepModel:
-            return StepModel(M=mass[mass_points][block_rows], factor=nominal.factor[mass_points][block_rows],
-                             diagonal_inverse=nominal.diagonal_inverse[mass_points][block_rows], solver=solver,
+            return StepModel(M=mass[block_rows], factor=factor[block_rows],
+                             diagonal_inverse=diagonal_inverse[block_rows], solver=solver,
                              psi_hat=nominal.qacc[first:first + count])
 
         observer = variant.observer_type(config.observer, n, dt, members=count)
@@ -205,7 +213,7 @@ def _simulate(scenario: Scenario, members: Members, record_poses: bool, progress
     tau = np.zeros((rows, n))
     truth_tau = nominal.applied[truth_points]
     fault_acceleration = np.zeros((rows, n))
-    plant_factor, plant_diagonal_inverse = plant.batch.bind("qLD"), plant.batch.bind("qLDiagInv")
+    plant_factor, plant_diagonal_inverse = plant.factor, plant.diagonal_inverse
     plant_bias = plant.batch.bind("qfrc_bias")  # C(q, qd) qd + G(q) at the sample instant
     truth_force, truth_acceleration = np.zeros((rows, n)), np.zeros((rows, n))
     done = np.full(rows, steps)
@@ -248,11 +256,12 @@ def _simulate(scenario: Scenario, members: Members, record_poses: bool, progress
                     nominal.qpos[point:point + count] = observer.q_hat
                     nominal.qvel[point:point + count] = observer.qd_hat
                     point += count
-            nominal.qpos[mass_points] = q_meas
+            if not mass_from_plant:
+                nominal.qpos[mass_points] = q_meas
             if not alive.all():  # stopped rows may hold NaN or inf: evaluate them at rest instead
                 _rest(nominal, alive, done < k, count, estimators, mass_points, truth_points)
             nominal.evaluate()
-            nominal.mass_matrices()  # refreshes ``mass``
+            (plant if mass_from_plant else nominal).mass_matrices()  # refreshes ``mass``
             if pending is not None:  # last period's truth: qdd - (Psi(q, qd) + M(q)^-1 tau) at its true state
                 np.subtract(series["qdd_true"][pending], nominal.qacc[truth_points], out=series["luaf_true"][pending])
             pending = None if plant_is_nominal else k
@@ -285,7 +294,7 @@ def _simulate(scenario: Scenario, members: Members, record_poses: bool, progress
             if record_poses:
                 body_xpos[k] = xpos
                 body_xquat[k] = xquat
-            true_mass = plant.mass_matrices() if terms.needs_mass else None
+            true_mass = (mass if mass_from_plant else plant.mass_matrices()) if terms.needs_mass else None
             if plant_is_nominal:  # M(q)^-1 tau + Psi(q, qd) = M^-1 (tau - C qd - G) at the true state
                 np.subtract(tau, plant_bias, out=truth_force)
                 solver.solve(plant_factor, plant_diagonal_inverse, truth_force, truth_acceleration)
@@ -314,15 +323,16 @@ def _simulate(scenario: Scenario, members: Members, record_poses: bool, progress
                 nominal.qpos[truth_points] = plant.qpos
                 nominal.qvel[truth_points] = plant.qvel
                 truth_tau[:] = tau
-            stop(plant.step(), k)
-            series["qdd_true"][k] = plant.acceleration
-            if plant_is_nominal:
-                np.subtract(plant.acceleration, truth_acceleration, out=series["luaf_true"][k])
+            # The observers integrate over the period with this period's model (before the plant's M moves on).
             for block in blocks:
                 tau_b = tau[block.rows]
                 block.observer.advance(tau_b, block.model)
                 for _, observer, model in block.monitors:
                     observer.advance(tau_b, model)
+            stop(plant.step(), k)
+            series["qdd_true"][k] = plant.acceleration
+            if plant_is_nominal:
+                np.subtract(plant.acceleration, truth_acceleration, out=series["luaf_true"][k])
             if progress is not None and (k + 1) % PROGRESS_EVERY == 0:
                 progress(PROGRESS_EVERY)
         if pending is not None:  # the last recorded sample's truth

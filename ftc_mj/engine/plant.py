@@ -49,9 +49,13 @@ class Plant:
         self.acceleration = np.zeros_like(self.qacc)
         self._sensordata = self.batch.bind("sensordata")
         self._sparse_M = self.batch.bind("M")
+        #: MuJoCo's factorisation of M(q) at the sample instant (``qLD``, ``qLDiagInv``).
+        self.factor, self.diagonal_inverse = self.batch.bind("qLD"), self.batch.bind("qLDiagInv")
         self._dense = DenseMass(model, rows)
         self._position_addresses = position_sensor_addresses(model)
         self._velocity_addresses = velocity_sensor_addresses(model)
+        #: Whether the encoders read the joint positions exactly (no sensor cutoff clips them).
+        self.reads_state_exactly = bool(np.all(model.sensor_cutoff[self._sensor_ids(model)] == 0))
         self.max_position, self.max_velocity = max_position, max_velocity
         self.alive = np.ones(rows, dtype=bool)
         self._position, self._velocity = np.zeros_like(self.qpos), np.zeros_like(self.qvel)
@@ -59,6 +63,10 @@ class Plant:
         self.qpos[:] = q0
         self.qvel[:] = qd0
         self.batch.forward(stage=_POSITION_VELOCITY_STAGE)
+
+    @staticmethod
+    def _sensor_ids(model: mujoco.MjModel) -> np.ndarray:
+        return np.flatnonzero(model.sensor_type == mujoco.mjtSensor.mjSENS_JOINTPOS)
 
     def read_positions(self, out: np.ndarray) -> None:
         """The encoders' true readings (``jointpos`` sensors) into ``out``, ``(rows, n)``."""

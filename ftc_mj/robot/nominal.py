@@ -117,7 +117,7 @@ class StepModel:
 
 
 #: What the nominal model leaves out of MuJoCo's forward dynamics: constraints (joint limits, contacts,
-#: friction loss), passive forces and actuators. What remains is qacc = M(q)^-1 (qfrc_applied - C(q, qd) qd -
+#: friction loss), passive forces, actuators and sensors. What remains is qacc = M(q)^-1 (qfrc_applied - C(q, qd) qd -
 #: G(q)), the rigid-body model of eq. (5.2).
 _RIGID_BODY_ONLY = (
     mujoco.mjtDisableBit.mjDSBL_CONSTRAINT
@@ -125,6 +125,7 @@ _RIGID_BODY_ONLY = (
     | mujoco.mjtDisableBit.mjDSBL_SPRING
     | mujoco.mjtDisableBit.mjDSBL_DAMPER
     | mujoco.mjtDisableBit.mjDSBL_ACTUATION
+    | mujoco.mjtDisableBit.mjDSBL_SENSOR
 )
 _ACCELERATION_STAGE = int(mujoco.mjtStage.mjSTAGE_ACC)
 

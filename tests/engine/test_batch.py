@@ -178,3 +178,29 @@ def test_members_select_keeps_member_values(scenario):
     assert isinstance(picked, Members) and picked.count == 2
     np.testing.assert_array_equal(picked.seeds, members.seeds[1:3])
     np.testing.assert_array_equal(picked.variants[0].controller.mu, members.variants[0].controller.mu[1:3])
+
+
+def test_the_plants_own_mass_matrix_is_the_nominal_one(tmp_path, monkeypatch):
+    """Where the controller's model is the plant's and the encoders read the state exactly, the engine takes
+    M(q_meas), its factorisation and the truth's M and bias from the plant instead of evaluating the nominal
+    model again: the run is the same bit for bit."""
+    import ftc_mj.engine.loop as loop
+
+    spec = scenario_dict()
+    del spec["sensors"]
+    spec["robot"]["sensors"] = ["position"]
+    spec["variants"] = {name: v for name, v in VARIANTS.items() if name != "do_adaptive"}
+    path = tmp_path / "exact.yaml"
+    path.write_text(yaml.safe_dump(spec, sort_keys=False), encoding="utf-8")
+    scenario = load_scenario(path)
+    shortcut = simulate(scenario, replicates(scenario, 2))
+
+    class EvaluatedPlant(loop.Plant):
+        def __init__(self, *args, **kwargs):
+            super().__init__(*args, **kwargs)
+            self.reads_state_exactly = False  # forces the nominal model's own M points
+
+    monkeypatch.setattr(loop, "Plant", EvaluatedPlant)
+    general = simulate(scenario, replicates(scenario, 2))
+    for name, values in shortcut.series.items():
+        np.testing.assert_array_equal(values, general.series[name], err_msg=name)
