@@ -78,19 +78,37 @@ class StepModel:
 
     Attributes:
         M: M(x1) at the measured position.
-        psi_hat: Psi at the observer's state estimate, Psi(x1_hat, x2_hat).
+        psi_hat: Psi at the observer's state estimate, Psi(x1_hat, x2_hat): what the observers integrate.
+        psi_control: Psi at the state the controller uses. With ``measured_velocity`` (a robot with
+            tachometers whose chapter feeds the controller the measured velocity, Chapter 2: H(x) of (2.25),
+            (2.32)) it is Psi(x1, x2) at the readings; otherwise it is ``psi_hat`` itself (the same array).
+        qd_measured: the tachometer reading the controller uses, or None when it uses the estimate x2_hat.
     """
 
-    def __init__(self, nominal: NominalModel):
+    def __init__(self, nominal: NominalModel, measured_velocity: bool = False):
         self.nominal = nominal
         self.M = np.eye(nominal.n)
         self.psi_hat = np.zeros(nominal.n)
+        self.measured_velocity = measured_velocity
+        self.psi_control = np.zeros(nominal.n) if measured_velocity else self.psi_hat
+        self.qd_measured: np.ndarray | None = None
 
-    def update(self, q_meas: np.ndarray, q_hat: np.ndarray, qd_hat: np.ndarray) -> None:
-        """Refresh in place for this control period."""
+    def update(self, q_meas: np.ndarray, q_hat: np.ndarray, qd_hat: np.ndarray,
+               qd_meas: np.ndarray | None = None) -> None:
+        """Refresh in place for this control period (``qd_meas``: the tachometer reading, used only with
+        ``measured_velocity``, which needs it)."""
         self.nominal.psi(q_hat, qd_hat, out=self.psi_hat)
+        if self.measured_velocity:
+            if qd_meas is None:
+                raise ValueError("a controller on measured velocity needs the tachometer reading")
+            self.nominal.psi(q_meas, qd_meas, out=self.psi_control)
+            self.qd_measured = qd_meas
         # Last, so that the private MjData keeps the factorisation of M(x1) for solve_M.
         self.nominal.mass_matrix(q_meas, out=self.M)
+
+    def control_velocity(self, observer_qd_hat: np.ndarray) -> np.ndarray:
+        """The velocity x2 the controller uses: the tachometer reading or the observer's x2_hat."""
+        return observer_qd_hat if self.qd_measured is None else self.qd_measured
 
     def solve_M(self, vector: np.ndarray) -> np.ndarray:
         """M(x1)^-1 vector, with MuJoCo's sparse factorisation (no explicit inverse).

@@ -154,7 +154,9 @@ def simulate_variant(
     data.qpos[:] = scenario.q0
     data.qvel[:] = scenario.qd0
     nominal = NominalModel(model, spec.nominal.mass_scale)
-    step_model = StepModel(nominal)
+    # The controller's velocity is the scenario's choice (controller_velocity), not the observer's doing.
+    measured_velocity = variant.controller_velocity == "measured"
+    step_model = StepModel(nominal, measured_velocity=measured_velocity)
     observer = variant.observer_type(variant.observer_config, n, dt)
     controller = variant.controller_type(variant.controller_config, n, dt)
     controller.reset()
@@ -215,7 +217,7 @@ def simulate_variant(
                     estimator.reset(q_hat0, variant.qd_hat0)
             observer.measure(q_meas, qd_meas)
             _check_state(data.qpos.tolist(), data.qvel.tolist(), max_position, max_velocity)
-            step_model.update(q_meas, observer.q_hat, observer.qd_hat)
+            step_model.update(q_meas, observer.q_hat, observer.qd_hat, qd_meas)
             observer.update(t, q_meas, step_model)
             for monitor in monitors:
                 monitor.sense(k, t, q_meas, qd_meas)

@@ -159,3 +159,26 @@ def test_step_model_update_is_in_place(model):
     M, psi_hat = step.M, step.psi_hat
     step.update(np.zeros(3), np.zeros(3), CHECK_QD)
     assert step.M is M and step.psi_hat is psi_hat
+
+
+def test_step_model_on_measured_velocity_evaluates_the_controllers_psi_at_the_readings(model):
+    """With measured_velocity the controller's Psi is Psi(q_meas, qd_meas) and its velocity the reading; the
+    observers' psi_hat stays at (q_hat, qd_hat). Without it the controller's Psi is psi_hat itself."""
+    rng = np.random.default_rng(7)
+    q_meas, q_hat = rng.uniform(-np.pi, np.pi, 3), rng.uniform(-np.pi, np.pi, 3)
+    qd_meas, qd_hat = rng.uniform(-2.0, 2.0, 3), rng.uniform(-2.0, 2.0, 3)
+    measured = StepModel(NominalModel(model), measured_velocity=True)
+    measured.update(q_meas, q_hat, qd_hat, qd_meas)
+    M_hat, bias_hat = reference_dynamics(model, q_hat, qd_hat)
+    M_meas, bias_meas = reference_dynamics(model, q_meas, qd_meas)
+    np.testing.assert_allclose(measured.psi_hat, -np.linalg.solve(M_hat, bias_hat), rtol=0, atol=1e-10)
+    np.testing.assert_allclose(measured.psi_control, -np.linalg.solve(M_meas, bias_meas), rtol=0, atol=1e-10)
+    assert np.abs(measured.psi_control - measured.psi_hat).max() > 1e-2
+    assert measured.control_velocity(qd_hat) is qd_meas
+    np.testing.assert_allclose(measured.M, M_meas, rtol=0, atol=1e-10)  # M(x1) kept for solve_M
+    with pytest.raises(ValueError, match="tachometer"):
+        measured.update(q_meas, q_hat, qd_hat)
+    estimated = StepModel(NominalModel(model))
+    estimated.update(q_meas, q_hat, qd_hat, qd_meas)  # a reading is ignored
+    assert estimated.psi_control is estimated.psi_hat
+    assert estimated.control_velocity(qd_hat) is qd_hat
