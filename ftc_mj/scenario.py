@@ -140,6 +140,8 @@ class MetricsSpec(_Strict):
     estimation_window_start: NonNegativeFloat
     #: Interval excluded after each fault onset [s].
     fault_settle: NonNegativeFloat = 1.0
+    #: fault_peak_error looks at [onset, onset + fault_window) after a joint's fault onset [s].
+    fault_window: PositiveFloat = 2.0
     #: |e| tolerance of convergence_time [rad].
     tracking_tolerance: PositiveFloat = 0.01
     #: |velocity error| tolerance of observer_convergence_time [rad/s].
