@@ -2,9 +2,11 @@
 
 * ``rms_error``, ``max_error``: RMS and maximum of |e|, e = q - q_d (true position), over the whole run.
 * ``rms_error_converged``, ``max_error_converged``: the same over the evaluation window, per variant and
-  joint from its own convergence: from max(``metrics.window_start``, ``convergence_time``) to the end
-  (``window_start`` alone if it never converges), without the ``fault_settle`` seconds after each fault
-  onset. A steady-state comparison thus never includes a variant's own convergence.
+  joint from its own convergence: from max(``metrics.window_start``, ``convergence_time`` + ``fault_settle``)
+  to the end (``window_start`` alone if it never converges), without the ``fault_settle`` seconds after each
+  fault onset. Entering the tracking tolerance ends the reaching phase, not the terminal one, so the same
+  settle interval follows it as follows a fault onset; a steady-state comparison thus never includes a
+  variant's own convergence.
 * ``convergence_time``: the first time after which |e| stays within ``tracking_tolerance`` until the first
   fault onset (or the end); NaN if it is never within.
 * ``rms_velocity_error``, ``rms_luaf_error``: RMS of the estimate against ground truth over the estimation
@@ -194,8 +196,8 @@ def _max_abs(x: np.ndarray, mask: np.ndarray) -> np.ndarray:
 def converged_mask(t: np.ndarray, start: float, fault_onsets: Sequence[float], settle: float,
                    convergence: np.ndarray) -> np.ndarray:
     """``(T, n)``: the evaluation mask of :func:`evaluation_mask` starting per joint at max(``start``, that
-    joint's convergence time); a joint that never converges (NaN) starts at ``start``."""
-    begin = np.where(np.isfinite(convergence), np.maximum(start, convergence), start)
+    joint's convergence time + ``settle``); a joint that never converges (NaN) starts at ``start``."""
+    begin = np.where(np.isfinite(convergence), np.maximum(start, convergence + settle), start)
     return evaluation_mask(t, 0.0, fault_onsets, settle)[:, None] & (t[:, None] >= begin[None, :])
 
 
@@ -241,7 +243,7 @@ def compute_metrics(
     error = result.tracking_error
     n = error.shape[1]
     convergence = settling_time(t, error, spec.tracking_tolerance, first_fault)
-    # Per joint, from max(window_start, its own convergence): steady states only.
+    # Per joint, from max(window_start, its own convergence + fault_settle): steady states only.
     window = converged_mask(t, spec.window_start, fault_onsets, spec.fault_settle, convergence)
     if joint_onsets is None:
         joint_onsets = np.full(n, first_fault if np.isfinite(first_fault) else np.nan)

@@ -363,16 +363,16 @@ def test_first_and_for_good_reaching_times() -> None:
 
 
 def test_converged_window_starts_per_joint_at_its_own_convergence() -> None:
-    """window_start 0.5 s; joint 1 converges at 0.25 s (window from 0.5 s), joint 2 only at 1 s: its
-    after-convergence metrics and chattering start there, not at 0.5 s."""
+    """window_start 0.5 s, fault_settle 0.25 s; joint 1 converges at 0.125 s (window from 0.5 s), joint 2
+    only at 1 s: its after-convergence metrics and chattering start at 1.25 s, not at 0.5 s."""
     error = np.zeros((N, NJ))
-    error[: index(0.25), 0] = 0.5
+    error[: index(0.125), 0] = 0.5
     error[: index(1.0), 1] = 0.02                          # outside the 0.01 tolerance until 1 s
+    error[index(1.0) : index(1.25), 1] = 0.008             # the terminal phase: inside, not yet steady
     tau = np.zeros((N, NJ))
-    tau[::2, 1] = 1.0                                      # joint 2 switches every sample until 1 s
-    tau[index(1.0) :, 1] = 0.0
+    tau[: index(1.25) : 2, 1] = 1.0                        # joint 2 switches every other sample until 1.25 s
     m = compute_metrics(make_result(error=error, tau=tau), metrics_spec(), [])
-    np.testing.assert_array_equal(m["convergence_time"], [0.25, 1.0])
+    np.testing.assert_array_equal(m["convergence_time"], [0.125, 1.0])
     np.testing.assert_array_equal(m["rms_error_converged"], [0.0, 0.0])
     np.testing.assert_array_equal(m["max_error_converged"], [0.0, 0.0])
     np.testing.assert_array_equal(m["chattering"], [0.0, 0.0])
