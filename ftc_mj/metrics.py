@@ -2,11 +2,12 @@
 
 * ``rms_error``, ``max_error``: RMS and maximum of |e|, e = q - q_d (true position), over the whole run.
 * ``rms_error_converged``, ``max_error_converged``: the same over the evaluation window, per variant and
-  joint from its own convergence: from max(``metrics.window_start``, ``convergence_time`` + ``fault_settle``)
-  to the end (``window_start`` alone if it never converges), without the ``fault_settle`` seconds after each
-  fault onset. Entering the tracking tolerance ends the reaching phase, not the terminal one, so the same
-  settle interval follows it as follows a fault onset; a steady-state comparison thus never includes a
-  variant's own convergence.
+  joint from its own convergence: from max(``metrics.window_start``, t_in + ``fault_settle``) to the end,
+  t_in the first time |e| <= ``tracking_tolerance`` (``window_start`` alone if it never is), without the
+  ``fault_settle`` seconds after each fault onset. Entering the tracking tolerance ends the reaching phase, not
+  the terminal one, so the same settle interval follows it as follows a fault onset; a steady-state comparison
+  thus never includes a variant's own convergence. The first entry, not ``convergence_time`` (the last one
+  before the first fault), so that a later excursion that is no fault (a sensor effect) stays in the window.
 * ``convergence_time``: the first time after which |e| stays within ``tracking_tolerance`` until the first
   fault onset (or the end); NaN if it is never within.
 * ``rms_velocity_error``, ``rms_luaf_error``: RMS of the estimate against ground truth over the estimation
@@ -196,7 +197,7 @@ def _max_abs(x: np.ndarray, mask: np.ndarray) -> np.ndarray:
 def converged_mask(t: np.ndarray, start: float, fault_onsets: Sequence[float], settle: float,
                    convergence: np.ndarray) -> np.ndarray:
     """``(T, n)``: the evaluation mask of :func:`evaluation_mask` starting per joint at max(``start``, that
-    joint's convergence time + ``settle``); a joint that never converges (NaN) starts at ``start``."""
+    joint's ``convergence`` (its first entry into the tolerance) + ``settle``); NaN starts at ``start``."""
     begin = np.where(np.isfinite(convergence), np.maximum(start, convergence + settle), start)
     return evaluation_mask(t, 0.0, fault_onsets, settle)[:, None] & (t[:, None] >= begin[None, :])
 
@@ -243,8 +244,9 @@ def compute_metrics(
     error = result.tracking_error
     n = error.shape[1]
     convergence = settling_time(t, error, spec.tracking_tolerance, first_fault)
-    # Per joint, from max(window_start, its own convergence + fault_settle): steady states only.
-    window = converged_mask(t, spec.window_start, fault_onsets, spec.fault_settle, convergence)
+    # Per joint, from max(window_start, its first entry into the tolerance + fault_settle): steady states only.
+    entry = first_entry_time(t, error, spec.tracking_tolerance, first_fault)
+    window = converged_mask(t, spec.window_start, fault_onsets, spec.fault_settle, entry)
     if joint_onsets is None:
         joint_onsets = np.full(n, first_fault if np.isfinite(first_fault) else np.nan)
     fault_peak, recovery = fault_response(t, error, joint_onsets, fault_onsets, spec.tracking_tolerance,

@@ -376,6 +376,11 @@ def test_converged_window_starts_per_joint_at_its_own_convergence() -> None:
     np.testing.assert_array_equal(m["rms_error_converged"], [0.0, 0.0])
     np.testing.assert_array_equal(m["max_error_converged"], [0.0, 0.0])
     np.testing.assert_array_equal(m["chattering"], [0.0, 0.0])
+    # A later excursion that is no fault (a sensor effect) moves convergence_time but not the window.
+    error[index(1.75) : index(1.875), 1] = 0.05
+    m = compute_metrics(make_result(error=error), metrics_spec(), [])
+    assert m["convergence_time"][1] == 1.875
+    assert m["max_error_converged"][1] == pytest.approx(0.05)
     # A joint that never converges keeps window_start: its error counts.
     error[:, 1] = 0.02
     m = compute_metrics(make_result(error=error), metrics_spec(), [])
