@@ -1,8 +1,13 @@
 """Metrics of a variant, per joint, in SI units. Definitions (also in README.md):
 
 * ``rms_error``, ``max_error``: RMS and maximum of |e|, e = q - q_d (true position), over the whole run.
-* ``rms_error_converged``, ``max_error_converged``: the same over the evaluation window: from
-  ``metrics.window_start`` to the end, without the ``fault_settle`` seconds after each fault onset.
+* ``rms_error_converged``, ``max_error_converged``: the same over the evaluation window, per variant and
+  joint from its own convergence: from max(``metrics.window_start``, t_in + ``fault_settle``) to the end,
+  t_in the first time |e| <= ``tracking_tolerance`` (``window_start`` alone if it never is), without the
+  ``fault_settle`` seconds after each fault onset. Entering the tracking tolerance ends the reaching phase, not
+  the terminal one, so the same settle interval follows it as follows a fault onset; a steady-state comparison
+  thus never includes a variant's own convergence. The first entry, not ``convergence_time`` (the last one
+  before the first fault), so that a later excursion that is no fault (a sensor effect) stays in the window.
 * ``convergence_time``: the first time after which |e| stays within ``tracking_tolerance`` until the first
   fault onset (or the end); NaN if it is never within.
 * ``rms_velocity_error``, ``rms_luaf_error``: RMS of the estimate against ground truth over the estimation
@@ -12,17 +17,26 @@
 * ``luaf_convergence_time``: as ``convergence_time`` for the LUaF estimation error with ``luaf_tolerance``.
 * ``peak_luaf_error_transient``: the largest |LUaF estimation error| before ``estimation_window_start``: the
   initial error, or more if the estimate overshoots while it converges (Fig. 2.3's ESO).
+* ``luaf_overshoot``: how far the LUaF estimate goes past the true LUaF before ``estimation_window_start``:
+  the largest estimation error of the sign opposite to the initial error (0 if it never crosses; the
+  largest |error| if the initial error is exactly 0). The same definition for every observer: an estimate
+  that only converges from its initial error (the DO's peak is its error at t = 0) has an overshoot near 0
+  (its steady-state error), one that shoots past the truth (the ESO) has a large one.
 * ``rms_luaf_error_fault``: ``rms_luaf_error`` restricted to the samples after the first fault onset (outside
   the settle intervals); NaN without faults. With ``rms_luaf_error`` it separates accuracy before and after.
+* ``first_reaching_time``: the first time |s| <= ``sliding_tolerance`` (before the first fault onset; NaN if
+  never): when the sliding surface is first reached.
 * ``reaching_time``: as ``convergence_time`` for the controller's sliding variable with ``sliding_tolerance``:
-  when the sliding motion is reached for good (Fig. 3.12, 4.11).
-* ``fault_peak_error``: per faulty joint, the largest |e| from the joint's first fault onset to the next fault
-  onset of the scenario (or the end); NaN on a healthy joint.
+  when the sliding motion is reached for good (until the first fault onset; Fig. 3.12, 4.11). A law that
+  reaches the surface and is kicked off it again has ``first_reaching_time`` < ``reaching_time``.
+* ``fault_peak_error``: per faulty joint, the largest |e| in the fault window after the joint's first fault
+  onset: ``[onset, onset + metrics.fault_window)``, cut at the next fault onset of the scenario; NaN on a
+  healthy joint.
 * ``recovery_time``: per faulty joint, how long after its first fault onset |e| comes back within
   ``tracking_tolerance`` for good (up to the next fault onset, or the end); NaN on a healthy joint or if it
   never does.
 * ``rms_torque``: RMS of the commanded torque over the whole run [N m].
-* ``chattering``: total variation of the commanded torque per second over the evaluation window,
+* ``chattering``: total variation of the commanded torque per second over the (per-joint) evaluation window,
   sum |tau[k+1] - tau[k]| / window length [N m / s]. A smooth torque that follows the reference scores low;
   switching at the sampling rate scores high.
 
@@ -50,6 +64,8 @@ class MetricsSpec(Strict):
     estimation_window_start: NonNegativeFloat
     #: Interval excluded after each fault onset [s].
     fault_settle: NonNegativeFloat = 1.0
+    #: fault_peak_error looks at [onset, onset + fault_window) after a joint's fault onset [s].
+    fault_window: PositiveFloat = 2.0
     #: |e| tolerance of convergence_time [rad].
     tracking_tolerance: PositiveFloat = 0.01
     #: |velocity error| tolerance of observer_convergence_time [rad/s].
@@ -71,7 +87,9 @@ METRICS: tuple[str, ...] = (
     "observer_convergence_time",
     "luaf_convergence_time",
     "peak_luaf_error_transient",
+    "luaf_overshoot",
     "rms_luaf_error_fault",
+    "first_reaching_time",
     "reaching_time",
     "fault_peak_error",
     "recovery_time",
@@ -92,7 +110,9 @@ UNITS: dict[str, str] = {
     "observer_convergence_time": "s",
     "luaf_convergence_time": "s",
     "peak_luaf_error_transient": "rad/s^2",
+    "luaf_overshoot": "rad/s^2",
     "rms_luaf_error_fault": "rad/s^2",
+    "first_reaching_time": "s",
     "reaching_time": "s",
     "fault_peak_error": "rad",
     "recovery_time": "s",
@@ -136,23 +156,62 @@ def settling_time(t: np.ndarray, error: np.ndarray, tolerance: float, until: flo
     return result
 
 
-def _rms(x: np.ndarray, mask: np.ndarray) -> np.ndarray:
+def first_entry_time(t: np.ndarray, error: np.ndarray, tolerance: float, until: float) -> np.ndarray:
+    """Per joint: the first time before ``until`` with |error| <= tolerance; NaN if never."""
+    window = t < until
+    inside = np.abs(error[window]) <= tolerance  # NaN counts as outside
+    times = t[window]
+    first = np.argmax(inside, axis=0) if times.size else np.zeros(error.shape[1], dtype=int)
+    found = inside.any(axis=0) if times.size else np.zeros(error.shape[1], dtype=bool)
+    return np.where(found, times[first] if times.size else np.nan, np.nan)
+
+
+def overshoot(error: np.ndarray, mask: np.ndarray) -> np.ndarray:
+    """Per joint: the largest error of the sign opposite to the first masked sample's (the initial error),
+    over the masked samples; 0 if it never crosses; the largest |error| if the initial error is 0."""
     if not mask.any():
-        return np.full(x.shape[1], np.nan)
-    return np.sqrt(np.mean(x[mask] ** 2, axis=0))
+        return np.full(error.shape[1], np.nan)
+    window = error[mask]
+    initial = np.sign(window[0])
+    beyond = np.max(-initial * window, axis=0)
+    return np.where(initial == 0, np.max(np.abs(window), axis=0), np.maximum(beyond, 0.0))
+
+
+def _rms(x: np.ndarray, mask: np.ndarray) -> np.ndarray:
+    """Per joint RMS over the samples of ``mask``: ``(T,)`` for all joints alike or ``(T, n)`` per joint."""
+    if mask.ndim == 1:
+        mask = np.broadcast_to(mask[:, None], x.shape)
+    count = mask.sum(axis=0)
+    total = np.where(mask, x, 0.0) ** 2
+    with np.errstate(invalid="ignore", divide="ignore"):
+        return np.where(count > 0, np.sqrt(total.sum(axis=0) / np.maximum(count, 1)), np.nan)
 
 
 def _max_abs(x: np.ndarray, mask: np.ndarray) -> np.ndarray:
-    if not mask.any():
+    """Per joint max |x| over the samples of ``mask`` (``(T,)`` or ``(T, n)``); NaN where none."""
+    if mask.ndim == 1:
+        mask = np.broadcast_to(mask[:, None], x.shape)
+    if x.shape[0] == 0:
         return np.full(x.shape[1], np.nan)
-    return np.max(np.abs(x[mask]), axis=0)
+    peak = np.max(np.where(mask, np.abs(x), -np.inf), axis=0)
+    return np.where(mask.any(axis=0), peak, np.nan)
+
+
+def converged_mask(t: np.ndarray, start: float, fault_onsets: Sequence[float], settle: float,
+                   convergence: np.ndarray) -> np.ndarray:
+    """``(T, n)``: the evaluation mask of :func:`evaluation_mask` starting per joint at max(``start``, that
+    joint's ``convergence`` (its first entry into the tolerance) + ``settle``); NaN starts at ``start``."""
+    begin = np.where(np.isfinite(convergence), np.maximum(start, convergence + settle), start)
+    return evaluation_mask(t, 0.0, fault_onsets, settle)[:, None] & (t[:, None] >= begin[None, :])
 
 
 def fault_response(
-    t: np.ndarray, error: np.ndarray, joint_onsets: np.ndarray, fault_onsets: Sequence[float], tolerance: float
+    t: np.ndarray, error: np.ndarray, joint_onsets: np.ndarray, fault_onsets: Sequence[float], tolerance: float,
+    window: float = np.inf,
 ) -> tuple[np.ndarray, np.ndarray]:
-    """Per joint: (peak |error|, recovery time) from the joint's first fault onset to the next onset of any
-    fault (or the end); NaN for joints without a fault."""
+    """Per joint: (peak |error| in ``[onset, onset + window)``, recovery time up to the next onset of any
+    fault or the end) after the joint's first fault onset; both are cut at the next onset. NaN for joints
+    without a fault."""
     n = error.shape[1]
     peak, recovery = np.full(n, np.nan), np.full(n, np.nan)
     for joint in range(n):
@@ -164,7 +223,7 @@ def fault_response(
         if not inside.any():
             continue
         column = error[inside, joint : joint + 1]
-        peak[joint] = np.max(np.abs(column))
+        peak[joint] = np.max(np.abs(error[inside & (t < onset + window), joint]))
         recovery[joint] = settling_time(t[inside], column, tolerance, until)[0] - onset
     return peak, recovery
 
@@ -183,33 +242,42 @@ def compute_metrics(
     """
     t = result.t
     everything = np.ones(t.shape, dtype=bool)
-    window = evaluation_mask(t, spec.window_start, fault_onsets, spec.fault_settle)
     estimation = evaluation_mask(t, spec.estimation_window_start, fault_onsets, spec.fault_settle)
     first_fault = min(fault_onsets, default=np.inf)
     error = result.tracking_error
     n = error.shape[1]
+    convergence = settling_time(t, error, spec.tracking_tolerance, first_fault)
+    # Per joint, from max(window_start, its first entry into the tolerance + fault_settle): steady states only.
+    entry = first_entry_time(t, error, spec.tracking_tolerance, first_fault)
+    window = converged_mask(t, spec.window_start, fault_onsets, spec.fault_settle, entry)
     if joint_onsets is None:
         joint_onsets = np.full(n, first_fault if np.isfinite(first_fault) else np.nan)
-    fault_peak, recovery = fault_response(t, error, joint_onsets, fault_onsets, spec.tracking_tolerance)
+    fault_peak, recovery = fault_response(t, error, joint_onsets, fault_onsets, spec.tracking_tolerance,
+                                          spec.fault_window)
 
     # Total variation inside the window: only differences between two consecutive samples that are both in it.
     pairs = window[1:] & window[:-1]
-    window_seconds = pairs.sum() * (t[1] - t[0]) if t.size > 1 else 0.0
-    variation = np.abs(np.diff(result.tau, axis=0))[pairs].sum(axis=0)
-    chattering = variation / window_seconds if window_seconds > 0 else np.full(result.tau.shape[1], np.nan)
+    window_seconds = pairs.sum(axis=0) * (t[1] - t[0]) if t.size > 1 else np.zeros(n)
+    variation = np.where(pairs, np.abs(np.diff(result.tau, axis=0)), 0.0).sum(axis=0)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        chattering = np.where(window_seconds > 0, variation / np.where(window_seconds > 0, window_seconds, 1.0),
+                              np.nan)
+    transient = t < spec.estimation_window_start
 
     return {
         "rms_error": _rms(error, everything),
         "max_error": _max_abs(error, everything),
         "rms_error_converged": _rms(error, window),
         "max_error_converged": _max_abs(error, window),
-        "convergence_time": settling_time(t, error, spec.tracking_tolerance, first_fault),
+        "convergence_time": convergence,
         "rms_velocity_error": _rms(result.velocity_error, estimation),
         "rms_luaf_error": _rms(result.luaf_error, estimation),
         "observer_convergence_time": settling_time(t, result.velocity_error, spec.velocity_tolerance, first_fault),
         "luaf_convergence_time": settling_time(t, result.luaf_error, spec.luaf_tolerance, first_fault),
-        "peak_luaf_error_transient": _max_abs(result.luaf_error, t < spec.estimation_window_start),
+        "peak_luaf_error_transient": _max_abs(result.luaf_error, transient),
+        "luaf_overshoot": overshoot(result.luaf_error, transient),
         "rms_luaf_error_fault": _rms(result.luaf_error, estimation & (t >= first_fault)),
+        "first_reaching_time": first_entry_time(t, result.sliding, spec.sliding_tolerance, first_fault),
         "reaching_time": settling_time(t, result.sliding, spec.sliding_tolerance, first_fault),
         "fault_peak_error": fault_peak,
         "recovery_time": recovery,

@@ -132,7 +132,10 @@ def _simulate(scenario: Scenario, members: Members, record_poses: bool, progress
     # state exactly (no sensor effects), M at the measured position, at no extra evaluation.
     plant_is_nominal = bool(np.all(members.nominal_mass_scale == 1.0) and np.all(members.plant_mass_scale == 1.0))
     mass_from_plant = plant_is_nominal and scenario.position_sensor is None and plant.reads_state_exactly
-    estimators = [1 + len(v.monitors) for v in variants]
+    # Per variant: Psi at the observer's estimate, at each monitor's, and, for a controller on measured
+    # velocity (``controller_velocity``), at the readings.
+    measured = [variant.controller_velocity == "measured" for variant in variants]
+    estimators = [1 + len(v.monitors) + on_readings for v, on_readings in zip(variants, measured)]
     psi_points = count * sum(estimators)
     mass_rows = 0 if mass_from_plant else rows
     truth_rows = 0 if plant_is_nominal else rows
@@ -152,34 +155,39 @@ def _simulate(scenario: Scenario, members: Members, record_poses: bool, progress
         factor, diagonal_inverse = nominal.factor[mass_points], nominal.diagonal_inverse[mass_points]
     solver = SparseSolver(scenario.model)
 
+    measures_velocity = scenario.measures_velocity
+    qd_meas = np.zeros((rows, n)) if measures_velocity else None  # the tachometers' readings
     blocks: list[VariantBlock] = []
     point = 0
     for v, variant in enumerate(variants):
         block_rows = slice(v * count, (v + 1) * count)
         config = members.variants[v]
 
-        def step_model(first: int) -> StepModel:
+        def step_model(first: int, control: int | None = None) -> StepModel:
             return StepModel(M=mass[block_rows], factor=factor[block_rows],
                              diagonal_inverse=diagonal_inverse[block_rows], solver=solver,
-                             psi_hat=nominal.qacc[first:first + count])
+                             psi_hat=nominal.qacc[first:first + count],
+                             psi_control=None if control is None else nominal.qacc[control:control + count],
+                             qd_measured=None if control is None else qd_meas[block_rows])
 
         observer = variant.observer_type(config.observer, n, dt, members=count)
         controller = variant.controller_type(config.controller, n, dt, members=count)
         controller.reset()
-        host_model = step_model(point)
+        host = point
         point += count
         monitors = []
         for monitor, monitor_config in zip(variant.monitors, config.monitors):
             monitors.append((monitor.name, monitor.observer_type(monitor_config, n, dt, members=count),
                              step_model(point)))
             point += count
+        host_model = step_model(host, point if measured[v] else None)
+        point += count * measured[v]
         blocks.append(VariantBlock(variant.name, block_rows, observer, controller, host_model, monitors,
                                    config.q_hat0, config.qd_hat0))
 
     terms = PlantTerms(scenario.terms, rows, n, per_row(members.parameters), list(spec.parameters))
     actuators = ActuatorFaults(scenario.actuator_faults, times, (rows, n)) if scenario.actuator_faults else None
     has_faults = actuators is not None or any(term.kind == "fault" for term in scenario.terms)
-    measures_velocity = scenario.measures_velocity
     position_sensor = velocity_sensor = None
     if scenario.position_sensor is not None:
         position_sensor = Measurement(scenario.position_sensor, times, _generators(members, randomness.POSITION_NOISE),
@@ -192,7 +200,6 @@ def _simulate(scenario: Scenario, members: Members, record_poses: bool, progress
     series = {name: np.full((steps, rows, n), np.nan) for name in SERIES}
     fault_active = np.zeros((steps, rows), dtype=bool)
     q_meas, q_read = np.zeros((rows, n)), np.zeros((rows, n))
-    qd_meas = np.zeros((rows, n)) if measures_velocity else None
     qd_read = np.zeros((rows, n))
     qd_measured = np.full((steps, rows, n), np.nan) if measures_velocity else None
     torque_space = scenario.diagnoser is not None and scenario.diagnoser.space == "torque"
@@ -255,6 +262,10 @@ def _simulate(scenario: Scenario, members: Members, record_poses: bool, progress
                     observer.measure(q_b, qd_b)
                     nominal.qpos[point:point + count] = observer.q_hat
                     nominal.qvel[point:point + count] = observer.qd_hat
+                    point += count
+                if block.model.qd_measured is not None:  # the controller's Psi at the readings
+                    nominal.qpos[point:point + count] = q_b
+                    nominal.qvel[point:point + count] = qd_b
                     point += count
             if not mass_from_plant:
                 nominal.qpos[mass_points] = q_meas

@@ -89,22 +89,41 @@ class StepModel:
 
     Attributes:
         M: M(x1) at the measured position, ``(members, n, n)``.
-        psi_hat: Psi at the observer's state estimate, Psi(x1_hat, x2_hat), ``(members, n)``.
+        psi_hat: Psi at the observer's state estimate, Psi(x1_hat, x2_hat), ``(members, n)``: what the
+            observers integrate.
+        psi_control: Psi at the state the controller uses. With a tachometer reading ``qd_measured`` (a robot
+            with tachometers whose chapter feeds the controller the measured velocity, Chapter 2: H(x) of (2.25),
+            (2.32)) it is Psi(x1, x2) at the readings; otherwise it is ``psi_hat`` itself (the same array).
+        qd_measured: the tachometer readings the controller uses, or None when it uses the estimate x2_hat.
     """
 
     def __init__(self, M: np.ndarray, factor: np.ndarray, diagonal_inverse: np.ndarray, psi_hat: np.ndarray,
-                 solver: SparseSolver):
+                 solver: SparseSolver, psi_control: np.ndarray | None = None,
+                 qd_measured: np.ndarray | None = None):
         self.M, self.psi_hat = M, psi_hat
+        self.psi_control = psi_hat if psi_control is None else psi_control
+        self.qd_measured = qd_measured
         self._factor, self._diagonal_inverse, self._solver = factor, diagonal_inverse, solver
         self._solution = np.zeros(psi_hat.shape)
 
     @classmethod
-    def evaluate(cls, nominal: NominalModel, q_meas: np.ndarray, q_hat: np.ndarray, qd_hat: np.ndarray) -> "StepModel":
-        """One member's quantities from a single-state :class:`NominalModel` (tests, studies)."""
-        psi = nominal.psi(np.asarray(q_hat, dtype=float).reshape(-1), np.asarray(qd_hat, dtype=float).reshape(-1))
-        M = nominal.mass_matrix(np.asarray(q_meas, dtype=float).reshape(-1))[None].copy()  # last: its factor stays
+    def evaluate(cls, nominal: NominalModel, q_meas: np.ndarray, q_hat: np.ndarray, qd_hat: np.ndarray,
+                 qd_meas: np.ndarray | None = None) -> "StepModel":
+        """One member's quantities from a single-state :class:`NominalModel` (tests, studies); with ``qd_meas``
+        the controller's Psi and velocity are the readings'."""
+        def row(x: np.ndarray) -> np.ndarray:
+            return np.asarray(x, dtype=float).reshape(-1)
+
+        psi = nominal.psi(row(q_hat), row(qd_hat))[None].copy()
+        psi_control = None if qd_meas is None else nominal.psi(row(q_meas), row(qd_meas))[None].copy()
+        M = nominal.mass_matrix(row(q_meas))[None].copy()  # last: its factorisation stays in the MjData
         data = nominal.data
-        return cls(M, data.qLD[None].copy(), data.qLDiagInv[None].copy(), psi[None].copy(), SparseSolver(nominal.model))
+        return cls(M, data.qLD[None].copy(), data.qLDiagInv[None].copy(), psi, SparseSolver(nominal.model),
+                   psi_control, None if qd_meas is None else row(qd_meas)[None])
+
+    def control_velocity(self, observer_qd_hat: np.ndarray) -> np.ndarray:
+        """The velocity x2 the controller uses: the tachometer reading or the observer's x2_hat."""
+        return observer_qd_hat if self.qd_measured is None else self.qd_measured
 
     def solve_M(self, vector: np.ndarray) -> np.ndarray:
         """M(x1)^-1 vector per member, as ``mj_solveM`` computes it. Returns an internal buffer (no allocation

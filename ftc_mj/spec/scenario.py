@@ -19,7 +19,7 @@ from __future__ import annotations
 import os
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Annotated, Any
+from typing import Annotated, Any, Literal
 
 import mujoco
 import numpy as np
@@ -59,10 +59,17 @@ def _plain_names(named: dict[str, Any], what: str) -> dict[str, Any]:
     return named
 
 
+#: Which velocity the controller uses (in e_dot and in Psi of its equivalent control): the tachometer reading
+#: or the observer's estimate x2_hat.
+ControllerVelocity = Literal["measured", "estimated"]
+
+
 class VariantSpec(Strict):
     observer: MethodSpec
     controller: MethodSpec
     observer_initial: ObserverInitial | None = None
+    #: Overrides the scenario's ``controller_velocity`` for this variant.
+    controller_velocity: ControllerVelocity | None = None
     #: Further observers that run beside ``observer`` on the same measurements and commands but feed nothing:
     #: an open-loop comparison of estimators on one closed-loop trajectory. Each is reported as the variant
     #: ``<variant>.<name>`` (its tracking metrics are the host's).
@@ -91,6 +98,9 @@ class ScenarioSpec(Strict):
     timestep: PositiveFloat | None = None
     initial: InitialState
     observer_initial: ObserverInitial = ObserverInitial()
+    #: The velocity the controllers use: ``measured`` (needs ``robot.sensors`` to list ``velocity``) or
+    #: ``estimated`` (the observer's x2_hat). Default: measured with tachometers, estimated without.
+    controller_velocity: ControllerVelocity | None = None
     reference: list[ExpressionText]
     terms: list[TermSpec] = []
     actuator_faults: list[ActuatorFaultSpec] = []
@@ -141,6 +151,8 @@ class Variant:
     q_hat0: np.ndarray | None
     qd_hat0: np.ndarray
     monitors: list[Monitor] = field(default_factory=list)
+    #: "measured" (the tachometer reading) or "estimated" (the observer's x2_hat): the controller's velocity.
+    controller_velocity: str = "estimated"
 
 
 @dataclass
@@ -295,6 +307,12 @@ def compile_scenario(path: Path, spec: ScenarioSpec) -> Scenario:
             missing = set(plugin.requires) - sensors
             if missing:
                 raise InputError(file, f"{field}.{kind}.type", f"{plugin.name} needs {', '.join(sorted(missing))} sensors, robot.sensors has {sorted(sensors)}")
+        velocity = variant.controller_velocity or spec.controller_velocity
+        if velocity is None:
+            velocity = "measured" if "velocity" in sensors else "estimated"
+        if velocity == "measured" and "velocity" not in sensors:
+            velocity_field = f"{field}.controller_velocity" if variant.controller_velocity else "controller_velocity"
+            raise InputError(file, velocity_field, "measured needs velocity sensors (robot.sensors)")
         initial = variant.observer_initial or spec.observer_initial
         initial_field = f"{field}.observer_initial" if variant.observer_initial else "observer_initial"
         variants.append(
@@ -307,6 +325,7 @@ def compile_scenario(path: Path, spec: ScenarioSpec) -> Scenario:
                 q_hat0=vector(initial.q_hat, f"{initial_field}.q_hat", default=None),
                 qd_hat0=vector(initial.qd_hat, f"{initial_field}.qd_hat"),
                 monitors=monitors,
+                controller_velocity=velocity,
             )
         )
 

@@ -325,3 +325,76 @@ def test_luaf_convergence_overshoot_and_accuracy_after_the_fault() -> None:
     assert m["rms_luaf_error_fault"][0] == pytest.approx(expected)
     assert m["rms_luaf_error_fault"][1] == 0.0
     assert np.isnan(compute_metrics(result, metrics_spec(), [])["rms_luaf_error_fault"]).all()
+
+
+def test_overshoot_is_how_far_the_estimate_goes_past_the_truth() -> None:
+    """One definition for every observer: the largest error of the sign opposite to the initial error in the
+    transient. Joint 1 converges from an initial error of 3 without crossing (its peak is its initial error:
+    no overshoot); joint 2 starts with error 1 and swings to -2.5 (an overshoot of 2.5)."""
+    luaf_true = np.ones((N, NJ))
+    luaf_hat = np.ones((N, NJ))
+    decay = np.exp(-T / 0.02)
+    luaf_hat[:, 0] = 1.0 - 3.0 * decay                                   # error 3 e^(-t/0.02) > 0
+    luaf_hat[:, 1] = 1.0 - decay + 3.5 * np.sin(np.pi * T / 0.1) * (T < 0.1)
+    m = compute_metrics(make_result(luaf_true=luaf_true, luaf_hat=luaf_hat), metrics_spec(), [])
+    assert m["luaf_overshoot"][0] == 0.0
+    assert m["peak_luaf_error_transient"][0] == pytest.approx(3.0)
+    assert m["luaf_overshoot"][1] == pytest.approx(3.5 - np.exp(-2.5), rel=1e-3)
+    # An estimate that starts exact (initial error 0): any departure counts.
+    exact = compute_metrics(make_result(luaf_true=luaf_true, luaf_hat=luaf_true + 0.3 * (T > 0.1)[:, None]),
+                            metrics_spec(), [])
+    np.testing.assert_allclose(exact["luaf_overshoot"], [0.3, 0.3])
+
+
+def test_first_and_for_good_reaching_times() -> None:
+    """Joint 1 reaches the surface at 0.25 s and is kicked off it at 0.75 s until 1 s: first 0.25 s, for good
+    1 s. Joint 2 never reaches it."""
+    sliding = np.zeros((N, NJ))
+    sliding[: index(0.25), 0] = 1.0
+    sliding[index(0.75) : index(1.0), 0] = 0.5
+    sliding[:, 1] = 0.2
+    m = compute_metrics(make_result(sliding=sliding), metrics_spec(sliding_tolerance=0.01), [])
+    assert m["first_reaching_time"][0] == 0.25 and m["reaching_time"][0] == 1.0
+    assert np.isnan(m["first_reaching_time"][1]) and np.isnan(m["reaching_time"][1])
+    # Only before the first fault: an entry after it does not count.
+    sliding[index(1.5) :, 1] = 0.0
+    m = compute_metrics(make_result(sliding=sliding), metrics_spec(sliding_tolerance=0.01), [1.25])
+    assert np.isnan(m["first_reaching_time"][1])
+
+
+def test_converged_window_starts_per_joint_at_its_own_convergence() -> None:
+    """window_start 0.5 s, fault_settle 0.25 s; joint 1 converges at 0.125 s (window from 0.5 s), joint 2
+    only at 1 s: its after-convergence metrics and chattering start at 1.25 s, not at 0.5 s."""
+    error = np.zeros((N, NJ))
+    error[: index(0.125), 0] = 0.5
+    error[: index(1.0), 1] = 0.02                          # outside the 0.01 tolerance until 1 s
+    error[index(1.0) : index(1.25), 1] = 0.008             # the terminal phase: inside, not yet steady
+    tau = np.zeros((N, NJ))
+    tau[: index(1.25) : 2, 1] = 1.0                        # joint 2 switches every other sample until 1.25 s
+    m = compute_metrics(make_result(error=error, tau=tau), metrics_spec(), [])
+    np.testing.assert_array_equal(m["convergence_time"], [0.125, 1.0])
+    np.testing.assert_array_equal(m["rms_error_converged"], [0.0, 0.0])
+    np.testing.assert_array_equal(m["max_error_converged"], [0.0, 0.0])
+    np.testing.assert_array_equal(m["chattering"], [0.0, 0.0])
+    # A later excursion that is no fault (a sensor effect) moves convergence_time but not the window.
+    error[index(1.75) : index(1.875), 1] = 0.05
+    m = compute_metrics(make_result(error=error), metrics_spec(), [])
+    assert m["convergence_time"][1] == 1.875
+    assert m["max_error_converged"][1] == pytest.approx(0.05)
+    # A joint that never converges keeps window_start: its error counts.
+    error[:, 1] = 0.02
+    m = compute_metrics(make_result(error=error), metrics_spec(), [])
+    assert np.isnan(m["convergence_time"][1]) and m["rms_error_converged"][1] == pytest.approx(0.02)
+
+
+def test_fault_peak_error_looks_at_the_fault_window_only() -> None:
+    """A spike 0.75 s after the onset is outside a 0.5 s fault window (but inside the next-onset span the
+    metric used before); recovery_time still spans up to the next onset."""
+    error = np.zeros((N, NJ))
+    error[index(0.5) + 10, :] = 0.004       # within the window: the response to the fault
+    error[index(1.25), :] = 0.3             # a spike far from the onset
+    m = compute_metrics(make_result(error=error), metrics_spec(fault_window=0.5), [0.5], np.array([0.5, 0.5]))
+    np.testing.assert_allclose(m["fault_peak_error"], [0.004, 0.004], rtol=1e-12)
+    np.testing.assert_array_equal(m["recovery_time"], [1.25 + DT - 0.5] * 2)
+    m = compute_metrics(make_result(error=error), metrics_spec(fault_window=1.0), [0.5], np.array([0.5, 0.5]))
+    np.testing.assert_allclose(m["fault_peak_error"], [0.3, 0.3], rtol=1e-12)

@@ -537,3 +537,39 @@ def test_monitors_become_columns_of_the_run(tmp_path: Path) -> None:
     spec["variants"]["second"] = copy.deepcopy(PROPOSED)
     results = run_scenario(load_scenario(write_scenario(tmp_path, spec)))
     assert [r.name for r in results] == ["proposed", "proposed.tosmo", "second"]
+
+
+# ------------------------------------------------------------------------------ controller velocity
+
+TWO_LINK = ROOT / "models" / "two_link.xml"
+
+
+def test_controller_velocity_is_the_scenarios_choice_not_the_observers(tmp_path: Path) -> None:
+    """2-link arm with tachometers, an NFTSMC that compensates nothing, fed by a SOSMO or an ESO started
+    0.5 rad/s off. On measured velocity the controller reads nothing from its observer, so the two loops give
+    the same torques bit for bit; on the estimated velocity they differ from the first period on."""
+    controller = {"type": "nftsmc", "gains": {"beta1": 14.0, "beta2": 10.0, "beta3": 10.0, "beta4": 5.0,
+                                              "gamma1": 0.5, "bound": 16.0, "mu": 0.1, "compensation": "none"}}
+    spec = scenario_dict(
+        robot={"model": str(TWO_LINK), "sensors": ["position", "velocity"]},
+        duration=0.3,
+        initial={"q": [0.0, 0.0]},
+        observer_initial={"qd_hat": [0.5, 0.5]},
+        reference=["1.05*cos(pi*t/6) - 1", "1.2*sin(pi*t/7 + pi/2) - 1"],
+        variants={
+            "sosmo": {"observer": {"type": "sosmo", "gains": {"L": 30.0, "filter_time_constant": 0.01}},
+                      "controller": controller},
+            "eso": {"observer": {"type": "eso", "gains": {"bandwidth": 40.0}}, "controller": controller},
+        },
+    )
+    scenario = load_scenario(write_scenario(tmp_path, spec))
+    assert [v.controller_velocity for v in scenario.variants] == ["measured", "measured"]
+    sosmo, eso = (simulate_variant(scenario, v) for v in scenario.variants)
+    np.testing.assert_array_equal(sosmo.tau, eso.tau)
+    assert np.abs(sosmo.qd_hat - eso.qd_hat).max() > 1e-2  # the observers themselves differ
+    # The first command: e_dot from the tachometer (0 - qd_ref(0)), not from qd_hat(0) = 0.5.
+    spec["controller_velocity"] = "estimated"
+    scenario = load_scenario(write_scenario(tmp_path, spec))
+    sosmo_est, eso_est = (simulate_variant(scenario, v) for v in scenario.variants)
+    assert np.abs(sosmo_est.tau - eso_est.tau).max() > 1.0
+    assert np.abs(sosmo_est.tau[0] - sosmo.tau[0]).max() > 1.0

@@ -18,18 +18,22 @@ def metrics(tmp_path_factory: pytest.TempPathFactory) -> Metrics:
 
 def test_tosmo_estimates_more_accurately_than_sosmo(metrics: Metrics) -> None:
     tosmo, sosmo = metrics["proposed"], metrics["nftsmc_sosmo"]
-    # Velocity 2.4e-4 / 3.4e-4 / 0.015 against 6.4e-3 / 6.3e-3 / 0.13 rad/s; LUaF 0.032 / 0.032 / 0.23 against
-    # 0.55 / 0.56 / 0.64 rad/s^2; velocity convergence 0.86 / 0.61 / 0.75 s against 0.07 s.
-    assert np.all(5 * tosmo["rms_velocity_error"] < sosmo["rms_velocity_error"])
+    # SOSMO with L = 11 (bounds the LUaF). Velocity 2.4e-4 / 3.4e-4 / 0.015 against 7.6e-3 / 7.4e-3 / 9.5e-3
+    # rad/s; LUaF 0.032 / 0.032 / 0.23 against 0.67 / 0.68 / 0.70 rad/s^2; velocity convergence 0.86 / 0.61 /
+    # 0.75 s against 0.053 / 0.052 / 3.1 s. Joint 3 (where the TOSMO loses its sliding mode during the
+    # disturbance) is the exception for velocity: partly.
+    arm = slice(0, 2)
+    assert np.all(5 * tosmo["rms_velocity_error"][arm] < sosmo["rms_velocity_error"][arm])
+    assert sosmo["rms_velocity_error"][2] < tosmo["rms_velocity_error"][2]
     assert np.all(2 * tosmo["rms_luaf_error"] < sosmo["rms_luaf_error"])
-    assert np.all(tosmo["observer_convergence_time"] > 3 * sosmo["observer_convergence_time"])
+    assert np.all(tosmo["observer_convergence_time"][arm] > 3 * sosmo["observer_convergence_time"][arm])
 
 
 def test_proposed_beats_appendix_b_and_c_and_matches_appendix_d(metrics: Metrics) -> None:
     proposed = metrics["proposed"]
-    # Joints 1-2 RMS error after convergence 2.4e-6 / 4.2e-6 rad against B 2.3e-4 / 2.1e-4, C 2.4e-4 / 1.8e-4,
-    # D 3.1e-6 / 3.9e-6. Chattering 7.8e3 / 1.1e4 / 2.6e3 against B 3.0e5 / 4.3e5 / 8.4e4, C 6.2e4 / 8.8e4 /
-    # 1.6e4, D 6.9e3 / 9.7e3 / 1.9e3 N m/s.
+    # Joints 1-2 RMS error after convergence 2.4e-6 / 4.2e-6 rad against B 2.3e-4 / 2.1e-4, C 2.4e-4 / 1.9e-4,
+    # D 3.1e-6 / 3.9e-6 (joint 3: C 6.4e-4 beats the proposed 2.9e-3: partly). Chattering 7.8e3 / 1.1e4 / 2.6e3
+    # against B 3.0e5 / 4.3e5 / 8.4e4, C 7.7e4 / 1.1e5 / 2.1e4, D 6.9e3 / 9.7e3 / 1.9e3 N m/s.
     arm = slice(0, 2)
     assert np.all(proposed["rms_error_converged"][arm] < 1.5e-5)
     for comparator in ("nftsmc", "nftsmc_sosmo"):

@@ -199,3 +199,22 @@ def test_sparse_solver_is_mj_solveM_bit_for_bit(model):
     out = np.zeros((rows, 3))
     SparseSolver(model).solve(np.array(factors), np.array(diagonals), v, out)
     np.testing.assert_array_equal(out, np.array(expected))
+
+
+def test_step_model_on_measured_velocity_evaluates_the_controllers_psi_at_the_readings(model):
+    """With a tachometer reading the controller's Psi is Psi(q_meas, qd_meas) and its velocity the reading; the
+    observers' psi_hat stays at (q_hat, qd_hat). Without it the controller's Psi is psi_hat itself."""
+    rng = np.random.default_rng(7)
+    q_meas, q_hat = rng.uniform(-np.pi, np.pi, 3), rng.uniform(-np.pi, np.pi, 3)
+    qd_meas, qd_hat = rng.uniform(-2.0, 2.0, 3), rng.uniform(-2.0, 2.0, 3)
+    measured = StepModel.evaluate(NominalModel(model), q_meas, q_hat, qd_hat, qd_meas)
+    M_hat, bias_hat = reference_dynamics(model, q_hat, qd_hat)
+    M_meas, bias_meas = reference_dynamics(model, q_meas, qd_meas)
+    np.testing.assert_allclose(measured.psi_hat[0], -np.linalg.solve(M_hat, bias_hat), rtol=0, atol=1e-10)
+    np.testing.assert_allclose(measured.psi_control[0], -np.linalg.solve(M_meas, bias_meas), rtol=0, atol=1e-10)
+    assert np.abs(measured.psi_control - measured.psi_hat).max() > 1e-2
+    np.testing.assert_array_equal(measured.control_velocity(qd_hat[None]), qd_meas[None])
+    np.testing.assert_allclose(measured.M[0], M_meas, rtol=0, atol=1e-10)  # M(x1) kept for solve_M
+    estimated = StepModel.evaluate(NominalModel(model), q_meas, q_hat, qd_hat)
+    assert estimated.psi_control is estimated.psi_hat
+    assert estimated.control_velocity(qd_hat) is qd_hat

@@ -709,3 +709,33 @@ def test_regression_top_level_observer_initial_error_names_its_own_field(tmp_pat
     path = write(tmp_path, mutate(base_dict(), "observer_initial.qd_hat", [0.5, 0.5]))
     error = load_error(path)
     assert error.field == "observer_initial.qd_hat"
+
+
+# ------------------------------------------------------------------------------ controller velocity
+
+
+def test_controller_velocity_defaults_to_what_the_robot_measures(tmp_path):
+    """Without tachometers the controller uses the estimate; with them the measured velocity; a variant may
+    override the scenario's choice."""
+    base = base_dict()
+    variant = next(iter(base["variants"]))
+    assert {v.controller_velocity for v in load_scenario(write(tmp_path, base)).variants} == {"estimated"}
+    tach = mutate(base_dict(), "robot.sensors", ["position", "velocity"])
+    assert {v.controller_velocity for v in load_scenario(write(tmp_path, tach)).variants} == {"measured"}
+    chosen = mutate(tach, "controller_velocity", "estimated")
+    assert {v.controller_velocity for v in load_scenario(write(tmp_path, chosen)).variants} == {"estimated"}
+    overridden = mutate(chosen, f"variants.{variant}.controller_velocity", "measured")
+    loaded = {v.name: v.controller_velocity for v in load_scenario(write(tmp_path, overridden)).variants}
+    assert loaded[variant] == "measured"
+
+
+def test_measured_controller_velocity_needs_tachometers(tmp_path):
+    base = base_dict()
+    variant = next(iter(base["variants"]))
+    for field in ("controller_velocity", f"variants.{variant}.controller_velocity"):
+        path = write(tmp_path, mutate(base_dict(), field, "measured"))
+        error = load_error(path)
+        assert_names(error, path, field)
+        assert "velocity sensors" in error.problem
+    path = write(tmp_path, mutate(base_dict(), "controller_velocity", "tachometer"))
+    assert_names(load_error(path), path, "controller_velocity")

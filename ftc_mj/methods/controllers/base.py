@@ -19,7 +19,10 @@ law                    surface                                     compensation 
 =====================  ==========================================  ==================  =====================
 
 The printed laws write M(x) or g(x_hat)^-1 and Psi(x); we use M at the measured position (M depends only on
-x1, which is measured) and Psi at the observer's state (the measured state where the robot has tachometers).
+x1, which is measured). The velocity in e_dot and in Psi is the scenario's explicit choice
+(``controller_velocity``): the tachometer reading where the robot has tachometers and the chapter feeds the
+controller measured states (Chapter 2: (2.22)-(2.35) are written on x2), else the observer's x2_hat
+(Chapters 3-5, positions only). It does not depend on which observer is plugged in.
 
 A controller sees the reference, the measured positions, the observer's estimates and the nominal model;
 never MjData. The math runs over arrays whose last axis is the joint.
@@ -99,7 +102,8 @@ class SlidingModeController(Controller):
     @abstractmethod
     def surface(self, t: float, e: np.ndarray, e_dot: np.ndarray) -> np.ndarray:
         """Update ``self.sliding`` from the tracking errors and return the surface's terms in u_eq
-        (the part of ds/dt that is not e_ddot). ``e_dot`` is the observer's velocity minus the reference's."""
+        (the part of ds/dt that is not e_ddot). ``e_dot`` is the controller's velocity (measured or the
+        observer's estimate, see the module docstring) minus the reference's."""
 
     def switching_gain(self) -> np.ndarray:
         """The gain K of the switching law K sign(s), called once per period after :meth:`surface`."""
@@ -117,9 +121,11 @@ class SlidingModeController(Controller):
 
     def compute(self, t, q_ref, qd_ref, qdd_ref, q_meas, observer, model):
         e = q_meas - q_ref
-        e_dot = observer.qd_hat - qd_ref
+        # x2: the tachometer reading where the scenario feeds the controller measured velocity (Chapter 2),
+        # else the observer's x2_hat; Psi at the same state (StepModel.psi_control).
+        e_dot = model.control_velocity(observer.qd_hat) - qd_ref
         surface_terms = self.surface(t, e, e_dot)
-        u_eq = model.psi_hat + surface_terms - qdd_ref
+        u_eq = model.psi_control + surface_terms - qdd_ref
         u = u_eq + self.observer_compensation(observer) + self.switching()
         model.apply_M(u, out=self.tau)
         np.negative(self.tau, out=self.tau)

@@ -21,7 +21,14 @@ measured; we use e_hat, as the surface does.
 
 ``compensation: injection`` gives the proposed law (3.27): gamma2 |x1~|^(1/3) sign(x1~) + integral gamma3
 sign(x1~), the TOSMO's whole injection. ``compensation: estimate`` drops the gamma2 term: the
-after-convergence law (3.36). The factor |e|^(alpha - 1) is unbounded at e = 0; there it is set to 0.
+after-convergence law (3.36).
+
+The law as printed has a singular term: e_hat b(e) alpha |e|^(alpha - 1) in u_eq grows without bound as
+e -> 0 (alpha = 0.6 < 1), however small e_hat is. In a sampled loop that has converged, e crosses 0 between
+samples; a sample that lands very close to it (|e| about 1e-11 rad) gives a torque spike of tens of N m that
+kicks s off the surface. It is a property of (3.27)/(3.36) themselves, not a numerical accident: the term is
+recorded every period as the signal ``terminal_slope_term`` [rad/s^2] so that its size and frequency can be
+measured (``studies/sigmoid_spikes.py``). At e = 0 exactly the factor is set to 0.
 """
 
 from __future__ import annotations
@@ -66,6 +73,13 @@ class SigmoidNFTSMC(SlidingModeController):
     def __init__(self, config: SigmoidNFTSMCConfig, n_joints: int, dt: float, members: int | None = None):
         super().__init__(config, n_joints, dt, members)
         self.phi = config.phi()
+        #: e_hat b(e) alpha |e|^(alpha - 1) of this period, the singular part of u_eq (see the module docstring).
+        self.terminal_slope_term = np.zeros(self.shape)
+        self.signals["terminal_slope_term"] = self.terminal_slope_term
+
+    def reset(self) -> None:
+        super().reset()
+        self.terminal_slope_term[...] = 0.0
 
     def surface(self, t: float, e: np.ndarray, e_dot: np.ndarray) -> np.ndarray:
         c = self.config
@@ -79,10 +93,12 @@ class SigmoidNFTSMC(SlidingModeController):
         nonzero = magnitude > 0.0
         # |e|^(alpha - 1), set to 0 at e = 0 (unbounded there); computed on a safe copy to avoid 0^(negative).
         steep = np.where(nonzero, np.where(nonzero, magnitude, 1.0) ** (c.alpha - 1.0), 0.0)
+        singular = b * c.alpha * steep
         slope = (
             a
             + 2.0 * c.kappa1 * c.mu1 * magnitude * e1 / (1.0 + e1) ** 2
-            + b * c.alpha * steep
+            + singular
             - 2.0 * c.kappa2 * c.mu2 * e2 / (1.0 + e2) ** 2 * terminal
         )
+        np.multiply(e_dot, singular, out=self.terminal_slope_term)
         return e_dot * slope

@@ -9,7 +9,8 @@ dissertation gives none). The controller can compensate either the raw injection
 
 Gains: Appendix A prints k1 = 2.12 L^(2/3), k2 = 1.1 L, which is dimensionally inconsistent for a
 super-twisting observer (k1 must scale as L^(1/2)); we use Levant's k1 = 1.5 L^(1/2), k2 = 1.1 L unless k1 and
-k2 are given explicitly. The M(x1)^-1 u term uses the measured position, as in (5.6), for all Chapter 5
+k2 are given explicitly. L must bound the perturbation of the error dynamics, i.e. the LUaF itself (it enters
+dx2_tilde/dt directly), not its rate: the scenarios take the measured max |LUaF| rounded up. The M(x1)^-1 u term uses the measured position, as in (5.6), for all Chapter 5
 observers alike.
 """
 

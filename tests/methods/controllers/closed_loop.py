@@ -22,14 +22,16 @@ MASS = 2.0
 
 
 def fake_step(M, psi_hat=None) -> SimpleNamespace:
-    """What a controller reads from a StepModel: ``M``, ``psi_hat`` (zero unless given) and ``apply_M``."""
+    """What a controller reads from a StepModel on estimated velocity: ``M``, ``psi_control`` (= ``psi_hat``,
+    zero unless given), ``control_velocity`` (the observer's x2_hat) and ``apply_M``."""
     M = np.asarray(M, dtype=float)
+    psi = np.zeros(len(M)) if psi_hat is None else np.asarray(psi_hat, dtype=float)
 
     def apply_M(v, out):
         out[...] = (M @ np.asarray(v, dtype=float).T).T
         return out
 
-    return SimpleNamespace(M=M, psi_hat=np.zeros(len(M)) if psi_hat is None else np.asarray(psi_hat, dtype=float),
+    return SimpleNamespace(M=M, psi_hat=psi, psi_control=psi, control_velocity=lambda qd_hat: qd_hat,
                            apply_M=apply_M)
 
 
@@ -68,7 +70,7 @@ class Period:
 
     def expected(self, terms, K, s):
         """tau = -M (Psi + terms - xdd_d + u_c + K sign(s)), the frame of every law."""
-        return -self.M @ (self.step.psi_hat + terms - self.qdd_ref + self.u_c + K * np.sign(s))
+        return -self.M @ (self.step.psi_control + terms - self.qdd_ref + self.u_c + K * np.sign(s))
 
 
 def d(t):

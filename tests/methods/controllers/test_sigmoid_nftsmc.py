@@ -145,3 +145,19 @@ def test_reaching_law_and_tracking():
     rms = settled(run, 1.5)
     assert rms["e"] < 2e-6  # measured RMS from 1.5 s: 7.0e-7 rad (finite-time convergence of the terminal part)
     assert rms["e_dot"] < 1.5e-3  # measured 6.1e-4 rad/s
+
+
+def test_terminal_slope_term_is_recorded_and_unbounded_near_zero():
+    """The signal ``terminal_slope_term`` is e_hat b(e) alpha |e|^(alpha - 1) of this period; for the same
+    e_hat it grows as |e|^(alpha - 1) when e -> 0 (1e-11 rad: 1.6e3 x the value at 1e-3 rad), 0 at e = 0."""
+    controller = make(SigmoidNFTSMC, 5, **GAINS)
+    e_dot = np.full(5, 0.01)
+    controller.surface(0.0, POINTS, e_dot)
+    _, b, _, _ = sigmoids(POINTS)
+    expected = e_dot * b * GAINS["alpha"] * np.abs(POINTS) ** (GAINS["alpha"] - 1)
+    np.testing.assert_allclose(controller.signals["terminal_slope_term"], expected, rtol=1e-12)
+    near = np.array([1e-3, 1e-7, 1e-11, -1e-11, 0.0])
+    controller.surface(0.0, near, e_dot)
+    term = controller.terminal_slope_term
+    np.testing.assert_allclose(term[2] / term[0], (1e-11 / 1e-3) ** (GAINS["alpha"] - 1), rtol=1e-3)
+    assert term[2] > 100.0 and term[3] == term[2] and term[4] == 0.0
