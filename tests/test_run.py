@@ -148,6 +148,15 @@ BAD_INPUT_IN_PROCESS = {
     "json_is_a_directory": Case(REFERENCE, ["--json", "existing_dir", "--out", "rec.rrd"], "--json",
                                 make_dirs=("existing_dir",)),
     "missing_scenario_file": Case(None, OUTPUTS, None),
+    # Runs that ask for the impossible: refused before anything is allocated, not a MemoryError or a hang.
+    "duration_beyond_memory": Case(REFERENCE, ["--duration", "1e9", *OUTPUTS], "duration"),
+    "duration_series_beyond_memory": Case(REFERENCE, ["--duration", "1e5", *OUTPUTS], "duration"),
+    "timestep_far_below_control_dt": Case(REFERENCE, ["--set", "timestep=1e-12", *OUTPUTS], "timestep"),
+    "control_dt_tiny": Case(REFERENCE, ["--set", "control_dt=1e-12", "--set", "timestep=1e-12", *OUTPUTS],
+                            "duration"),
+    "delay_longer_than_the_run": Case(REFERENCE, ["--duration", "0.05", "--set",
+                                                  "sensors.position.delay_samples=1000000000", *OUTPUTS],
+                                      "sensors.position.delay_samples"),
 }
 
 GOOD = {
@@ -343,6 +352,19 @@ def test_diverging_variant_exits_1(outcomes):
         assert variants[name]["diverged_at"] is None, name
     assert "diverged at" in outcome.stdout
     assert not (outcome.cwd / "rec.rrd").exists()  # --no-record
+    assert "diverged: variant 'proposed' at t = " in outcome.stderr  # exit 1 says which and when
+
+
+@pytest.mark.parametrize("override", ["initial.q.0=1e300", "initial.q.0=1e6"])
+def test_impossible_initial_state_diverges_at_once_and_says_so_even_quiet(tmp_path, monkeypatch, capsys, override):
+    """MuJoCo would reset such a state to the model's and run on; here it is a divergence at t = 0, reported
+    on stderr with --quiet too (exit 1 never passes silently)."""
+    outcome = run_in_process(tmp_path, Case(REFERENCE, [*SHORT, "--quiet", "--variant", "proposed", "--set",
+                                                        override, "--json", "out.json", "--no-record"]),
+                             monkeypatch, capsys)
+    assert outcome.returncode == 1
+    assert outcome.lines == ["diverged: variant 'proposed' at t = 0 s"]
+    assert outcome.json()["variants"]["proposed"]["status"] == "diverged"
 
 
 # ------------------------------------------------------------------------------------ --quiet, --variant

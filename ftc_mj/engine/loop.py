@@ -376,6 +376,8 @@ def _rest(nominal: NominalBatch, alive: np.ndarray, stopped_before: np.ndarray, 
     psi_stopped = np.concatenate([np.tile(stopped[v * count:(v + 1) * count], e) for v, e in enumerate(estimators)])
     for points, mask in ((slice(0, len(psi_stopped)), psi_stopped), (mass_points, stopped),
                          (truth_points, stopped_before)):
+        if points.stop == points.start:  # no such points (M and the truth from the plant)
+            continue
         nominal.qpos[points][mask] = 0.0
         nominal.qvel[points][mask] = 0.0
         nominal.applied[points][mask] = 0.0

@@ -290,6 +290,10 @@ def compile_scenario(path: Path, spec: ScenarioSpec) -> Scenario:
     if spec.sensors.velocity is not None and "velocity" not in spec.robot.sensors:
         raise InputError(file, "sensors.velocity", "the robot has no velocity sensors (robot.sensors)")
     velocity_sensor = compile_channel(spec.sensors.velocity, file, "sensors.velocity", model)
+    for name, channel in (("position", position_sensor), ("velocity", velocity_sensor)):
+        if channel is not None and channel.delay_samples >= len(times):  # its history would outgrow the run
+            raise InputError(file, f"sensors.{name}.delay_samples", f"{channel.delay_samples} is not shorter than "
+                             f"the run ({len(times)} control periods)")
 
     sensors = set(spec.robot.sensors) | {"position"}
     variants = []
