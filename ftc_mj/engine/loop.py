@@ -71,6 +71,8 @@ class BatchRun:
     members: int
     variants: list[str]
     series: dict[str, np.ndarray]
+    #: q_d, its first and second derivatives: ``(steps, n)``, or ``(steps, members, n)`` with parameters.
+    reference: tuple[np.ndarray, np.ndarray, np.ndarray]
     #: Per variant: monitor name -> {"qd_hat", "luaf_hat", "luaf_torque"} series ``(steps, members, n)``.
     monitor_series: dict[str, dict[str, dict[str, np.ndarray]]]
     #: Plugin signals per variant: name -> ``(steps, members, n)``.
@@ -196,7 +198,8 @@ def _simulate(scenario: Scenario, members: Members, record_poses: bool, progress
         velocity_sensor = Measurement(scenario.velocity_sensor, times, _generators(members, randomness.VELOCITY_NOISE),
                                       len(variants))
 
-    q_ref, qd_ref, qdd_ref = scenario.reference.evaluate(times)
+    # (N, n), or (N, members, n) where the reference uses parameters: every variant's block follows its members'.
+    q_ref, qd_ref, qdd_ref = scenario.reference.evaluate(times, members.parameters if spec.parameters else None)
     series = {name: np.full((steps, rows, n), np.nan) for name in SERIES}
     fault_active = np.zeros((steps, rows), dtype=bool)
     q_meas, q_read = np.zeros((rows, n)), np.zeros((rows, n))
@@ -363,6 +366,7 @@ def _simulate(scenario: Scenario, members: Members, record_poses: bool, progress
             for values in name_series.values():
                 _cut(values, block_done)
     return BatchRun(times=times, members=count, variants=[b.name for b in blocks], series=series,
+                    reference=(q_ref, qd_ref, qdd_ref),
                     monitor_series=monitor_series, extras=extras, fault_active=fault_active,
                     qd_measured=qd_measured, luaf_torque=luaf_torque, body_xpos=body_xpos, body_xquat=body_xquat,
                     done=done, diverged_at=diverged_at)

@@ -123,7 +123,7 @@ def variant_result(scenario: Scenario, run: BatchRun, v: int, m: int, poses: boo
     def of_row(values: np.ndarray | None) -> np.ndarray | None:
         return None if values is None else values[kept, row]
 
-    q_ref, qd_ref, qdd_ref = scenario.reference.evaluate(run.times[kept])
+    q_ref, qd_ref, qdd_ref = (series[kept] if series.ndim == 2 else series[kept, m] for series in run.reference)
     result = VariantResult(
         name=variant.name,
         observer=variant.observer_type.name,

@@ -167,25 +167,36 @@ def _without_impulses(expr: sp.Expr) -> sp.Expr:
 
 
 class TimeFunctions:
-    """Several expressions of ``t`` with their exact first and second derivatives, compiled once.
+    """Several expressions of ``t`` (and of named parameters) with their exact first and second time
+    derivatives, compiled once.
 
-    Evaluated on a whole time grid at once (the reference is known in advance).
+    Evaluated on a whole time grid at once (the reference is known in advance): ``(len(times), k)`` arrays, or,
+    with one row of parameter values per member, ``(len(times), members, k)``.
     """
 
-    def __init__(self, exprs: Sequence[sp.Expr]):
+    def __init__(self, exprs: Sequence[sp.Expr], parameters: Sequence[str] = ()):
         t = symbol("t")
         self.exprs = list(exprs)
+        self.parameters = list(parameters)
         self.first = [_without_impulses(sp.diff(e, t)) for e in self.exprs]
         self.second = [_without_impulses(sp.diff(e, t)) for e in self.first]
-        self._funcs = [sp.lambdify(t, group, modules="numpy") for group in (self.exprs, self.first, self.second)]
+        arguments = [t] + [symbol(name) for name in self.parameters]
+        self._funcs = [sp.lambdify(arguments, group, modules="numpy") for group in (self.exprs, self.first, self.second)]
 
-    def evaluate(self, times: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        """Values, first and second derivatives on ``times``: three arrays of shape ``(len(times), k)``."""
+    def evaluate(self, times: np.ndarray, parameters: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """Values, first and second derivatives on ``times``: three ``(len(times), k)`` arrays; with
+        ``parameters`` ``(members, p)``, three ``(len(times), members, k)`` arrays."""
         times = np.asarray(times, dtype=float)
+        if parameters is None:
+            grid, columns = times, ()
+        else:
+            parameters = np.asarray(parameters, dtype=float)
+            grid = times[:, None] * np.ones(len(parameters))  # (N, members)
+            columns = tuple(parameters.T)  # each (members,), broadcast against the grid
         out = []
         for func in self._funcs:
-            columns = [np.broadcast_to(np.asarray(v, dtype=float), times.shape) for v in func(times)]
-            out.append(np.stack(columns, axis=-1) if columns else np.zeros(times.shape + (0,)))
+            values = [np.broadcast_to(np.asarray(v, dtype=float), grid.shape) for v in func(grid, *columns)]
+            out.append(np.stack(values, axis=-1) if values else np.zeros(grid.shape + (0,)))
         return out[0], out[1], out[2]
 
 

@@ -279,7 +279,8 @@ def compile_scenario(path: Path, spec: ScenarioSpec) -> Scenario:
     if len(spec.reference) != n:
         raise InputError(file, "reference", f"has {len(spec.reference)} values, the robot has {n} joints")
     reference = expressions.TimeFunctions(
-        [parse_expression(text, ["t"], file, f"reference.{i}") for i, text in enumerate(spec.reference)]
+        [parse_expression(text, ["t", *spec.parameters], file, f"reference.{i}") for i, text in enumerate(spec.reference)],
+        list(spec.parameters),
     )
 
     terms = compile_terms(spec.terms, file, n, list(spec.parameters))

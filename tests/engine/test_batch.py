@@ -47,7 +47,7 @@ MEMBERS = [
     {},
     {"seed": 11, "parameters.fault_scale": 0.5, "variants.hs_nftsmc.controller.gains.mu": 2.0,
      "variants.eso_smc.observer.gains.bandwidth": 40.0, "variants.hs_nftsmc.monitors.eso.gains.bandwidth": 90.0},
-    {"nominal.mass_scale": 1.2, "plant.mass_scale": 0.9, "variants.do_adaptive.controller.gains.rho": [1.0, 2.0, 3.0],
+    {"nominal.mass_scale": 1.2, "plant.mass_scale": 0.9, "parameters.amplitude": 0.5, "variants.do_adaptive.controller.gains.rho": [1.0, 2.0, 3.0],
      "variants.tosmo_sigmoid.observer.gains.D": 30.0, "initial.q": [-0.4, -0.6, -0.5]},
     {"initial.qd.1": 5000.0},
     {"seed": 7, "variants.sosmo_ntsmc.controller.gains.decay": 1.1},
@@ -64,8 +64,8 @@ def scenario_dict() -> dict:
         "timestep": 5e-4,
         "initial": {"q": [-0.5, -0.5, -0.5], "qd": [0.0, 0.0, 0.0]},
         "observer_initial": {"qd_hat": [0.5, 0.5, 0.5]},
-        "parameters": {"fault_scale": 1.0},
-        "reference": ["cos(pi*t/5) - 1", "sin(pi*t/5 + pi/2) - 1", "0.3*sin(2*t) - 0.5"],
+        "parameters": {"fault_scale": 1.0, "amplitude": 0.0},
+        "reference": ["cos(pi*t/5) - 1", "sin(pi*t/5 + pi/2) - 1", "0.3*sin(2*t) - 0.5 + amplitude*t**2"],
         "terms": [
             {"kind": "friction", "space": "torque", "sign": -1, "value": ["1.9*sin(qd1)", "2.03*sin(qd2)", "1.76*sin(qd3)"]},
             {"kind": "fault", "space": "acceleration", "sign": 1, "onset": 0.1, "rate": 20.0,
@@ -94,7 +94,7 @@ def batch_run(scenario):
     return simulate(scenario, members_from_overrides(scenario, MEMBERS), nthread=2)
 
 
-SERIES = ("q_meas", "q_true", "qd_true", "qdd_true", "qd_hat", "luaf_hat", "luaf_true", "tau", "sliding", "fault",
+SERIES = ("q_ref", "qd_ref", "qdd_ref", "q_meas", "q_true", "qd_true", "qdd_true", "qd_hat", "luaf_hat", "luaf_true", "tau", "sliding", "fault",
           "tau_delivered", "fault_torque", "fault_acceleration", "qd_meas")
 
 
@@ -204,3 +204,14 @@ def test_the_plants_own_mass_matrix_is_the_nominal_one(tmp_path, monkeypatch):
     general = simulate(scenario, replicates(scenario, 2))
     for name, values in shortcut.series.items():
         np.testing.assert_array_equal(values, general.series[name], err_msg=name)
+
+
+def test_a_member_follows_its_own_parameterised_reference(scenario, batch_run):
+    """Parameters reach the reference too: member 2's joint 3 follows 0.3 sin 2t - 0.5 + 0.5 t^2, with its exact
+    derivatives; the others the scenario's."""
+    t = scenario.times
+    plain, shifted = variant_result(scenario, batch_run, 0, 0), variant_result(scenario, batch_run, 0, 2)
+    np.testing.assert_allclose(shifted.q_ref[:, 2] - plain.q_ref[:, 2], 0.5 * t**2, rtol=0, atol=1e-12)
+    np.testing.assert_allclose(shifted.qd_ref[:, 2] - plain.qd_ref[:, 2], t, rtol=0, atol=1e-12)
+    np.testing.assert_allclose(shifted.qdd_ref[:, 2] - plain.qdd_ref[:, 2], 1.0, rtol=0, atol=1e-12)
+    np.testing.assert_array_equal(shifted.q_ref[:, :2], plain.q_ref[:, :2])
