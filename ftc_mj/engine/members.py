@@ -33,7 +33,7 @@ from ftc_mj.methods.gains import GainConfig, stack
 from ftc_mj.methods.registry import compile_method, controller_types, observer_types
 from ftc_mj.spec.errors import InputError, validation_error
 from ftc_mj.spec.loading import set_path
-from ftc_mj.spec.scenario import Scenario, ScenarioSpec
+from ftc_mj.spec.scenario import Scenario, ScenarioSpec, joint_values
 
 
 @dataclass
@@ -140,11 +140,7 @@ def _values(scenario: Scenario, spec: ScenarioSpec) -> Members:
     file, n = str(scenario.path), scenario.n_joints
 
     def vector(values: list[float] | None, field: str, default: float | None = 0.0) -> np.ndarray | None:
-        if values is None:
-            return None if default is None else np.full(n, default)
-        if len(values) != n:
-            raise InputError(file, field, f"has {len(values)} values, the robot has {n} joints")
-        return np.asarray(values, dtype=float)
+        return joint_values(values, n, file, field, default)
 
     variants = []
     for variant in scenario.variants:

@@ -242,6 +242,17 @@ def _check_run_size(spec: ScenarioSpec, n: int, file: str) -> None:
                          f"{machine_memory() / 2**30:.3g} GiB (shorten the run or lengthen control_dt)")
 
 
+def joint_values(values: list[float] | None, n: int, file: str, field: str,
+                 default: float | None = 0.0) -> np.ndarray | None:
+    """A state field with one value per joint (``initial.q``, ``observer_initial.qd_hat``, ...); ``default`` for
+    every joint when absent (None: stays None)."""
+    if values is None:
+        return None if default is None else np.full(n, default)
+    if len(values) != n:
+        raise InputError(file, field, f"has {len(values)} values, the robot has {n} joints")
+    return np.asarray(values, dtype=float)
+
+
 def time_grid(duration: float, control_dt: float) -> np.ndarray:
     """The control instants k * control_dt of a run of ``duration``."""
     return np.arange(int(round(duration / control_dt))) * control_dt
@@ -267,11 +278,7 @@ def compile_scenario(path: Path, spec: ScenarioSpec) -> Scenario:
     _check_run_size(spec, n, file)
 
     def vector(values: list[float] | None, field: str, default: float | None = 0.0) -> np.ndarray | None:
-        if values is None:
-            return None if default is None else np.full(n, default)
-        if len(values) != n:
-            raise InputError(file, field, f"has {len(values)} values, the robot has {n} joints")
-        return np.asarray(values, dtype=float)
+        return joint_values(values, n, file, field, default)
 
     q0 = vector(spec.initial.q, "initial.q")
     qd0 = vector(spec.initial.qd, "initial.qd")
