@@ -26,6 +26,7 @@ from __future__ import annotations
 import os
 from collections.abc import Callable
 from dataclasses import dataclass
+from functools import cached_property
 
 import mujoco
 import numpy as np
@@ -61,6 +62,11 @@ class VariantBlock:
     monitors: list[tuple[str, Observer, StepModel]]
     q_hat0: np.ndarray | None
     qd_hat0: np.ndarray
+
+    @cached_property
+    def estimators(self) -> list[Observer]:
+        """The variant's observer and its monitors, in the order of their nominal points."""
+        return [self.observer] + [observer for _, observer, _ in self.monitors]
 
 
 @dataclass
@@ -230,16 +236,17 @@ def _simulate(scenario: Scenario, members: Members, record_poses: bool, progress
     diverged_at = np.full(rows, np.nan)
     alive = plant.alive
 
-    def stop(stopped: np.ndarray, k: int) -> None:
-        done[stopped] = k
-        diverged_at[stopped] = times[k]
+    def stop(stopped: np.ndarray | None, k: int) -> None:
+        if stopped is not None:
+            done[stopped] = k
+            diverged_at[stopped] = times[k]
 
     pending: int | None = None  # the sample whose true lumped uncertainty the next evaluation gives
     with np.errstate(all="ignore"):  # stopped rows may hold NaN; they are cut off from their time on
         for k in range(steps):
             t = times[k]
             stop(plant.check(), k)
-            if not alive.any():
+            if not plant.running:
                 break
             plant.read_positions(q_read)
             if position_sensor is None:
@@ -256,7 +263,7 @@ def _simulate(scenario: Scenario, members: Members, record_poses: bool, progress
             for block in blocks:
                 q_b = q_meas[block.rows]
                 qd_b = None if qd_meas is None else qd_meas[block.rows]
-                estimators_b = [block.observer] + [observer for _, observer, _ in block.monitors]
+                estimators_b = block.estimators
                 if k == 0:  # from the first reading unless the scenario says otherwise
                     q_hat0 = q_b if block.q_hat0 is None else block.q_hat0
                     for observer in estimators_b:
@@ -272,7 +279,7 @@ def _simulate(scenario: Scenario, members: Members, record_poses: bool, progress
                     point += count
             if not mass_from_plant:
                 nominal.qpos[mass_points] = q_meas
-            if not alive.all():  # stopped rows may hold NaN or inf: evaluate them at rest instead
+            if plant.running < rows:  # stopped rows may hold NaN or inf: evaluate them at rest instead
                 _rest(nominal, alive, done < k, count, estimators, mass_points, truth_points)
             nominal.evaluate()
             (plant if mass_from_plant else nominal).mass_matrices()  # refreshes ``mass``
@@ -314,7 +321,7 @@ def _simulate(scenario: Scenario, members: Members, record_poses: bool, progress
                 solver.solve(plant_factor, plant_diagonal_inverse, truth_force, truth_acceleration)
             terms.apply(t, plant.qpos, plant.qvel, true_mass, plant.applied)
             series["fault"][k] = terms.fault
-            fault_active[k] = terms.fault_active
+            any_fault = terms.fault_active  # profiles depend on time only: the same for every row
             delivered = tau
             if actuators is not None:
                 # The actuators deliver something else than the command: the difference acts through
@@ -322,14 +329,14 @@ def _simulate(scenario: Scenario, members: Members, record_poses: bool, progress
                 actuators.apply(k, tau)
                 plant.applied += actuators.torque
                 terms.fault_force += actuators.torque
-                fault_active[k] |= actuators.active[k]
+                any_fault = any_fault or actuators.active[k]
                 delivered = actuators.delivered
+            fault_active[k] = any_fault
             series["tau_delivered"][k] = delivered
             if has_faults:
                 series["fault_torque"][k] = terms.fault_force
-                if fault_active[k].any():  # M(q)^-1 of the fault force, with the true M of the sample instant
+                if any_fault:  # M(q)^-1 of the fault force, with the true M of the sample instant
                     solver.solve(plant_factor, plant_diagonal_inverse, terms.fault_force, fault_acceleration)
-                    fault_acceleration[~fault_active[k]] = 0.0
                 else:
                     fault_acceleration[:] = 0.0
                 series["fault_acceleration"][k] = fault_acceleration

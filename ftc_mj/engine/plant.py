@@ -60,6 +60,8 @@ class Plant:
         self.alive = np.ones(rows, dtype=bool)
         self._position, self._velocity = np.zeros_like(self.qpos), np.zeros_like(self.qvel)
         self._ids: np.ndarray | None = None  # None: all rows step
+        #: How many rows still run.
+        self.running = rows
         self.qpos[:] = q0
         self.qvel[:] = qd0
         self.batch.forward(stage=_POSITION_VELOCITY_STAGE)
@@ -80,16 +82,17 @@ class Plant:
         """The true M(q) of every row at the current sample instant, ``(rows, n, n)`` (an internal buffer)."""
         return self._dense.update(self._sparse_M)
 
-    def check(self) -> np.ndarray:
-        """Stop the rows whose state left the plausible range; returns the newly stopped rows (a mask)."""
+    def check(self) -> np.ndarray | None:
+        """Stop the rows whose state left the plausible range; returns the newly stopped rows (a mask), or
+        None."""
         # NaN fails every comparison, so it stops its row too (the engine runs under np.errstate(all="ignore")).
         np.abs(self.qpos, out=self._position)
         np.abs(self.qvel, out=self._velocity)
         within = (self._position <= self.max_position).all(axis=1) & (self._velocity <= self.max_velocity).all(axis=1)
         return self._stop(~within)
 
-    def step(self) -> np.ndarray:
-        """Advance one control period; returns the rows stopped by MuJoCo (a mask).
+    def step(self) -> np.ndarray | None:
+        """Advance one control period; returns the rows stopped by MuJoCo (a mask), or None.
 
         The first substep alone, so that ``acceleration`` is the true qdd at the sampled state under this
         period's inputs; then the others, ending with the position and velocity stages at the new state
@@ -111,9 +114,12 @@ class Plant:
         except SimulationError as error:  # those rows kept their state; the others ran
             failed[error.ids] = True
 
-    def _stop(self, rows: np.ndarray) -> np.ndarray:
+    def _stop(self, rows: np.ndarray) -> np.ndarray | None:
+        """Stop ``rows`` (a mask); returns the rows newly stopped, or None."""
         new = rows & self.alive
-        if new.any():
-            self.alive &= ~new
-            self._ids = np.flatnonzero(self.alive)
+        if not new.any():
+            return None
+        self.alive &= ~new
+        self._ids = np.flatnonzero(self.alive)
+        self.running = len(self._ids)
         return new

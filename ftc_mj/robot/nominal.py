@@ -15,6 +15,7 @@ import numpy as np
 from mujoco.batch import Batch
 
 
+from ftc_mj.spec.expressions import SCALAR_ROWS
 from ftc_mj.spec.schema import PositiveFloat, Strict
 
 
@@ -197,7 +198,15 @@ class SparseSolver:
         self._rows = [(i, entries) for i, entries in self._rows if entries]
 
     def solve(self, factor: np.ndarray, diagonal_inverse: np.ndarray, vector: np.ndarray, out: np.ndarray) -> np.ndarray:
-        """``out = M^-1 vector`` per row, from the rows' ``qLD`` ``(rows, nM)`` and ``qLDiagInv`` ``(rows, n)``."""
+        """``out = M^-1 vector`` per row, from the rows' ``qLD`` ``(rows, nM)`` and ``qLDiagInv`` ``(rows, n)``.
+
+        A few rows are solved on Python floats (NumPy's per-call cost would dominate), many on columns; both
+        are the same IEEE operations in the same order, so they give the same bits."""
+        if len(out) <= SCALAR_ROWS:
+            vectors = vector.tolist() if vector.ndim == 2 else [vector.tolist()] * len(out)
+            for row, (l_row, d_row, x) in enumerate(zip(factor.tolist(), diagonal_inverse.tolist(), vectors)):
+                out[row] = self._solve_row(l_row, d_row, x)
+            return out
         np.copyto(out, vector)
         for i, entries in reversed(self._rows):  # x <- L'^-1 x
             for address, column in entries:
@@ -210,6 +219,19 @@ class SparseSolver:
                 dot += factor[:, address] * out[:, column]
             out[:, i] -= dot
         return out
+
+    def _solve_row(self, factor: list[float], diagonal_inverse: list[float], x: list[float]) -> list[float]:
+        for i, entries in reversed(self._rows):
+            for address, column in entries:
+                x[column] -= factor[address] * x[i]
+        x = [value * scale for value, scale in zip(x, diagonal_inverse)]
+        for i, entries in self._rows:
+            (address, column), *rest = entries
+            dot = factor[address] * x[column]
+            for address, column in rest:
+                dot += factor[address] * x[column]
+            x[i] -= dot
+        return x
 
 
 class NominalBatch:

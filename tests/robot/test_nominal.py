@@ -197,8 +197,12 @@ def test_sparse_solver_is_mj_solveM_bit_for_bit(model):
         mujoco.mj_solveM(model, data, solution, v[row:row + 1].copy())
         expected.append(solution[0])
     out = np.zeros((rows, 3))
-    SparseSolver(model).solve(np.array(factors), np.array(diagonals), v, out)
+    SparseSolver(model).solve(np.array(factors), np.array(diagonals), v, out)  # row by row on floats
     np.testing.assert_array_equal(out, np.array(expected))
+    many = 40  # on columns: the same bits
+    out = np.zeros((many * rows, 3))
+    SparseSolver(model).solve(np.tile(factors, (many, 1)), np.tile(diagonals, (many, 1)), np.tile(v, (many, 1)), out)
+    np.testing.assert_array_equal(out, np.tile(expected, (many, 1)))
 
 
 def test_step_model_on_measured_velocity_evaluates_the_controllers_psi_at_the_readings(model):
