@@ -23,9 +23,9 @@ from pathlib import Path
 
 import numpy as np
 
-from ftc_mj.metrics import compute_metrics
-from ftc_mj.scenario import load_scenario
-from ftc_mj.simulation import simulate_variant
+from ftc_mj.analysis.metrics import compute_metrics
+from ftc_mj.engine.runner import run_scenario
+from ftc_mj.spec.loading import load_scenario
 
 ROOT = Path(__file__).resolve().parents[1]
 SCENARIOS = ("two_link_tosmo_simple", "two_link_tosmo_complex")
@@ -36,8 +36,9 @@ def spikes(scenario_name: str, overrides: list[str] | None = None) -> dict[str, 
     scenario = load_scenario(ROOT / "scenarios" / f"{scenario_name}.yaml", overrides=overrides or [],
                              variants=list(VARIANTS))
     out = {}
+    by_name = {result.name: result for result in run_scenario(scenario, record_poses=False)}
     for variant in scenario.variants:
-        result = simulate_variant(scenario, variant)
+        result = by_name[variant.name]
         metrics = compute_metrics(result, scenario.spec.metrics, scenario.fault_onsets, scenario.joint_fault_onsets)
         gains = variant.controller_config
         threshold = np.broadcast_to(np.asarray(gains.bound) + np.asarray(gains.mu), (scenario.n_joints,))

@@ -84,7 +84,7 @@ def test_sensor_faults_show_in_the_truth_not_in_the_diagnosis(outcomes: dict) ->
 
 
 def test_permanent_lock_diverges(tmp_path: Path) -> None:
-    """README: locking a joint for good makes the Chapter 5 FTC diverge within about 3 s (measured 2.7 s)."""
+    """README: locking a joint for good makes the Chapter 5 FTC diverge within about 3 s (measured 3.1 s)."""
     data = scenario_data("puma_lock")
     data["actuator_faults"][0]["profile"].pop("end")
     _, result = run(tmp_path, data)

@@ -1,6 +1,12 @@
 """Chapter 3 end to end: scenarios/two_link_tosmo_simple.yaml and _complex.yaml, the claims that hold.
 
 Measured values in the comments ("simple; complex", joint 1 / joint 2); bounds leave about a 3x margin.
+
+The sigmoid laws (``proposed``, ``after_convergence``) have a singular |e|^(alpha - 1) term whose spikes kick
+the converged loop at times decided by floating-point rounding (REPRODUCTION.md, "What rounding decides in
+Chapter 3"): their errors after convergence, their fault peaks and their "for good" reaching times moved by
+up to 30x (and 6 s) between two engines that differ only in rounding. Those are asserted only through bounds
+that held under both engines; which sigmoid law is better on them is not asserted at all.
 """
 
 from __future__ import annotations
@@ -21,7 +27,7 @@ def test_tosmo_estimates_better_but_converges_slower_than_sosmo(metrics: Metrics
     # SOSMO with L = 12 (bounds the LUaF). Velocity RMS 1.3e-4 against 0.011 / 9.9e-3; 1.1e-4 against 9.2e-3 /
     # 8.7e-3 rad/s.
     assert np.all(10 * tosmo["rms_velocity_error"] < sosmo["rms_velocity_error"])
-    # LUaF RMS 0.027 against 0.76 / 0.76; 0.019 / 0.021 against 0.75 / 0.80 rad/s^2.
+    # LUaF RMS 0.028 against 0.76 / 0.76; 0.019 / 0.021 against 0.75 / 0.80 rad/s^2.
     assert np.all(tosmo["rms_luaf_error"] < 0.09)
     assert np.all(7 * tosmo["rms_luaf_error"] < sosmo["rms_luaf_error"])
     # Velocity convergence on joint 1: 0.61 s against 0.05 s (both cases): the TOSMO is slower. On joint 2 the
@@ -32,46 +38,52 @@ def test_tosmo_estimates_better_but_converges_slower_than_sosmo(metrics: Metrics
 
 def test_proposed_law_tracks_better_than_smc_and_ntsmc(metrics: Metrics) -> None:
     proposed = metrics["proposed"]["rms_error_converged"]
-    # 8.2e-7 / 1.0e-6; 2.3e-6 / 2.7e-6 rad, against SMC >= 5.1e-5 and NTSMC >= 6.5e-5.
-    assert np.all(proposed < 8e-6)
-    assert np.all(5 * proposed < metrics["smc"]["rms_error_converged"])
-    assert np.all(5 * proposed < metrics["ntsmc"]["rms_error_converged"])
+    # 3.5e-6 / 7.6e-6; 2.8e-6 / 2.4e-6 rad, against SMC >= 5.2e-5 and NTSMC >= 6.6e-5: 11-37x. The factor is
+    # rounding's (22-97x with the previous engine, 8.2e-7 / 1.0e-6; 2.3e-6 / 2.7e-6); at least 9x in every run
+    # of both engines (both cases, both initial states). A broken compensation tracks like SMC.
+    assert np.all(proposed < 2e-5)
+    assert np.all(3 * proposed < metrics["smc"]["rms_error_converged"])
+    assert np.all(3 * proposed < metrics["ntsmc"]["rms_error_converged"])
 
 
-def test_gamma2_term_speeds_up_the_initial_convergence(metrics: Metrics, request) -> None:
+def test_gamma2_term_speeds_up_the_initial_convergence(metrics: Metrics) -> None:
+    """The reaching phase ends before the singular term matters: the same in both engines. Convergence 2.88 /
+    4.02 s against 2.95 / 5.31 s; surface first reached 2.92 / 4.05 s against 2.99 / 5.35 s (both cases).
+    The "for good" reaching times and the fault peaks are rounding's (REPRODUCTION.md) and not asserted: the
+    Phi_1 joint-2 fault peak went from 4.4e-5 against 1.9e-4 rad to 7.8e-5 against 6.4e-6."""
     proposed, after = metrics["proposed"], metrics["after_convergence"]
-    # Convergence 2.88 / 4.02 s against 2.95 / 5.31 s (both cases); reaching time of joint 2, first and for
-    # good: 4.05 s against 5.35 and 7.62 s.
     assert np.all(proposed["convergence_time"] < after["convergence_time"])
     assert proposed["convergence_time"][1] < after["convergence_time"][1] - 0.5
-    assert proposed["reaching_time"][1] < after["reaching_time"][1] - 1.0
     assert proposed["first_reaching_time"][1] < after["first_reaching_time"][1] - 0.5
-    if request.node.callspec.params["metrics"] == "two_link_tosmo_simple":
-        # Peak |e| in the 2 s after the joint-2 fault of Phi_1: 4.4e-5 against 1.9e-4 rad (the one clear case;
-        # at the other onsets the laws differ by 1-4e-6 rad, inconclusive).
-        assert proposed["fault_peak_error"][1] < after["fault_peak_error"][1] / 2
 
 
 def test_after_convergence_both_forms_track_alike_from_their_own_convergence(metrics: Metrics) -> None:
     """The window starts per variant and joint at its own convergence + 1 s: (3.35)-(3.37) on joint 2
-    converges at 5.31 s. Measured 8.2e-7 / 1.0e-6 against 9.5e-7 / 7.8e-6 (Phi_1; joint 2 after the joint-2
-    fault) and 2.3e-6 / 2.7e-6 against 6.5e-6 / 6.3e-6 rad (Phi_2); from the fixed 5 s window it was 2.1e-3."""
-    proposed, after = metrics["proposed"], metrics["after_convergence"]
-    assert np.all(after["rms_error_converged"] < 2e-5)
-    assert np.all(after["rms_error_converged"] < 10 * proposed["rms_error_converged"])
+    converges at 5.31 s (from the fixed 5 s window it was 2.1e-3 rad). Measured 3.5e-6 / 7.6e-6 against 1.7e-6 /
+    1.3e-6 (Phi_1) and 2.8e-6 / 2.4e-6 against 2.3e-6 / 2.4e-6 rad (Phi_2); with the previous engine 8.2e-7 /
+    1.0e-6 against 9.5e-7 / 7.8e-6 and 2.3e-6 / 2.7e-6 against 6.5e-6 / 6.3e-6. Which one is better flips with
+    rounding; both stay in one band (8e-7 to 8.5e-6 over eight runs), which is what is asserted."""
+    for variant in ("proposed", "after_convergence"):
+        error = metrics[variant]["rms_error_converged"]
+        assert np.all(error < 2e-5), variant
+        assert np.all(3 * error < metrics["smc"]["rms_error_converged"]), variant
 
 
 def test_the_sigmoid_laws_are_kicked_off_their_surface(metrics: Metrics) -> None:
-    """The singular term |e|^(alpha - 1) kicks s off the surface after it was reached: the proposed law first
-    reaches it on joint 1 at 2.92 s, for good at 3.51 s (both cases)."""
-    proposed = metrics["proposed"]
-    assert proposed["reaching_time"][0] > proposed["first_reaching_time"][0] + 0.2
+    """The singular term |e|^(alpha - 1) kicks s off the surface after it was reached (73-91 spikes per 1000
+    periods, REPRODUCTION.md). On which joint and how late the last kick comes is rounding's: the proposed law
+    reaches its surface for good at 9.74 / 4.05 s after first reaching it at 2.92 / 4.05 s (previous engine:
+    3.51 / 4.05), (3.35)-(3.37) at 9.00 / 5.35 s after 2.99 / 5.35 s (previous engine: 2.99 / 7.62). Asserted:
+    each law is kicked off on at least one joint."""
+    for variant in ("proposed", "after_convergence"):
+        late = metrics[variant]["reaching_time"] - metrics[variant]["first_reaching_time"]
+        assert np.any(late > 0.2), variant
 
 
 def test_every_loop_rides_through_the_faults(metrics: Metrics) -> None:
     # The TOSMO loops never leave 0.005 rad at a fault onset (recovery time 0); peak errors in the 2 s after an
-    # onset <= 1.9e-4 rad. The SOSMO loop too, with L = 12 (peaks 2.4e-4 / 5.5e-5; with L = 9 it lost joint 2
-    # at the Phi_1 joint-2 fault).
+    # onset <= 7.8e-5 rad (previous engine <= 1.9e-4: the sigmoid laws' peaks are rounding's). The SOSMO loop
+    # too, with L = 12 (peaks 2.4e-4 / 5.5e-5; with L = 9 it lost joint 2 at the Phi_1 joint-2 fault).
     for variant in ("proposed", "after_convergence", "smc", "ntsmc", "proposed_sosmo"):
         assert np.all(metrics[variant]["fault_peak_error"] < 1e-3), variant
         np.testing.assert_array_equal(metrics[variant]["recovery_time"], [0.0, 0.0])
