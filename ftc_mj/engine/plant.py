@@ -21,8 +21,8 @@ from ftc_mj.robot.nominal import DenseMass, scale_masses
 
 _POSITION_VELOCITY_STAGE = int(mujoco.mjtStage.mjSTAGE_VEL)
 #: MuJoCo warnings after which it resets a simulation: that is a divergence here.
-_RESET_WARNINGS = [int(w) for w in (mujoco.mjtWarning.mjWARN_BADQACC, mujoco.mjtWarning.mjWARN_BADQPOS,
-                                    mujoco.mjtWarning.mjWARN_BADQVEL)]
+_RESET_WARNINGS = slice(int(mujoco.mjtWarning.mjWARN_BADQPOS), int(mujoco.mjtWarning.mjWARN_BADQACC) + 1)
+assert _RESET_WARNINGS.stop - _RESET_WARNINGS.start == 3  # bad qpos, bad qvel, bad qacc: adjacent in mjtWarning
 
 
 class Plant:
@@ -62,6 +62,8 @@ class Plant:
         self._ids: np.ndarray | None = None  # None: all rows step
         #: How many rows still run.
         self.running = rows
+        #: The bad-state warning counts of every row (a live view of the batch's warnings).
+        self._reset_counts = self.batch.warning[:, _RESET_WARNINGS, 1]
         self.qpos[:] = q0
         self.qvel[:] = qd0
         self.batch.forward(stage=_POSITION_VELOCITY_STAGE)
@@ -88,8 +90,10 @@ class Plant:
         # NaN fails every comparison, so it stops its row too (the engine runs under np.errstate(all="ignore")).
         np.abs(self.qpos, out=self._position)
         np.abs(self.qvel, out=self._velocity)
+        if self._position.max() <= self.max_position and self._velocity.max() <= self.max_velocity:
+            return None  # every row within (a NaN makes its maximum NaN, which fails the comparison)
         within = (self._position <= self.max_position).all(axis=1) & (self._velocity <= self.max_velocity).all(axis=1)
-        return self._stop(~within)
+        return self._stop(~within & self.alive)
 
     def step(self) -> np.ndarray | None:
         """Advance one control period; returns the rows stopped by MuJoCo (a mask), or None.
@@ -97,22 +101,23 @@ class Plant:
         The first substep alone, so that ``acceleration`` is the true qdd at the sampled state under this
         period's inputs; then the others, ending with the position and velocity stages at the new state
         (what ``mj_step1`` computes), so that sensors and M(q) are current for the next period."""
-        failed = np.zeros(len(self.alive), dtype=bool)
         rest = self.substeps - 1
-        self._call(1, 0 if rest else _POSITION_VELOCITY_STAGE, failed)
+        failed = self._call(1, 0 if rest else _POSITION_VELOCITY_STAGE, None)
         np.copyto(self.acceleration, self.qacc)
         if rest:
-            self._call(rest, _POSITION_VELOCITY_STAGE, failed)
-        warned = self.batch.warning[:, _RESET_WARNINGS, 1]  # counts since the start: a warned row stops
-        if warned.any():
-            failed |= warned.any(axis=1)
-        return self._stop(failed)
+            failed = self._call(rest, _POSITION_VELOCITY_STAGE, failed)
+        if self._reset_counts.any():  # counts since the start: a warned row stops
+            failed = self._reset_counts.any(axis=1) | (False if failed is None else failed)
+        return None if failed is None else self._stop(failed)
 
-    def _call(self, nstep: int, stage: int, failed: np.ndarray) -> None:
+    def _call(self, nstep: int, stage: int, failed: np.ndarray | None) -> np.ndarray | None:
+        """One batch step of the running rows; the rows MuJoCo failed (added to ``failed``), or ``failed``."""
         try:
             self.batch.step(ids=self._ids, nstep=nstep, stage=stage)
         except SimulationError as error:  # those rows kept their state; the others ran
+            failed = np.zeros(len(self.alive), dtype=bool) if failed is None else failed
             failed[error.ids] = True
+        return failed
 
     def _stop(self, rows: np.ndarray) -> np.ndarray | None:
         """Stop ``rows`` (a mask); returns the rows newly stopped, or None."""
