@@ -1,7 +1,7 @@
 """Chapter 5 end to end: scenarios/puma_fault.yaml, the full 30 s, through the command line.
 
 Bounds are set from measured values (in the comments) with a margin of about 3x, tight enough that a broken
-compensation (which gives the uncompensated law's ~6e-5 rad) or a broken observer fails them. The tracking-error bounds leave room for the 1 ms physics step (6.2e-6 rad).
+compensation (which gives the uncompensated law's ~6e-5 rad) or a broken observer fails them. The tracking-error bounds leave room for the 1 ms physics step (6.7e-6 rad).
 """
 
 from __future__ import annotations
