@@ -24,6 +24,7 @@ import numpy as np
 
 from ftc_mj.effects.profiles import Profile, ProfileSpec, compile_profile
 from ftc_mj.spec import expressions
+from ftc_mj.spec.expressions import SCALAR_ROWS
 from ftc_mj.spec.errors import InputError
 from ftc_mj.spec.schema import ExpressionText, NonNegativeFloat, PositiveFloat, Strict, parse_expression, per_joint
 
@@ -133,6 +134,7 @@ class PlantTerms:
                                                    list(parameter_names))
         self._values = np.zeros((rows, len(terms) * n_joints))
         self._blocks = [self._values[:, i * n_joints:(i + 1) * n_joints] for i in range(len(terms))]
+        self._offsets = {id(block): i * n_joints for i, block in enumerate(self._blocks)}
         self.needs_mass = any(term.space == "acceleration" for term in terms)
         self._has_acceleration_fault = any(term.space == "acceleration" and term.kind == "fault" for term in terms)
 
@@ -142,26 +144,61 @@ class PlantTerms:
         ``t`` is the loop's k * control_dt: MuJoCo's ``data.time`` accumulates rounding (after 40000 steps
         of 0.25 ms it is 9.99999999999937), which would start a fault due at 10 s one period late. ``mass``
         is the true M(q) of each row at the sample instant, needed with acceleration-space terms."""
-        self._sums[:] = 0.0
-        self.fault_active = False
-        if self.terms:
+        active = []  # (term, its values, sign times the profile's weight) of the terms on at t
+        for term, values in zip(self.terms, self._blocks):
+            weight = term.profile(t)
+            if weight is not None:
+                active.append((term, values, term.sign * weight))
+        self.fault_active = any(term.kind == "fault" for term, _, _ in active)
+        if active:
             self._function.evaluate(t, qpos, qvel, self._parameters, self._values)
-            for term, value in zip(self.terms, self._blocks):
-                weight = term.profile(t)
-                if weight is None:
-                    continue
-                value *= term.sign * weight
-                acceleration = term.space == "acceleration"
-                (self.acceleration if acceleration else self.torque)[:] += value
-                if term.kind == "fault":
-                    self.fault += value
-                    (self._fault_acceleration if acceleration else self.fault_force)[:] += value
-                    self.fault_active = True
+        if len(self._values) <= SCALAR_ROWS:
+            self._sum_rows(active)
+        else:
+            self._sum_columns(active)
         np.copyto(out, self.torque)
         if self.needs_mass:
             out += _times(mass, self.acceleration, self._mapped)
         if self._has_acceleration_fault and self.fault_active:
             self.fault_force += _times(mass, self._fault_acceleration, self._mapped)
+
+    def _sum_columns(self, active: list) -> None:
+        """The sums of the terms on, from zero, term by term in the file's order."""
+        self._sums[:] = 0.0
+        for term, value, factor in active:
+            value *= factor
+            acceleration = term.space == "acceleration"
+            (self.acceleration if acceleration else self.torque)[:] += value
+            if term.kind == "fault":
+                self.fault += value
+                (self._fault_acceleration if acceleration else self.fault_force)[:] += value
+
+    def _sum_rows(self, active: list) -> None:
+        """:meth:`_sum_columns` on Python floats, row by row: the same operations in the same order (the same
+        bits), without NumPy's per-call cost on a few rows."""
+        n = self._sums.shape[-1]
+        plan = []
+        for term, value, factor in active:
+            acceleration = term.space == "acceleration"
+            targets = [_ACCELERATION if acceleration else _TORQUE]
+            if term.kind == "fault":
+                targets += [_FAULT, _FAULT_ACCELERATION if acceleration else _FAULT_FORCE]
+            factors = factor.tolist() if isinstance(factor, np.ndarray) else [factor] * n  # per joint or one
+            plan.append((self._offsets[id(value)], factors, targets))
+        joints = range(n)
+        for row, values in enumerate(self._values.tolist()):
+            sums = [[0.0] * n for _ in range(5)]
+            for offset, factor, targets in plan:
+                scaled = [values[offset + j] * factor[j] for j in joints]
+                for target in targets:
+                    total = sums[target]
+                    for j in joints:
+                        total[j] += scaled[j]
+            self._sums[:, row] = sums
+
+
+#: Rows of PlantTerms._sums.
+_TORQUE, _ACCELERATION, _FAULT, _FAULT_FORCE, _FAULT_ACCELERATION = range(5)
 
 
 def _times(matrices: np.ndarray, vectors: np.ndarray, out: np.ndarray) -> np.ndarray:

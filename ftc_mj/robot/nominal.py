@@ -187,7 +187,8 @@ class DenseMass:
 class SparseSolver:
     """M(q)^-1 v for many rows at once with MuJoCo's own factorisation ``qLD``, ``qLDiagInv`` of each row: the
     operations of ``mj_solveM`` in its order, over a batch, so each row's answer is bit for bit what
-    ``mj_solveM`` gives on one MjData (tested), and costs a few array operations whatever the batch size."""
+    ``mj_solveM`` gives on one MjData (tested), and costs a few array operations whatever the batch size.
+    The model is the one whose sparsity the factors have (any mass scale: only the structure is used)."""
 
     def __init__(self, model: mujoco.MjModel):
         def off_diagonal(i: int) -> list[tuple[int, int]]:  # (address, column) of row i's entries left of the diagonal
@@ -196,16 +197,22 @@ class SparseSolver:
 
         self._rows = [(i, off_diagonal(i)) for i in range(model.nv)]
         self._rows = [(i, entries) for i, entries in self._rows if entries]
+        self._model, self._data = model, mujoco.MjData(model)  # the scratch MjData of small batches
+        self._rhs, self._solution = np.zeros((1, model.nv)), np.zeros((1, model.nv))
 
     def solve(self, factor: np.ndarray, diagonal_inverse: np.ndarray, vector: np.ndarray, out: np.ndarray) -> np.ndarray:
         """``out = M^-1 vector`` per row, from the rows' ``qLD`` ``(rows, nM)`` and ``qLDiagInv`` ``(rows, n)``.
 
-        A few rows are solved on Python floats (NumPy's per-call cost would dominate), many on columns; both
-        are the same IEEE operations in the same order, so they give the same bits."""
-        if len(out) <= SCALAR_ROWS:
-            vectors = vector.tolist() if vector.ndim == 2 else [vector.tolist()] * len(out)
-            for row, (l_row, d_row, x) in enumerate(zip(factor.tolist(), diagonal_inverse.tolist(), vectors)):
-                out[row] = self._solve_row(l_row, d_row, x)
+        A few rows are solved by ``mj_solveM`` itself (NumPy's per-call cost would dominate), many on columns
+        with its operations in its order: the same bits either way (tested)."""
+        if len(out) <= SCALAR_ROWS:  # mj_solveM itself, row by row, on a scratch MjData holding the row's factor
+            data = self._data
+            for row in range(len(out)):
+                data.qLD[:] = factor[row]
+                data.qLDiagInv[:] = diagonal_inverse[row]
+                self._rhs[0] = vector[row] if vector.ndim == 2 else vector
+                mujoco.mj_solveM(self._model, data, self._solution, self._rhs)
+                out[row] = self._solution[0]
             return out
         np.copyto(out, vector)
         for i, entries in reversed(self._rows):  # x <- L'^-1 x
@@ -219,19 +226,6 @@ class SparseSolver:
                 dot += factor[:, address] * out[:, column]
             out[:, i] -= dot
         return out
-
-    def _solve_row(self, factor: list[float], diagonal_inverse: list[float], x: list[float]) -> list[float]:
-        for i, entries in reversed(self._rows):
-            for address, column in entries:
-                x[column] -= factor[address] * x[i]
-        x = [value * scale for value, scale in zip(x, diagonal_inverse)]
-        for i, entries in self._rows:
-            (address, column), *rest = entries
-            dot = factor[address] * x[column]
-            for address, column in rest:
-                dot += factor[address] * x[column]
-            x[i] -= dot
-        return x
 
 
 class NominalBatch:

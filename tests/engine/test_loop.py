@@ -464,7 +464,8 @@ def _reachable(obj, depth: int, seen: set[int]):
 
 def test_plugins_never_receive_the_simulation(tmp_path: Path, spies, monkeypatch: pytest.MonkeyPatch) -> None:
     """Observers and controllers get readings, time, the reference and the nominal model's arrays: never the
-    plant's batch, an MjData, or a view of any array the plant's batch binds (its live state)."""
+    plant or its batch, any batch, or a view of any array the plant's batch binds (its live state). (The plant
+    has no MjData: an MjData they can reach is a private scratch one of the nominal model's solver.)"""
     from ftc_mj.engine import plant as plant_module
 
     plants: list = []
@@ -492,7 +493,8 @@ def test_plugins_never_receive_the_simulation(tmp_path: Path, spies, monkeypatch
     assert sum(kind == "controller.compute" for kind, _ in calls) == steps
     for kind, args in calls:
         for obj in _reachable(args, depth=5, seen=set()):
-            assert not isinstance(obj, (mujoco.MjData, mujoco.batch.Batch)), f"{kind} can reach {type(obj).__name__}"
+            assert obj is not plant.batch and obj is not plant, f"{kind} can reach the plant"
+            assert not isinstance(obj, mujoco.batch.Batch), f"{kind} can reach a batch"  # MjData: only scratch ones
             if isinstance(obj, np.ndarray):
                 for buffer in plant_buffers:
                     assert not np.shares_memory(obj, buffer), f"{kind} received a view of the plant's state"
