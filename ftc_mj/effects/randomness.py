@@ -3,8 +3,10 @@
 Each random element has a fixed stream number; its generator is ``default_rng(SeedSequence(seed,
 spawn_key=(stream,)))``, the stream-th child of the seed (what ``SeedSequence(seed).spawn`` gives), so
 adding a random element never changes the numbers of another, and every variant of a scenario sees the same
-numbers (the comparison between methods is paired). Random numbers are drawn into arrays before the loop:
-the loop makes no generator calls, and the same scenario and seed give the same run bit for bit.
+numbers (the comparison between methods is paired). In a batch each member has its own seed
+(:mod:`ftc_mj.engine.members`); the sensors draw a member's numbers a chunk of periods at a time
+(:class:`ftc_mj.effects.sensors.Measurement`), the same numbers as one draw for the whole run, so the same
+scenario and seed give the same run bit for bit.
 """
 
 from __future__ import annotations

@@ -12,7 +12,7 @@ period the loop (:mod:`ftc_mj.engine.loop`) calls
 The split lets a controller cancel exactly the injection the observer applies in the same period, which is
 what the equivalent controls of Chapters 3-5 do (e.g. the terms of eq. (5.26) that come from (5.6)).
 
-All method math is written over arrays whose last axis is the joint, so it also runs on ``(batch, n)``.
+State and inputs are ``(members, n)``: the contract of :class:`ftc_mj.methods.plugin.Method` (shapes, gains, reset).
 """
 
 from __future__ import annotations
