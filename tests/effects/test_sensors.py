@@ -197,3 +197,29 @@ def test_estimation_error_grows_with_noise_for_every_observer() -> None:
         for quantity in (0, 1):
             values = [e[observer][quantity] for e in errors]
             assert all(b > 1.2 * a for a, b in zip(values, values[1:])), (observer, quantity, values)
+
+
+def test_noise_drawn_in_chunks_is_one_draw_for_the_whole_run() -> None:
+    """The measurement draws each member's noise NOISE_CHUNK periods at a time (memory that does not grow with
+    the run); the numbers are those of one draw for the whole run, offset for offset."""
+    from ftc_mj.effects.sensors import NOISE_CHUNK
+
+    assert N > NOISE_CHUNK  # the run spans more than one chunk
+    std, bias = np.array([1e-3, 2e-3, 0.0]), np.array([0.1, 0.0, -0.2])
+    out = read_all(channel(noise_std=std, bias=bias), seed=11)
+    expected = TRUE + (bias + np.random.default_rng(11).standard_normal((N, NJ)) * std)
+    np.testing.assert_array_equal(out, expected)
+
+
+def test_members_draw_their_own_noise_and_every_variant_reads_it() -> None:
+    """Rows are variant blocks of the same members: member m's noise comes from its own generator and is the
+    same in every variant's block (a paired comparison)."""
+    members, blocks = 3, 2
+    measurement = Measurement(channel(noise_std=[1e-3] * NJ), T, [np.random.default_rng(s) for s in (1, 2, 3)],
+                              blocks)
+    true = np.zeros((blocks * members, NJ))
+    out = np.empty_like(true)
+    measurement.read(0, true, out)
+    np.testing.assert_array_equal(out[:members], out[members:])
+    for m, seed in enumerate((1, 2, 3)):
+        np.testing.assert_array_equal(out[m], np.random.default_rng(seed).standard_normal((N, NJ))[0] * 1e-3)
