@@ -119,264 +119,320 @@ def _quiet(message: str) -> None:
 
 def _simulate(scenario: Scenario, members: Members, record_poses: bool, progress: ProgressCallback | None,
               nthread: int) -> BatchRun:
-    spec = scenario.spec
-    n, dt, times = scenario.n_joints, spec.control_dt, scenario.times
-    steps, count = len(times), members.count
-    variants = scenario.variants
-    rows = count * len(variants)
-    threads = nthread if nthread > 0 else _default_threads(rows)
-
-    def per_row(values: np.ndarray) -> np.ndarray:  # member values repeated for every variant's block
-        return np.concatenate([values] * len(variants))
-
-    plant = Plant(scenario.model, per_row(members.q0), per_row(members.qd0), scenario.substeps, threads,
-                  mass_scale=per_row(members.plant_mass_scale), max_position=spec.divergence.max_position,
-                  max_velocity=spec.divergence.max_velocity)
-
-    # Nominal evaluation points: Psi at each estimate (host observer and monitors of every variant), M at every
-    # row's measured position, and every row's true lumped uncertainty in the nominal terms (one period late).
-    # Where the controller's model is the plant's (no mass scale), the plant's own M(q), its factorisation and
-    # C qd + G at the sample instant are the same numbers: they give the truth, and, where the encoders read the
-    # state exactly (no sensor effects), M at the measured position, at no extra evaluation.
-    plant_is_nominal = bool(np.all(members.nominal_mass_scale == 1.0) and np.all(members.plant_mass_scale == 1.0))
-    mass_from_plant = plant_is_nominal and scenario.position_sensor is None and plant.reads_state_exactly
-    # Per variant: Psi at the observer's estimate, at each monitor's, and, for a controller on measured
-    # velocity (``controller_velocity``), at the readings.
-    measured = [variant.controller_velocity == "measured" for variant in variants]
-    estimators = [1 + len(v.monitors) + on_readings for v, on_readings in zip(variants, measured)]
-    psi_points = count * sum(estimators)
-    mass_rows = 0 if mass_from_plant else rows
-    truth_rows = 0 if plant_is_nominal else rows
-    nominal = NominalBatch(
-        scenario.model,
-        np.concatenate([np.concatenate([members.nominal_mass_scale] * sum(estimators)),
-                        per_row(members.nominal_mass_scale)[:mass_rows],
-                        per_row(members.nominal_mass_scale)[:truth_rows]]),
-        threads,
-    )
-    mass_points = slice(psi_points, psi_points + mass_rows)
-    truth_points = slice(psi_points + mass_rows, psi_points + mass_rows + truth_rows)
-    if mass_from_plant:  # buffers refreshed by every mass_matrices() call
-        mass, factor, diagonal_inverse = plant.mass_matrices(), plant.factor, plant.diagonal_inverse
-    else:
-        mass = nominal.mass_matrices()[mass_points]
-        factor, diagonal_inverse = nominal.factor[mass_points], nominal.diagonal_inverse[mass_points]
-    solver = SparseSolver(scenario.model)
-
-    measures_velocity = scenario.measures_velocity
-    qd_meas = np.zeros((rows, n)) if measures_velocity else None  # the tachometers' readings
-    blocks: list[VariantBlock] = []
-    point = 0
-    for v, variant in enumerate(variants):
-        block_rows = slice(v * count, (v + 1) * count)
-        config = members.variants[v]
-
-        def step_model(first: int, control: int | None = None) -> StepModel:
-            return StepModel(M=mass[block_rows], factor=factor[block_rows],
-                             diagonal_inverse=diagonal_inverse[block_rows], solver=solver,
-                             psi_hat=nominal.qacc[first:first + count],
-                             psi_control=None if control is None else nominal.qacc[control:control + count],
-                             qd_measured=None if control is None else qd_meas[block_rows])
-
-        observer = variant.observer_type(config.observer, n, dt, members=count)
-        controller = variant.controller_type(config.controller, n, dt, members=count)
-        controller.reset()
-        host = point
-        point += count
-        monitors = []
-        for monitor, monitor_config in zip(variant.monitors, config.monitors):
-            monitors.append((monitor.name, monitor.observer_type(monitor_config, n, dt, members=count),
-                             step_model(point)))
-            point += count
-        host_model = step_model(host, point if measured[v] else None)
-        point += count * measured[v]
-        blocks.append(VariantBlock(variant.name, block_rows, observer, controller, host_model, monitors,
-                                   config.q_hat0, config.qd_hat0))
-
-    terms = PlantTerms(scenario.terms, rows, n, per_row(members.parameters), list(spec.parameters))
-    actuators = ActuatorFaults(scenario.actuator_faults, times, (rows, n)) if scenario.actuator_faults else None
-    has_faults = actuators is not None or any(term.kind == "fault" for term in scenario.terms)
-    position_sensor = velocity_sensor = None
-    if scenario.position_sensor is not None:
-        position_sensor = Measurement(scenario.position_sensor, times, _generators(members, randomness.POSITION_NOISE),
-                                      len(variants))
-    if scenario.velocity_sensor is not None and measures_velocity:
-        velocity_sensor = Measurement(scenario.velocity_sensor, times, _generators(members, randomness.VELOCITY_NOISE),
-                                      len(variants))
-
-    # (N, n), or (N, members, n) where the reference uses parameters: every variant's block follows its members'.
-    q_ref, qd_ref, qdd_ref = scenario.reference.evaluate(times, members.parameters if spec.parameters else None)
-    series = {name: np.full((steps, rows, n), np.nan) for name in SERIES}
-    fault_active = np.zeros((steps, rows), dtype=bool)
-    q_meas, q_read = np.zeros((rows, n)), np.zeros((rows, n))
-    qd_read = np.zeros((rows, n))
-    qd_measured = np.full((steps, rows, n), np.nan) if measures_velocity else None
-    torque_space = scenario.diagnoser is not None and scenario.diagnoser.space == "torque"
-    luaf_torque = np.full((steps, rows, n), np.nan) if torque_space else None
-    monitor_series = {
-        block.name: {name: {key: np.full((steps, count, n), np.nan) for key in ("qd_hat", "luaf_hat")}
-                     | ({"luaf_torque": np.full((steps, count, n), np.nan)} if torque_space else {})
-                     for name, _, _ in block.monitors}
-        for block in blocks
-    }
-    signals = [{**b.observer.signals, **b.controller.signals} for b in blocks]
-    extras = {b.name: {name: np.full((steps, count, n), np.nan) for name in s} for b, s in zip(blocks, signals)}
-    body_xpos = body_xquat = None
-    if record_poses:
-        xpos, xquat = plant.batch.bind("xpos"), plant.batch.bind("xquat")
-        body_xpos = np.zeros((steps,) + xpos.shape)
-        body_xquat = np.zeros((steps,) + xquat.shape)
-    tau = np.zeros((rows, n))
-    truth_tau = nominal.applied[truth_points]
-    fault_acceleration = np.zeros((rows, n))
-    plant_factor, plant_diagonal_inverse = plant.factor, plant.diagonal_inverse
-    plant_bias = plant.batch.bind("qfrc_bias")  # C(q, qd) qd + G(q) at the sample instant
-    truth_force, truth_acceleration = np.zeros((rows, n)), np.zeros((rows, n))
-    done = np.full(rows, steps)
-    diverged_at = np.full(rows, np.nan)
-    alive = plant.alive
-
-    def stop(stopped: np.ndarray | None, k: int) -> None:
-        if stopped is not None:
-            done[stopped] = k
-            diverged_at[stopped] = times[k]
-
-    pending: int | None = None  # the sample whose true lumped uncertainty the next evaluation gives
+    run = _Run(scenario, members, record_poses, nthread)
     with np.errstate(all="ignore"):  # stopped rows may hold NaN; they are cut off from their time on
-        for k in range(steps):
-            t = times[k]
-            stop(plant.check(), k)
-            if not plant.running:
+        for k in range(run.steps):
+            run.stop(run.plant.check(), k)
+            if not run.plant.running:
                 break
-            plant.read_positions(q_read)
-            if position_sensor is None:
-                np.copyto(q_meas, q_read)
-            else:
-                position_sensor.read(k, q_read, q_meas)
-            if qd_meas is not None:
-                plant.read_velocities(qd_read)
-                if velocity_sensor is None:
-                    np.copyto(qd_meas, qd_read)
-                else:
-                    velocity_sensor.read(k, qd_read, qd_meas)
-            point = 0
-            for block in blocks:
-                q_b = q_meas[block.rows]
-                qd_b = None if qd_meas is None else qd_meas[block.rows]
-                estimators_b = block.estimators
-                if k == 0:  # from the first reading unless the scenario says otherwise
-                    q_hat0 = q_b if block.q_hat0 is None else block.q_hat0
-                    for observer in estimators_b:
-                        observer.reset(q_hat0, block.qd_hat0)
-                for observer in estimators_b:
-                    observer.measure(q_b, qd_b)
-                    nominal.qpos[point:point + count] = observer.q_hat
-                    nominal.qvel[point:point + count] = observer.qd_hat
-                    point += count
-                if block.model.qd_measured is not None:  # the controller's Psi at the readings
-                    nominal.qpos[point:point + count] = q_b
-                    nominal.qvel[point:point + count] = qd_b
-                    point += count
-            if not mass_from_plant:
-                nominal.qpos[mass_points] = q_meas
-            if plant.running < rows:  # stopped rows may hold NaN or inf: evaluate them at rest instead
-                _rest(nominal, alive, done < k, count, estimators, mass_points, truth_points)
-            nominal.evaluate()
-            (plant if mass_from_plant else nominal).mass_matrices()  # refreshes ``mass``
-            if pending is not None:  # last period's truth: qdd - (Psi(q, qd) + M(q)^-1 tau) at its true state
-                np.subtract(series["qdd_true"][pending], nominal.qacc[truth_points], out=series["luaf_true"][pending])
-            pending = None if plant_is_nominal else k
-            for b, block in enumerate(blocks):
-                rows_b = block.rows
-                q_b = q_meas[rows_b]
-                block.observer.update(t, q_b, block.model)
-                for name, observer, model in block.monitors:
-                    observer.update(t, q_b, model)
-                    monitor_series[block.name][name]["qd_hat"][k] = observer.qd_hat
-                    monitor_series[block.name][name]["luaf_hat"][k] = observer.luaf_hat
-                    if torque_space:
-                        model.apply_M(observer.luaf_hat, out=monitor_series[block.name][name]["luaf_torque"][k])
-                tau[rows_b] = block.controller.compute(t, q_ref[k], qd_ref[k], qdd_ref[k], q_b, block.observer,
-                                                       block.model)
-                series["qd_hat"][k, rows_b] = block.observer.qd_hat
-                series["luaf_hat"][k, rows_b] = block.observer.luaf_hat
-                series["sliding"][k, rows_b] = block.controller.sliding
-                if luaf_torque is not None:
-                    block.model.apply_M(block.observer.luaf_hat, out=luaf_torque[k, rows_b])
-                for name, signal in signals[b].items():
-                    extras[block.name][name][k] = signal
-            plant.ctrl[:] = tau
-            series["q_meas"][k] = q_meas
-            series["q_true"][k] = plant.qpos
-            series["qd_true"][k] = plant.qvel
-            series["tau"][k] = tau
-            if qd_measured is not None:
-                qd_measured[k] = qd_meas
-            if record_poses:
-                body_xpos[k] = xpos
-                body_xquat[k] = xquat
-            true_mass = (mass if mass_from_plant else plant.mass_matrices()) if terms.needs_mass else None
-            if plant_is_nominal:  # M(q)^-1 tau + Psi(q, qd) = M^-1 (tau - C qd - G) at the true state
-                np.subtract(tau, plant_bias, out=truth_force)
-                solver.solve(plant_factor, plant_diagonal_inverse, truth_force, truth_acceleration)
-            terms.apply(t, plant.qpos, plant.qvel, true_mass, plant.applied)
-            series["fault"][k] = terms.fault
-            any_fault = terms.fault_active  # profiles depend on time only: the same for every row
-            delivered = tau
-            if actuators is not None:
-                # The actuators deliver something else than the command: the difference acts through
-                # qfrc_applied, so ctrl (and the recorded tau) stay what the controller asked for.
-                actuators.apply(k, tau)
-                plant.applied += actuators.torque
-                terms.fault_force += actuators.torque
-                any_fault = any_fault or actuators.active[k]
-                delivered = actuators.delivered
-            fault_active[k] = any_fault
-            series["tau_delivered"][k] = delivered
-            if has_faults:
-                series["fault_torque"][k] = terms.fault_force
-                if any_fault:  # M(q)^-1 of the fault force, with the true M of the sample instant
-                    solver.solve(plant_factor, plant_diagonal_inverse, terms.fault_force, fault_acceleration)
-                else:
-                    fault_acceleration[:] = 0.0
-                series["fault_acceleration"][k] = fault_acceleration
-            if not plant_is_nominal:  # the truth point of this row, evaluated with the next period's nominal call
-                nominal.qpos[truth_points] = plant.qpos
-                nominal.qvel[truth_points] = plant.qvel
-                truth_tau[:] = tau
-            # The observers integrate over the period with this period's model (before the plant's M moves on).
-            for block in blocks:
-                tau_b = tau[block.rows]
-                block.observer.advance(tau_b, block.model)
-                for _, observer, model in block.monitors:
-                    observer.advance(tau_b, model)
-            stop(plant.step(), k)
-            series["qdd_true"][k] = plant.acceleration
-            if plant_is_nominal:
-                np.subtract(plant.acceleration, truth_acceleration, out=series["luaf_true"][k])
+            t = run.times[k]
+            run.sense(k)
+            run.evaluate_nominal(k)
+            run.control(k, t)
+            run.actuate(k, t)
+            run.advance(k)
             if progress is not None and (k + 1) % PROGRESS_EVERY == 0:
                 progress(PROGRESS_EVERY)
-        if pending is not None:  # the last recorded sample's truth
-            nominal.evaluate()
-            np.subtract(series["qdd_true"][pending], nominal.qacc[truth_points], out=series["luaf_true"][pending])
+        run.last_truth()
     if progress is not None:
-        progress(steps % PROGRESS_EVERY)
-    if not has_faults:
-        series["fault_torque"][:] = 0.0
-        series["fault_acceleration"][:] = 0.0
-    for rows_series in (*series.values(), qd_measured, luaf_torque):
-        if rows_series is not None:
-            _cut(rows_series, done)
-    for block in blocks:
-        block_done = done[block.rows]
-        for name_series in (*monitor_series[block.name].values(), extras[block.name]):
-            for values in name_series.values():
-                _cut(values, block_done)
-    return BatchRun(times=times, members=count, variants=[b.name for b in blocks], series=series,
-                    reference=(q_ref, qd_ref, qdd_ref),
-                    monitor_series=monitor_series, extras=extras, fault_active=fault_active,
-                    qd_measured=qd_measured, luaf_torque=luaf_torque, body_xpos=body_xpos, body_xquat=body_xquat,
-                    done=done, diverged_at=diverged_at)
+        progress(run.steps % PROGRESS_EVERY)
+    return run.result()
+
+
+class _Run:
+    """One batch run's state: set up once, then stepped period by period (the phases of the module docstring)."""
+
+    def __init__(self, scenario: Scenario, members: Members, record_poses: bool, nthread: int):
+        spec = scenario.spec
+        self.scenario = scenario
+        n, dt, self.times = scenario.n_joints, spec.control_dt, scenario.times
+        self.steps, count = len(self.times), members.count
+        self.count = count
+        variants = scenario.variants
+        rows = self.rows = count * len(variants)
+        threads = nthread if nthread > 0 else _default_threads(rows)
+
+        def per_row(values: np.ndarray) -> np.ndarray:  # member values repeated for every variant's block
+            return np.concatenate([values] * len(variants))
+
+        plant = self.plant = Plant(
+            scenario.model, per_row(members.q0), per_row(members.qd0), scenario.substeps, threads,
+            mass_scale=per_row(members.plant_mass_scale), max_position=spec.divergence.max_position,
+            max_velocity=spec.divergence.max_velocity)
+
+        # Nominal evaluation points: Psi at each estimate (host observer and monitors of every variant), M at
+        # every row's measured position, and every row's true lumped uncertainty in the nominal terms (one period
+        # late). Where the controller's model is the plant's (no mass scale), the plant's own M(q), its
+        # factorisation and C qd + G at the sample instant are the same numbers: they give the truth, and, where
+        # the encoders read the state exactly (no sensor effects), M at the measured position, at no extra
+        # evaluation.
+        self.plant_is_nominal = bool(np.all(members.nominal_mass_scale == 1.0)
+                                     and np.all(members.plant_mass_scale == 1.0))
+        self.mass_from_plant = self.plant_is_nominal and scenario.position_sensor is None and plant.reads_state_exactly
+        # Per variant: Psi at the observer's estimate, at each monitor's, and, for a controller on measured
+        # velocity (``controller_velocity``), at the readings.
+        measured = [variant.controller_velocity == "measured" for variant in variants]
+        self.estimators = [1 + len(v.monitors) + on_readings for v, on_readings in zip(variants, measured)]
+        psi_points = count * sum(self.estimators)
+        mass_rows = 0 if self.mass_from_plant else rows
+        truth_rows = 0 if self.plant_is_nominal else rows
+        nominal = self.nominal = NominalBatch(
+            scenario.model,
+            np.concatenate([np.concatenate([members.nominal_mass_scale] * sum(self.estimators)),
+                            per_row(members.nominal_mass_scale)[:mass_rows],
+                            per_row(members.nominal_mass_scale)[:truth_rows]]),
+            threads,
+        )
+        self.mass_points = slice(psi_points, psi_points + mass_rows)
+        self.truth_points = slice(psi_points + mass_rows, psi_points + mass_rows + truth_rows)
+        if self.mass_from_plant:  # buffers refreshed by every mass_matrices() call
+            self.mass, factor, diagonal_inverse = plant.mass_matrices(), plant.factor, plant.diagonal_inverse
+        else:
+            self.mass = nominal.mass_matrices()[self.mass_points]
+            factor, diagonal_inverse = nominal.factor[self.mass_points], nominal.diagonal_inverse[self.mass_points]
+        self.solver = solver = SparseSolver(scenario.model)
+
+        self.measures_velocity = scenario.measures_velocity
+        qd_meas = self.qd_meas = np.zeros((rows, n)) if self.measures_velocity else None  # the tachometers'
+        self.blocks = blocks = []
+        point = 0
+        for v, variant in enumerate(variants):
+            block_rows = slice(v * count, (v + 1) * count)
+            config = members.variants[v]
+
+            def step_model(first: int, control: int | None = None) -> StepModel:
+                return StepModel(M=self.mass[block_rows], factor=factor[block_rows],
+                                 diagonal_inverse=diagonal_inverse[block_rows], solver=solver,
+                                 psi_hat=nominal.qacc[first:first + count],
+                                 psi_control=None if control is None else nominal.qacc[control:control + count],
+                                 qd_measured=None if control is None else qd_meas[block_rows])
+
+            observer = variant.observer_type(config.observer, n, dt, members=count)
+            controller = variant.controller_type(config.controller, n, dt, members=count)
+            controller.reset()
+            host = point
+            point += count
+            monitors = []
+            for monitor, monitor_config in zip(variant.monitors, config.monitors):
+                monitors.append((monitor.name, monitor.observer_type(monitor_config, n, dt, members=count),
+                                 step_model(point)))
+                point += count
+            host_model = step_model(host, point if measured[v] else None)
+            point += count * measured[v]
+            blocks.append(VariantBlock(variant.name, block_rows, observer, controller, host_model, monitors,
+                                       config.q_hat0, config.qd_hat0))
+
+        self.terms = PlantTerms(scenario.terms, rows, n, per_row(members.parameters), list(spec.parameters))
+        self.actuators = (ActuatorFaults(scenario.actuator_faults, self.times, (rows, n))
+                          if scenario.actuator_faults else None)
+        self.has_faults = self.actuators is not None or any(term.kind == "fault" for term in scenario.terms)
+        self.position_sensor = self.velocity_sensor = None
+        if scenario.position_sensor is not None:
+            self.position_sensor = Measurement(scenario.position_sensor, self.times,
+                                               _generators(members, randomness.POSITION_NOISE), len(variants))
+        if scenario.velocity_sensor is not None and self.measures_velocity:
+            self.velocity_sensor = Measurement(scenario.velocity_sensor, self.times,
+                                               _generators(members, randomness.VELOCITY_NOISE), len(variants))
+
+        # (N, n), or (N, members, n) where the reference uses parameters: each variant's block follows its members'.
+        self.reference = scenario.reference.evaluate(self.times, members.parameters if spec.parameters else None)
+        steps = self.steps
+        self.series = {name: np.full((steps, rows, n), np.nan) for name in SERIES}
+        self.fault_active = np.zeros((steps, rows), dtype=bool)
+        self.q_meas, self.q_read, self.qd_read = np.zeros((rows, n)), np.zeros((rows, n)), np.zeros((rows, n))
+        self.qd_measured = np.full((steps, rows, n), np.nan) if self.measures_velocity else None
+        self.torque_space = scenario.diagnoser is not None and scenario.diagnoser.space == "torque"
+        self.luaf_torque = np.full((steps, rows, n), np.nan) if self.torque_space else None
+        self.monitor_series = {
+            block.name: {name: {key: np.full((steps, count, n), np.nan) for key in ("qd_hat", "luaf_hat")}
+                         | ({"luaf_torque": np.full((steps, count, n), np.nan)} if self.torque_space else {})
+                         for name, _, _ in block.monitors}
+            for block in blocks
+        }
+        self.signals = [{**b.observer.signals, **b.controller.signals} for b in blocks]
+        self.extras = {b.name: {name: np.full((steps, count, n), np.nan) for name in signals}
+                       for b, signals in zip(blocks, self.signals)}
+        self.body_xpos = self.body_xquat = None
+        if record_poses:
+            self.xpos, self.xquat = plant.batch.bind("xpos"), plant.batch.bind("xquat")
+            self.body_xpos = np.zeros((steps,) + self.xpos.shape)
+            self.body_xquat = np.zeros((steps,) + self.xquat.shape)
+        self.tau = np.zeros((rows, n))
+        self.truth_tau = nominal.applied[self.truth_points]
+        self.fault_acceleration = np.zeros((rows, n))
+        self.plant_bias = plant.batch.bind("qfrc_bias")  # C(q, qd) qd + G(q) at the sample instant
+        self.truth_force, self.truth_acceleration = np.zeros((rows, n)), np.zeros((rows, n))
+        self.done = np.full(rows, steps)
+        self.diverged_at = np.full(rows, np.nan)
+        #: The sample whose true lumped uncertainty the next nominal evaluation gives (truth points only).
+        self.pending: int | None = None
+
+    def stop(self, stopped: np.ndarray | None, k: int) -> None:
+        """Rows stopped at sample k: their recording ends before it."""
+        if stopped is not None:
+            self.done[stopped] = k
+            self.diverged_at[stopped] = self.times[k]
+
+    def sense(self, k: int) -> None:
+        """1. The readings of sample k, corrupted by the sensor effects."""
+        plant = self.plant
+        plant.read_positions(self.q_read)
+        if self.position_sensor is None:
+            np.copyto(self.q_meas, self.q_read)
+        else:
+            self.position_sensor.read(k, self.q_read, self.q_meas)
+        if self.qd_meas is not None:
+            plant.read_velocities(self.qd_read)
+            if self.velocity_sensor is None:
+                np.copyto(self.qd_meas, self.qd_read)
+            else:
+                self.velocity_sensor.read(k, self.qd_read, self.qd_meas)
+
+    def evaluate_nominal(self, k: int) -> None:
+        """2. The observers take the readings; the nominal model at every point (and last period's truth)."""
+        nominal, count, q_meas, qd_meas = self.nominal, self.count, self.q_meas, self.qd_meas
+        point = 0
+        for block in self.blocks:
+            q_b = q_meas[block.rows]
+            qd_b = None if qd_meas is None else qd_meas[block.rows]
+            if k == 0:  # from the first reading unless the scenario says otherwise
+                q_hat0 = q_b if block.q_hat0 is None else block.q_hat0
+                for observer in block.estimators:
+                    observer.reset(q_hat0, block.qd_hat0)
+            for observer in block.estimators:
+                observer.measure(q_b, qd_b)
+                nominal.qpos[point:point + count] = observer.q_hat
+                nominal.qvel[point:point + count] = observer.qd_hat
+                point += count
+            if block.model.qd_measured is not None:  # the controller's Psi at the readings
+                nominal.qpos[point:point + count] = q_b
+                nominal.qvel[point:point + count] = qd_b
+                point += count
+        if not self.mass_from_plant:
+            nominal.qpos[self.mass_points] = q_meas
+        if self.plant.running < self.rows:  # stopped rows may hold NaN or inf: evaluate them at rest instead
+            _rest(nominal, self.plant.alive, self.done < k, count, self.estimators, self.mass_points,
+                  self.truth_points)
+        nominal.evaluate()
+        (self.plant if self.mass_from_plant else nominal).mass_matrices()  # refreshes ``mass``
+        self._pending_truth()
+        self.pending = None if self.plant_is_nominal else k
+
+    def _pending_truth(self) -> None:
+        """qdd - (Psi(q, qd) + M(q)^-1 tau) of the pending sample, from the truth points just evaluated."""
+        if self.pending is not None:
+            series = self.series
+            np.subtract(series["qdd_true"][self.pending], self.nominal.qacc[self.truth_points],
+                        out=series["luaf_true"][self.pending])
+
+    def control(self, k: int, t: float) -> None:
+        """3. Each observer's injection, each controller's torque; the commands go to ``ctrl``."""
+        series, q_meas, tau = self.series, self.q_meas, self.tau
+        q_ref, qd_ref, qdd_ref = (values[k] for values in self.reference)
+        for b, block in enumerate(self.blocks):
+            rows_b = block.rows
+            q_b = q_meas[rows_b]
+            block.observer.update(t, q_b, block.model)
+            for name, observer, model in block.monitors:
+                observer.update(t, q_b, model)
+                recorded = self.monitor_series[block.name][name]
+                recorded["qd_hat"][k] = observer.qd_hat
+                recorded["luaf_hat"][k] = observer.luaf_hat
+                if self.torque_space:
+                    model.apply_M(observer.luaf_hat, out=recorded["luaf_torque"][k])
+            tau[rows_b] = block.controller.compute(t, q_ref, qd_ref, qdd_ref, q_b, block.observer, block.model)
+            series["qd_hat"][k, rows_b] = block.observer.qd_hat
+            series["luaf_hat"][k, rows_b] = block.observer.luaf_hat
+            series["sliding"][k, rows_b] = block.controller.sliding
+            if self.luaf_torque is not None:
+                block.model.apply_M(block.observer.luaf_hat, out=self.luaf_torque[k, rows_b])
+            for name, signal in self.signals[b].items():
+                self.extras[block.name][name][k] = signal
+        plant = self.plant
+        plant.ctrl[:] = tau
+        series["q_meas"][k] = q_meas
+        series["q_true"][k] = plant.qpos
+        series["qd_true"][k] = plant.qvel
+        series["tau"][k] = tau
+        if self.qd_measured is not None:
+            self.qd_measured[k] = self.qd_meas
+        if self.body_xpos is not None:
+            self.body_xpos[k] = self.xpos
+            self.body_xquat[k] = self.xquat
+
+    def actuate(self, k: int, t: float) -> None:
+        """4. Terms on the true state and what the actuators deliver go to ``qfrc_applied``; the fault truth."""
+        plant, terms, series, tau, solver = self.plant, self.terms, self.series, self.tau, self.solver
+        true_mass = (self.mass if self.mass_from_plant else plant.mass_matrices()) if terms.needs_mass else None
+        if self.plant_is_nominal:  # M(q)^-1 tau + Psi(q, qd) = M^-1 (tau - C qd - G) at the true state
+            np.subtract(tau, self.plant_bias, out=self.truth_force)
+            solver.solve(plant.factor, plant.diagonal_inverse, self.truth_force, self.truth_acceleration)
+        terms.apply(t, plant.qpos, plant.qvel, true_mass, plant.applied)
+        series["fault"][k] = terms.fault
+        any_fault = terms.fault_active  # profiles depend on time only: the same for every row
+        delivered = tau
+        actuators = self.actuators
+        if actuators is not None:
+            # The actuators deliver something else than the command: the difference acts through
+            # qfrc_applied, so ctrl (and the recorded tau) stay what the controller asked for.
+            actuators.apply(k, tau)
+            plant.applied += actuators.torque
+            terms.fault_force += actuators.torque
+            any_fault = any_fault or actuators.active[k]
+            delivered = actuators.delivered
+        self.fault_active[k] = any_fault
+        series["tau_delivered"][k] = delivered
+        if self.has_faults:
+            series["fault_torque"][k] = terms.fault_force
+            if any_fault:  # M(q)^-1 of the fault force, with the true M of the sample instant
+                solver.solve(plant.factor, plant.diagonal_inverse, terms.fault_force, self.fault_acceleration)
+            else:
+                self.fault_acceleration[:] = 0.0
+            series["fault_acceleration"][k] = self.fault_acceleration
+        if not self.plant_is_nominal:  # the truth point of this row, evaluated with the next period's nominal call
+            self.nominal.qpos[self.truth_points] = plant.qpos
+            self.nominal.qvel[self.truth_points] = plant.qvel
+            self.truth_tau[:] = tau
+
+    def advance(self, k: int) -> None:
+        """5. The observers integrate over the period (with this period's model, before the plant's M moves
+        on); the plant steps; the period's true acceleration."""
+        tau, plant, series = self.tau, self.plant, self.series
+        for block in self.blocks:
+            tau_b = tau[block.rows]
+            block.observer.advance(tau_b, block.model)
+            for _, observer, model in block.monitors:
+                observer.advance(tau_b, model)
+        self.stop(plant.step(), k)
+        series["qdd_true"][k] = plant.acceleration
+        if self.plant_is_nominal:
+            np.subtract(plant.acceleration, self.truth_acceleration, out=series["luaf_true"][k])
+
+    def last_truth(self) -> None:
+        """The last recorded sample's truth, where it comes from the truth points."""
+        if self.pending is not None:
+            self.nominal.evaluate()
+            self._pending_truth()
+
+    def result(self) -> BatchRun:
+        """The series, cut where each row stopped."""
+        series, done = self.series, self.done
+        if not self.has_faults:
+            series["fault_torque"][:] = 0.0
+            series["fault_acceleration"][:] = 0.0
+        for rows_series in (*series.values(), self.qd_measured, self.luaf_torque):
+            if rows_series is not None:
+                _cut(rows_series, done)
+        for block in self.blocks:
+            block_done = done[block.rows]
+            for name_series in (*self.monitor_series[block.name].values(), self.extras[block.name]):
+                for values in name_series.values():
+                    _cut(values, block_done)
+        return BatchRun(times=self.times, members=self.count, variants=[b.name for b in self.blocks],
+                        series=series, reference=self.reference, monitor_series=self.monitor_series,
+                        extras=self.extras, fault_active=self.fault_active, qd_measured=self.qd_measured,
+                        luaf_torque=self.luaf_torque, body_xpos=self.body_xpos, body_xquat=self.body_xquat,
+                        done=done, diverged_at=self.diverged_at)
 
 
 def _rest(nominal: NominalBatch, alive: np.ndarray, stopped_before: np.ndarray, count: int, estimators: list[int],
