@@ -107,6 +107,7 @@ def metrics_document(scenario: Scenario, results: Sequence[VariantResult], metri
             "baseline_std": clean(found.std),
         }
 
+    velocity = {variant.name: variant.controller_velocity for variant in scenario.variants}
     return {
         "scenario": scenario.name,
         "seed": scenario.spec.seed,
@@ -114,6 +115,7 @@ def metrics_document(scenario: Scenario, results: Sequence[VariantResult], metri
             r.name: {
                 "status": r.status,
                 "diverged_at": r.diverged_at,
+                "controller_velocity": velocity[r.name.split(".")[0]],  # a monitor's: its host's
                 "metrics": {name: clean(values) for name, values in metrics[r.name].items()},
                 "diagnosis": diagnosis(r),
             }

@@ -301,7 +301,8 @@ def test_short_run_json_structure(outcomes):
     assert list(document["variants"]) == VARIANTS
     assert len(METRICS) == 24
     for name, variant in document["variants"].items():
-        assert set(variant) == {"status", "diverged_at", "metrics", "diagnosis"}, name
+        assert set(variant) == {"status", "diverged_at", "controller_velocity", "metrics", "diagnosis"}, name
+        assert variant["controller_velocity"] == "estimated"  # the PUMA of Chapter 5 has no tachometers
         assert variant["status"] == "ok"
         assert variant["diverged_at"] is None
         assert list(variant["metrics"]) == list(METRICS)
