@@ -328,7 +328,7 @@ class _Run:
     def control(self, k: int, t: float) -> None:
         """3. Each observer's injection, each controller's torque; the commands go to ``ctrl``."""
         series, q_meas, tau = self.series, self.q_meas, self.tau
-        q_ref, qd_ref, qdd_ref = (values[k] for values in self.reference)
+        q_ref, qd_ref, qdd_ref = self.reference[0][k], self.reference[1][k], self.reference[2][k]
         for b, block in enumerate(self.blocks):
             rows_b = block.rows
             q_b = q_meas[rows_b]

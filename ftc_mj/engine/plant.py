@@ -18,6 +18,7 @@ from mujoco.batch import Batch, SimulationError
 
 from ftc_mj.robot.model import position_sensor_addresses, velocity_sensor_addresses
 from ftc_mj.robot.nominal import DenseMass, scale_masses
+from ftc_mj.spec.expressions import SCALAR_ROWS
 
 _POSITION_VELOCITY_STAGE = int(mujoco.mjtStage.mjSTAGE_VEL)
 #: MuJoCo warnings after which it resets a simulation: that is a divergence here.
@@ -88,10 +89,17 @@ class Plant:
         """Stop the rows whose state left the plausible range; returns the newly stopped rows (a mask), or
         None."""
         # NaN fails every comparison, so it stops its row too (the engine runs under np.errstate(all="ignore")).
+        if len(self.alive) <= SCALAR_ROWS:  # a few rows: Python floats (NaN fails every comparison)
+            if all(abs(x) <= self.max_position for row in self.qpos.tolist() for x in row) and all(
+                    abs(x) <= self.max_velocity for row in self.qvel.tolist() for x in row):
+                return None
+        else:
+            np.abs(self.qpos, out=self._position)
+            np.abs(self.qvel, out=self._velocity)
+            if self._position.max() <= self.max_position and self._velocity.max() <= self.max_velocity:
+                return None  # every row within (a NaN makes its maximum NaN, which fails the comparison)
         np.abs(self.qpos, out=self._position)
         np.abs(self.qvel, out=self._velocity)
-        if self._position.max() <= self.max_position and self._velocity.max() <= self.max_velocity:
-            return None  # every row within (a NaN makes its maximum NaN, which fails the comparison)
         within = (self._position <= self.max_position).all(axis=1) & (self._velocity <= self.max_velocity).all(axis=1)
         return self._stop(~within & self.alive)
 
