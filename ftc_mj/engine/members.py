@@ -108,7 +108,9 @@ def replicates(scenario: Scenario, count: int) -> Members:
 
 
 def members_from_overrides(scenario: Scenario, overrides: Sequence[Mapping[str, Any]]) -> Members:
-    """One member per mapping of dotted paths to values, each applied to the scenario as loaded.
+    """One member per mapping of dotted paths to values, each applied to the scenario as loaded. A member
+    whose mapping sets no ``seed`` gets ``seed + k`` (k its index), as :func:`replicates` does: each member has
+    its own random streams, and member 0 is the scenario's own run.
 
     Raises:
         InputError: a path that may not differ within a batch (:data:`BATCHABLE`), or a value the scenario's
@@ -118,6 +120,7 @@ def members_from_overrides(scenario: Scenario, overrides: Sequence[Mapping[str, 
     values = []
     for k, member in enumerate(overrides):
         raw = copy.deepcopy(scenario.raw)
+        raw["seed"] = scenario.spec.seed + k
         for key, value in member.items():
             if BATCHABLE.fullmatch(key) is None:
                 raise InputError(file, key, f"member {k}: cannot differ between the members of a batch (only the "
@@ -175,13 +178,14 @@ def _stack(members: list[Members]) -> Members:
             raise ValueError("observer_initial.q_hat given for some members and not for others")
         return np.concatenate(values)
 
+    n = members[0].q0.shape[1]
     variants = []
     for v in range(len(members[0].variants)):
         of_variant = [m.variants[v] for m in members]
         variants.append(MemberVariant(
-            observer=stack([mv.observer for mv in of_variant]),
-            controller=stack([mv.controller for mv in of_variant]),
-            monitors=[stack([mv.monitors[i] for mv in of_variant]) for i in range(len(of_variant[0].monitors))],
+            observer=stack([mv.observer for mv in of_variant], n),
+            controller=stack([mv.controller for mv in of_variant], n),
+            monitors=[stack([mv.monitors[i] for mv in of_variant], n) for i in range(len(of_variant[0].monitors))],
             q_hat0=join([mv.q_hat0 for mv in of_variant]),
             qd_hat0=join([mv.qd_hat0 for mv in of_variant]),
         ))

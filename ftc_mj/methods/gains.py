@@ -38,11 +38,10 @@ class GainConfig(BaseModel):
     model_config = ConfigDict(extra="forbid", frozen=True, arbitrary_types_allowed=True)
 
 
-def stack(configs: Sequence[GainConfig]) -> GainConfig:
+def stack(configs: Sequence[GainConfig], n_joints: int) -> GainConfig:
     """One configuration for a batch of members from one validated configuration per member.
 
-    Per-joint gains become ``(members, n)`` arrays and single numbers ``(members, 1)`` arrays (so both
-    broadcast against state shaped ``(members, n)``); a field that is None must be None for every member, and a
+    Per-joint gains and single numbers both become contiguous ``(members, n)`` arrays; a field that is None must be None for every member, and a
     choice (a string such as ``compensation``) must be the same for every member, since it selects the law's
     form rather than a value. The result is not validated again: each member's values were.
     """
@@ -61,5 +60,8 @@ def stack(configs: Sequence[GainConfig]) -> GainConfig:
                 raise ValueError(f"{name}: differs between members ({column[0]!r}, ...); it selects the law's form")
             values[name] = column[0]
         else:
-            values[name] = np.asarray(column, dtype=float)[:, None]
+            # One per member and joint (not one column to broadcast): an exponent of one element would take
+            # NumPy's scalar fast paths (x ** 0.5 as sqrt), which differ in the last bit from the general power
+            # a batch of many members computes, and member k would not be its own run.
+            values[name] = np.repeat(np.asarray(column, dtype=float)[:, None], n_joints, axis=1)
     return type(first).model_construct(**values)

@@ -18,7 +18,7 @@ class Method(ABC):
       (readings, reference rows broadcast, the nominal model's ``psi_hat`` ``(members, n)`` and ``M``
       ``(members, n, n)``) and every output it exposes has the member axis first.
     * **Gains.** ``config`` is the per-member stack of validated configurations
-      (:func:`ftc_mj.methods.gains.stack`): per-joint gains are ``(members, n)``, single numbers ``(members, 1)``,
+      (:func:`ftc_mj.methods.gains.stack`): per-joint gains and single numbers alike ``(members, n)``,
       choices (strings) shared. Use them as arrays: no ``float(...)`` of a gain, no ``if`` on a gain's value
       (use ``np.where``), so that every member may have its own gains.
     * **Per step.** Update state in place (``out=``, ``[:] =``); allocate in ``__init__``, not per call.

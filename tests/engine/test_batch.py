@@ -100,17 +100,18 @@ SERIES = ("q_ref", "qd_ref", "qdd_ref", "q_meas", "q_true", "qd_true", "qdd_true
 
 @pytest.mark.parametrize("member", range(len(MEMBERS)))
 def test_every_member_equals_its_own_run(scenario, batch_run, member):
-    alone = simulate(scenario, members_from_overrides(scenario, [MEMBERS[member]]), nthread=1)
+    seed = scenario.spec.seed + member  # a member without its own seed has seed + its index
+    alone = simulate(scenario, members_from_overrides(scenario, [{"seed": seed, **MEMBERS[member]}]), nthread=1)
     for v, variant in enumerate(scenario.variants):
         batched, single = variant_result(scenario, batch_run, v, member), variant_result(scenario, alone, v, 0)
         assert batched.status == single.status and batched.diverged_at == single.diverged_at
         for name in SERIES:
-            np.testing.assert_allclose(getattr(batched, name), getattr(single, name), rtol=0, atol=1e-12,
-                                       err_msg=f"{variant.name}: {name}")
+            np.testing.assert_array_equal(getattr(batched, name), getattr(single, name),
+                                          err_msg=f"{variant.name}: {name}")  # bit for bit
         for name, values in batched.extras.items():
-            np.testing.assert_allclose(values, single.extras[name], rtol=0, atol=1e-12)
+            np.testing.assert_array_equal(values, single.extras[name])
         for a, b in zip(batched.monitors, single.monitors):
-            np.testing.assert_allclose(a.luaf_hat, b.luaf_hat, rtol=0, atol=1e-12)
+            np.testing.assert_array_equal(a.luaf_hat, b.luaf_hat)
         np.testing.assert_array_equal(batched.diagnosis.alarm, single.diagnosis.alarm)
 
 
@@ -131,6 +132,11 @@ def test_the_diverging_member_stops_and_the_others_finish(scenario, batch_run):
             else:
                 assert result.status == "ok" and len(result.t) == len(scenario.times)
                 assert np.isfinite(result.q_true).all()
+
+
+def test_members_without_a_seed_get_the_scenario_seed_plus_their_index(scenario):
+    members = members_from_overrides(scenario, [{}, {"seed": 40}, {}])
+    np.testing.assert_array_equal(members.seeds, [scenario.spec.seed, 40, scenario.spec.seed + 2])
 
 
 def test_replicates_differ_in_their_seed_only(scenario):

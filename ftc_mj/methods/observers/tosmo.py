@@ -66,7 +66,7 @@ class TOSMO(Observer):
     def __init__(self, config: TOSMOConfig, n_joints: int, dt: float, members: int | None = None):
         super().__init__(config, n_joints, dt, members)
         self.k1, self.k2, self.k3 = config.gains()
-        self.linear_gain = getattr(config, "gamma", 0.0)  # Gamma of (5.6), (members, 1); 0 for the TOSMO
+        self.linear_gain = getattr(config, "gamma", 0.0)  # Gamma of (5.6), (members, n); 0 for the TOSMO
         self._sign = np.zeros(self.shape)
         self._q_hat_rate = np.zeros(self.shape)
 
