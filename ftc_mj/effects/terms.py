@@ -134,7 +134,6 @@ class PlantTerms:
                                                    list(parameter_names))
         self._values = np.zeros((rows, len(terms) * n_joints))
         self._blocks = [self._values[:, i * n_joints:(i + 1) * n_joints] for i in range(len(terms))]
-        self._offsets = {id(block): i * n_joints for i, block in enumerate(self._blocks)}
         self.needs_mass = any(term.space == "acceleration" for term in terms)
         self._has_acceleration_fault = any(term.space == "acceleration" and term.kind == "fault" for term in terms)
 
@@ -144,11 +143,11 @@ class PlantTerms:
         ``t`` is the loop's k * control_dt: MuJoCo's ``data.time`` accumulates rounding (after 40000 steps
         of 0.25 ms it is 9.99999999999937), which would start a fault due at 10 s one period late. ``mass``
         is the true M(q) of each row at the sample instant, needed with acceleration-space terms."""
-        active = []  # (term, its values, sign times the profile's weight) of the terms on at t
-        for term, values in zip(self.terms, self._blocks):
+        active = []  # (term, its index, sign times the profile's weight) of the terms on at t
+        for index, term in enumerate(self.terms):
             weight = term.profile(t)
             if weight is not None:
-                active.append((term, values, term.sign * weight))
+                active.append((term, index, term.sign * weight))
         self.fault_active = any(term.kind == "fault" for term, _, _ in active)
         if active:
             self._function.evaluate(t, qpos, qvel, self._parameters, self._values)
@@ -165,7 +164,8 @@ class PlantTerms:
     def _sum_columns(self, active: list) -> None:
         """The sums of the terms on, from zero, term by term in the file's order."""
         self._sums[:] = 0.0
-        for term, value, factor in active:
+        for term, index, factor in active:
+            value = self._blocks[index]
             value *= factor
             acceleration = term.space == "acceleration"
             (self.acceleration if acceleration else self.torque)[:] += value
@@ -178,13 +178,13 @@ class PlantTerms:
         bits), without NumPy's per-call cost on a few rows."""
         n = self._sums.shape[-1]
         plan = []
-        for term, value, factor in active:
+        for term, index, factor in active:
             acceleration = term.space == "acceleration"
             targets = [_ACCELERATION if acceleration else _TORQUE]
             if term.kind == "fault":
                 targets += [_FAULT, _FAULT_ACCELERATION if acceleration else _FAULT_FORCE]
             factors = factor.tolist() if isinstance(factor, np.ndarray) else [factor] * n  # per joint or one
-            plan.append((self._offsets[id(value)], factors, targets))
+            plan.append((index * n, factors, targets))
         joints = range(n)
         for row, values in enumerate(self._values.tolist()):
             sums = [[0.0] * n for _ in range(5)]

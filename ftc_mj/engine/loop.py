@@ -465,9 +465,3 @@ def _default_threads(rows: int) -> int:
     """All cores, but no more threads than rows."""
     return max(1, min(os.cpu_count() or 1, rows))
 
-
-def series_bytes_per_member(scenario: Scenario) -> int:
-    """Memory one member's kept series take (all variants and monitors), for choosing chunk sizes."""
-    per_variant = len(SERIES) + 2 + 1  # the series, qd_measured and luaf_torque, fault_active
-    per_variant += sum(3 * len(v.monitors) for v in scenario.variants) / max(len(scenario.variants), 1) + 2
-    return int(len(scenario.times) * len(scenario.variants) * scenario.n_joints * 8 * per_variant)

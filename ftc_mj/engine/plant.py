@@ -93,13 +93,10 @@ class Plant:
             if all(abs(x) <= self.max_position for row in self.qpos.tolist() for x in row) and all(
                     abs(x) <= self.max_velocity for row in self.qvel.tolist() for x in row):
                 return None
-        else:
-            np.abs(self.qpos, out=self._position)
-            np.abs(self.qvel, out=self._velocity)
-            if self._position.max() <= self.max_position and self._velocity.max() <= self.max_velocity:
-                return None  # every row within (a NaN makes its maximum NaN, which fails the comparison)
         np.abs(self.qpos, out=self._position)
         np.abs(self.qvel, out=self._velocity)
+        if self._position.max() <= self.max_position and self._velocity.max() <= self.max_velocity:
+            return None  # every row within (a NaN makes its maximum NaN, which fails the comparison)
         within = (self._position <= self.max_position).all(axis=1) & (self._velocity <= self.max_velocity).all(axis=1)
         return self._stop(~within & self.alive)
 

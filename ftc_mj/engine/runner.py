@@ -23,10 +23,10 @@ import numpy as np
 
 from ftc_mj.analysis.diagnosis import diagnose_result
 from ftc_mj.analysis.metrics import compute_metrics
-from ftc_mj.engine.loop import BatchRun, ProgressCallback, simulate, series_bytes_per_member
+from ftc_mj.engine.loop import BatchRun, ProgressCallback, simulate
 from ftc_mj.engine.members import Members, single
 from ftc_mj.engine.results import VariantResult
-from ftc_mj.spec.scenario import Scenario, Variant
+from ftc_mj.spec.scenario import Scenario, Variant, series_bytes
 
 #: Default memory for the series of one chunk of members [bytes].
 DEFAULT_MEMORY_BUDGET = 2 * 1024**3
@@ -94,7 +94,7 @@ def run_batch(
     """Every variant for every member; metrics per member (in member order, then variant order).
 
     ``on_result(member, results)`` sees each member's whole results before they are dropped."""
-    per_member = series_bytes_per_member(scenario)
+    per_member = int(series_bytes(scenario.spec, scenario.n_joints))
     chunk = max(1, min(members.count, memory_budget // max(per_member, 1)))
     outcomes: list[MemberOutcome] = []
     for start in range(0, members.count, chunk):

@@ -230,11 +230,18 @@ def machine_memory() -> int:
     return os.sysconf("SC_PAGE_SIZE") * os.sysconf("SC_PHYS_PAGES")
 
 
+def series_bytes(spec: ScenarioSpec, n: int) -> float:
+    """The memory one member's kept series take, all variants and monitors (a generous estimate): what the
+    run-size check refuses beyond and what the engine sizes its chunks of members by."""
+    periods = spec.duration / spec.control_dt
+    estimators = sum(1 + len(variant.monitors) for variant in spec.variants.values())
+    return periods * estimators * n * 8 * SERIES_PER_JOINT
+
+
 def _check_run_size(spec: ScenarioSpec, n: int, file: str) -> None:
     """Refuse a run whose control periods or kept series cannot fit, before anything is allocated."""
     periods = spec.duration / spec.control_dt
-    estimators = sum(1 + len(variant.monitors) for variant in spec.variants.values())
-    needed = periods * estimators * n * 8 * SERIES_PER_JOINT
+    needed = series_bytes(spec, n)
     available = MEMORY_SHARE * machine_memory()
     if needed > available:
         raise InputError(file, "duration", f"{spec.duration:g} s is {periods:.3g} control periods of {spec.control_dt:g} s, "
