@@ -30,10 +30,9 @@ import numpy as np
 from pydantic import ValidationError
 
 from ftc_mj.methods.gains import GainConfig, stack
-from ftc_mj.methods.registry import compile_method, controller_types, observer_types
 from ftc_mj.spec.errors import InputError, validation_error
 from ftc_mj.spec.loading import set_path
-from ftc_mj.spec.scenario import Scenario, ScenarioSpec, joint_values
+from ftc_mj.spec.scenario import Scenario, ScenarioSpec, compile_variant_methods, joint_values, observer_start
 
 
 @dataclass
@@ -147,17 +146,11 @@ def _values(scenario: Scenario, spec: ScenarioSpec) -> Members:
 
     variants = []
     for variant in scenario.variants:
-        field = f"variants.{variant.name}"
-        variant_spec = spec.variants[variant.name]
-        _, observer = compile_method(file, f"{field}.observer", variant_spec.observer, observer_types(), "observer", n)
-        _, controller = compile_method(file, f"{field}.controller", variant_spec.controller, controller_types(),
-                                       "controller", n)
-        monitors = [compile_method(file, f"{field}.monitors.{m.name}", variant_spec.monitors[m.name],
-                                   observer_types(), "observer", n)[1] for m in variant.monitors]
-        initial = variant_spec.observer_initial or spec.observer_initial
-        q_hat0 = vector(initial.q_hat, f"{field}.observer_initial.q_hat", default=None)
-        variants.append(MemberVariant(observer, controller, monitors, None if q_hat0 is None else q_hat0[None],
-                                      vector(initial.qd_hat, f"{field}.observer_initial.qd_hat")[None]))
+        (_, observer), (_, controller), monitors = compile_variant_methods(file, variant.name,
+                                                                           spec.variants[variant.name], n)
+        q_hat0, qd_hat0 = observer_start(spec, variant.name, n, file)
+        variants.append(MemberVariant(observer, controller, [m.observer_config for m in monitors],
+                                      None if q_hat0 is None else q_hat0[None], qd_hat0[None]))
     return Members(
         seeds=np.array([spec.seed]),
         q0=vector(spec.initial.q, "initial.q")[None],

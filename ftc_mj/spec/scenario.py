@@ -249,6 +249,28 @@ def _check_run_size(spec: ScenarioSpec, n: int, file: str) -> None:
                          f"{machine_memory() / 2**30:.3g} GiB (shorten the run or lengthen control_dt)")
 
 
+def compile_variant_methods(file: str, name: str, variant: VariantSpec, n: int
+                            ) -> tuple[tuple[type, GainConfig], tuple[type, GainConfig], list[Monitor]]:
+    """A variant's observer, controller and monitors: plugin classes and validated gains."""
+    field = f"variants.{name}"
+    observer = compile_method(file, f"{field}.observer", variant.observer, observer_types(), "observer", n)
+    controller = compile_method(file, f"{field}.controller", variant.controller, controller_types(), "controller", n)
+    monitors = [Monitor(monitor, *compile_method(file, f"{field}.monitors.{monitor}", method, observer_types(),
+                                                 "observer", n))
+                for monitor, method in variant.monitors.items()]
+    return observer, controller, monitors
+
+
+def observer_start(spec: ScenarioSpec, name: str, n: int, file: str) -> tuple[np.ndarray | None, np.ndarray]:
+    """Variant ``name``'s observer initial estimate (its own ``observer_initial``, else the scenario's):
+    q_hat(0) (None: the first reading) and qd_hat(0)."""
+    own = spec.variants[name].observer_initial
+    initial = own or spec.observer_initial
+    field = f"variants.{name}.observer_initial" if own else "observer_initial"
+    return (joint_values(initial.q_hat, n, file, f"{field}.q_hat", default=None),
+            joint_values(initial.qd_hat, n, file, f"{field}.qd_hat"))
+
+
 def joint_values(values: list[float] | None, n: int, file: str, field: str,
                  default: float | None = 0.0) -> np.ndarray | None:
     """A state field with one value per joint (``initial.q``, ``observer_initial.qd_hat``, ...); ``default`` for
@@ -314,12 +336,8 @@ def compile_scenario(path: Path, spec: ScenarioSpec) -> Scenario:
     variants = []
     for name, variant in spec.variants.items():
         field = f"variants.{name}"
-        observer_type, observer_config = compile_method(file, f"{field}.observer", variant.observer, observer_types(), "observer", n)
-        controller_type, controller_config = compile_method(file, f"{field}.controller", variant.controller, controller_types(), "controller", n)
-        monitors = [
-            Monitor(monitor, *compile_method(file, f"{field}.monitors.{monitor}", method, observer_types(), "observer", n))
-            for monitor, method in variant.monitors.items()
-        ]
+        (observer_type, observer_config), (controller_type, controller_config), monitors = compile_variant_methods(
+            file, name, variant, n)
         plugins = [("observer", observer_type), ("controller", controller_type)]
         plugins += [(f"monitors.{m.name}", m.observer_type) for m in monitors]
         for kind, plugin in plugins:
@@ -332,8 +350,7 @@ def compile_scenario(path: Path, spec: ScenarioSpec) -> Scenario:
         if velocity == "measured" and "velocity" not in sensors:
             velocity_field = f"{field}.controller_velocity" if variant.controller_velocity else "controller_velocity"
             raise InputError(file, velocity_field, "measured needs velocity sensors (robot.sensors)")
-        initial = variant.observer_initial or spec.observer_initial
-        initial_field = f"{field}.observer_initial" if variant.observer_initial else "observer_initial"
+        q_hat0, qd_hat0 = observer_start(spec, name, n, file)
         variants.append(
             Variant(
                 name=name,
@@ -341,8 +358,8 @@ def compile_scenario(path: Path, spec: ScenarioSpec) -> Scenario:
                 observer_config=observer_config,
                 controller_type=controller_type,
                 controller_config=controller_config,
-                q_hat0=vector(initial.q_hat, f"{initial_field}.q_hat", default=None),
-                qd_hat0=vector(initial.qd_hat, f"{initial_field}.qd_hat"),
+                q_hat0=q_hat0,
+                qd_hat0=qd_hat0,
                 monitors=monitors,
                 controller_velocity=velocity,
             )
