@@ -26,7 +26,8 @@ from ftc_mj.effects.profiles import Profile, ProfileSpec, compile_profile
 from ftc_mj.spec import expressions
 from ftc_mj.spec.expressions import SCALAR_ROWS
 from ftc_mj.spec.errors import InputError
-from ftc_mj.spec.schema import ExpressionText, NonNegativeFloat, PositiveFloat, Strict, parse_expression, per_joint
+from ftc_mj.spec.schema import (ExpressionText, NonNegativeFloat, ParameterName, PositiveFloat, Strict,
+                                parse_expression, per_joint)
 
 
 class TermSpec(Strict):
@@ -37,8 +38,9 @@ class TermSpec(Strict):
     sign: Literal[1, -1]
     value: list[ExpressionText]
     onset: NonNegativeFloat | None = None
-    #: Evolution rate of 1 - exp(-rate (t - onset)), one number or one per joint; abrupt when absent.
-    rate: PositiveFloat | list[PositiveFloat] | None = None
+    #: Evolution rate of 1 - exp(-rate (t - onset)), one number or one per joint, or the name of one of the
+    #: scenario's ``parameters`` (then each member of a batch may have its own rate); abrupt when absent.
+    rate: PositiveFloat | list[PositiveFloat] | ParameterName | None = None
     #: Any time profile of :mod:`ftc_mj.effects.profiles` (instead of ``onset`` and ``rate``).
     profile: ProfileSpec | None = None
     name: str | None = None
@@ -57,6 +59,8 @@ class CompiledTerm:
     time_profile: Profile | None
     #: Joints whose value is not identically zero (a fault "on joint 1" has zeros elsewhere).
     joints: np.ndarray
+    #: The parameter that holds the evolution rate (per member), or None (the profile's own, if any).
+    rate_parameter: str | None = None
 
     @property
     def onset(self) -> float | None:
@@ -89,15 +93,18 @@ def compile_terms(specs: list[TermSpec], file: str, n: int, parameters: list[str
                 space=term.space,
                 sign=float(term.sign),
                 function=expressions.StateFunction(exprs, n, parameters),
-                time_profile=_term_profile(term, file, field, n),
+                time_profile=_term_profile(term, file, field, n, parameters),
                 joints=np.array([expr.is_zero is not True for expr in exprs]),
+                rate_parameter=term.rate if isinstance(term.rate, str) else None,
             )
         )
     return terms
 
 
-def _term_profile(term: TermSpec, file: str, field: str, n: int) -> Profile | None:
-    """A plant term's profile: ``profile``, or the dissertation's ``onset`` with an optional ``rate``."""
+def _term_profile(term: TermSpec, file: str, field: str, n: int, parameters: Sequence[str]) -> Profile | None:
+    """A plant term's profile: ``profile``, or the dissertation's ``onset`` with an optional ``rate``. A rate
+    named by a parameter gives an abrupt profile here; :class:`PlantTerms` multiplies it by each member's
+    1 - exp(-rate (t - onset))."""
     if term.profile is not None:
         if term.onset is not None or term.rate is not None:
             raise InputError(file, f"{field}.profile", "give either a profile or onset and rate, not both")
@@ -106,6 +113,10 @@ def _term_profile(term: TermSpec, file: str, field: str, n: int) -> Profile | No
         raise InputError(file, f"{field}.rate", "an evolution rate needs an onset")
     if term.onset is None:
         return None
+    if isinstance(term.rate, str):
+        if term.rate not in parameters:
+            raise InputError(file, f"{field}.rate", f"{term.rate!r} is not one of the scenario's parameters")
+        return Profile("abrupt", onset=term.onset)
     rate = None if term.rate is None else per_joint(term.rate, n, file, f"{field}.rate")
     return Profile("abrupt" if rate is None else "incipient", onset=term.onset, rate=rate)
 
@@ -130,6 +141,10 @@ class PlantTerms:
         self.fault_active = False
         self._mapped = np.zeros(shape)
         self._parameters = np.asarray(parameters, dtype=float).reshape(rows, -1)
+        names = list(parameter_names)
+        #: Per term with a rate parameter, each row's rate, ``(rows, 1)`` (the same for every joint).
+        self._rates = {index: self._parameters[:, names.index(term.rate_parameter)][:, None].copy()
+                       for index, term in enumerate(terms) if term.rate_parameter is not None}
         self._function = expressions.StateFunction([e for term in terms for e in term.function.exprs], n_joints,
                                                    list(parameter_names))
         self._values = np.zeros((rows, len(terms) * n_joints))
@@ -147,6 +162,8 @@ class PlantTerms:
         for index, term in enumerate(self.terms):
             weight = term.profile(t)
             if weight is not None:
+                if index in self._rates:  # each row's incipient profile, as Profile.weight computes it
+                    weight = 1.0 - np.exp(-self._rates[index] * (t - term.onset))
                 active.append((term, index, term.sign * weight))
         self.fault_active = any(term.kind == "fault" for term, _, _ in active)
         if active:
@@ -183,12 +200,18 @@ class PlantTerms:
             targets = [_ACCELERATION if acceleration else _TORQUE]
             if term.kind == "fault":
                 targets += [_FAULT, _FAULT_ACCELERATION if acceleration else _FAULT_FORCE]
-            factors = factor.tolist() if isinstance(factor, np.ndarray) else [factor] * n  # per joint or one
+            if not isinstance(factor, np.ndarray):  # one for every joint and row
+                factors = [[factor] * n] * len(self._values)
+            elif factor.ndim == 1:  # per joint
+                factors = [factor.tolist()] * len(self._values)
+            else:  # per row, (rows, 1)
+                factors = [[f] * n for f in factor[:, 0].tolist()]
             plan.append((index * n, factors, targets))
         joints = range(n)
         for row, values in enumerate(self._values.tolist()):
             sums = [[0.0] * n for _ in range(5)]
-            for offset, factor, targets in plan:
+            for offset, factors, targets in plan:
+                factor = factors[row]
                 scaled = [values[offset + j] * factor[j] for j in joints]
                 for target in targets:
                     total = sums[target]

@@ -23,7 +23,7 @@ from typing import Annotated, Any, Literal
 
 import mujoco
 import numpy as np
-from pydantic import Field, field_validator
+from pydantic import Field, field_validator, model_validator
 
 from ftc_mj.analysis.diagnosis import Diagnoser, DiagnosisSpec, compile_diagnoser
 from ftc_mj.analysis.metrics import MetricsSpec
@@ -125,6 +125,19 @@ class ScenarioSpec(Strict):
                 raise ValueError(f"{name!r} cannot name a parameter: use letters, digits and _, not a variable "
                                  "(t, q1, qd1, ...), a constant or a function of the expression language")
         return parameters
+
+    @model_validator(mode="after")
+    def _rate_parameters(self) -> "ScenarioSpec":
+        """A term's rate given by a parameter: the parameter exists and is positive (checked for every member of
+        a batch, whose parameters are validated with this schema)."""
+        for index, term in enumerate(self.terms):
+            if isinstance(term.rate, str):
+                if term.rate not in self.parameters:
+                    raise ValueError(f"terms.{index}.rate: {term.rate!r} is not one of the parameters")
+                if self.parameters[term.rate] <= 0:
+                    raise ValueError(f"parameters.{term.rate} is the rate of terms.{index}: it must be positive, "
+                                     f"not {self.parameters[term.rate]:g}")
+        return self
 
     @field_validator("variants")
     @classmethod

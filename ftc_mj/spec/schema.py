@@ -26,6 +26,8 @@ NonNegativeFloat = Annotated[float, Field(ge=0, allow_inf_nan=False)]
 FiniteFloat = Annotated[float, Field(allow_inf_nan=False)]
 # Strict: a YAML boolean must not pass as the number 1.
 ExpressionText = StrictStr | StrictInt | StrictFloat
+#: The name of one of the scenario's ``parameters`` where a number may also be given by one.
+ParameterName = Annotated[StrictStr, Field(pattern=r"^[A-Za-z_][A-Za-z0-9_]*$")]
 #: Joints by 1-based number or by MJCF joint name; ``None`` (absent) means every joint.
 JointSelection = Annotated[list[Annotated[int, Field(ge=1)] | StrictStr], Field(min_length=1)] | None
 

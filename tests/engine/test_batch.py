@@ -48,7 +48,7 @@ MEMBERS = [
     {"seed": 11, "parameters.fault_scale": 0.5, "variants.hs_nftsmc.controller.gains.mu": 2.0,
      "variants.eso_smc.observer.gains.bandwidth": 40.0, "variants.hs_nftsmc.monitors.eso.gains.bandwidth": 90.0},
     {"nominal.mass_scale": 1.2, "plant.mass_scale": 0.9, "parameters.amplitude": 0.5, "variants.do_adaptive.controller.gains.rho": [1.0, 2.0, 3.0],
-     "variants.tosmo_sigmoid.observer.gains.D": 30.0, "initial.q": [-0.4, -0.6, -0.5]},
+     "variants.tosmo_sigmoid.observer.gains.D": 30.0, "initial.q": [-0.4, -0.6, -0.5], "parameters.fault_rate": 3.0},
     {"initial.qd.1": 5000.0},
     {"seed": 7, "variants.sosmo_ntsmc.controller.gains.decay": 1.1},
 ]
@@ -64,11 +64,11 @@ def scenario_dict() -> dict:
         "timestep": 5e-4,
         "initial": {"q": [-0.5, -0.5, -0.5], "qd": [0.0, 0.0, 0.0]},
         "observer_initial": {"qd_hat": [0.5, 0.5, 0.5]},
-        "parameters": {"fault_scale": 1.0, "amplitude": 0.0},
+        "parameters": {"fault_scale": 1.0, "amplitude": 0.0, "fault_rate": 20.0},
         "reference": ["cos(pi*t/5) - 1", "sin(pi*t/5 + pi/2) - 1", "0.3*sin(2*t) - 0.5 + amplitude*t**2"],
         "terms": [
             {"kind": "friction", "space": "torque", "sign": -1, "value": ["1.9*sin(qd1)", "2.03*sin(qd2)", "1.76*sin(qd3)"]},
-            {"kind": "fault", "space": "acceleration", "sign": 1, "onset": 0.1, "rate": 20.0,
+            {"kind": "fault", "space": "acceleration", "sign": 1, "onset": 0.1, "rate": "fault_rate",
              "value": ["fault_scale*(10*sin(q1*q2) + 3.7*cos(qd1*q2))", "fault_scale*15*sin(q1*q2)", "0"]},
         ],
         "actuator_faults": [{"kind": "lock", "joints": [3], "profile": {"onset": 0.15, "end": 0.2}}],
@@ -172,6 +172,7 @@ def test_chunks_give_the_metrics_of_one_batch(scenario):
     ({"variants.hs_nftsmc.controller.gains.compensation": "none"}, "selects the law's form"),
     ({"parameters.other": 1.0}, "do not add any"),
     ({"nominal.mass_scale": -1.0}, "nominal.mass_scale"),
+    ({"parameters.fault_rate": 0.0}, "rate of terms.1: it must be positive"),
 ])
 def test_member_overrides_are_checked(scenario, override, message):
     with pytest.raises((InputError, ValueError), match=message):
@@ -221,3 +222,12 @@ def test_a_member_follows_its_own_parameterised_reference(scenario, batch_run):
     np.testing.assert_allclose(shifted.qd_ref[:, 2] - plain.qd_ref[:, 2], t, rtol=0, atol=1e-12)
     np.testing.assert_allclose(shifted.qdd_ref[:, 2] - plain.qdd_ref[:, 2], 1.0, rtol=0, atol=1e-12)
     np.testing.assert_array_equal(shifted.q_ref[:, :2], plain.q_ref[:, :2])
+
+
+def test_a_rate_parameter_must_be_one_of_the_parameters(tmp_path):
+    raw = scenario_dict()
+    raw["terms"][1]["rate"] = "zeta"
+    path = tmp_path / "bad.yaml"
+    path.write_text(yaml.safe_dump(raw))
+    with pytest.raises(InputError, match="terms.1.rate: 'zeta' is not one of the parameters"):
+        load_scenario(path)
