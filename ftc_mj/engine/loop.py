@@ -235,7 +235,8 @@ class _Run:
                                                _generators(members, randomness.VELOCITY_NOISE), len(variants))
 
         # (N, n), or (N, members, n) where the reference uses parameters: each variant's block follows its members'.
-        self.reference = scenario.reference.evaluate(self.times, members.parameters if spec.parameters else None)
+        used = [list(spec.parameters).index(name) for name in scenario.reference.parameters]
+        self.reference = scenario.reference.evaluate(self.times, members.parameters[:, used] if used else None)
         steps = self.steps
         self.series = {name: np.full((steps, rows, n), np.nan) for name in SERIES}
         self.fault_active = np.zeros((steps, rows), dtype=bool)

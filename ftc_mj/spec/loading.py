@@ -10,6 +10,7 @@ Python), and every plugin's gains are validated by the plugin's own schema. Any 
 
 from __future__ import annotations
 
+from collections.abc import Mapping
 from pathlib import Path
 from typing import Any
 
@@ -42,13 +43,16 @@ _UniqueKeyLoader.add_constructor(yaml.resolver.BaseResolver.DEFAULT_MAPPING_TAG,
 
 
 def load_scenario(
-    path: str | Path, overrides: list[str] = (), duration: float | None = None, variants: list[str] = ()
+    path: str | Path, overrides: list[str] = (), duration: float | None = None, variants: list[str] = (),
+    assignments: Mapping[str, Any] | None = None,
 ) -> Scenario:
     """Read, validate and compile a scenario file.
 
     Args:
         path: the YAML file.
         overrides: ``key.path=value`` strings (the command line's ``--set``), applied before validation.
+        assignments: values by dotted path (any YAML value, e.g. a whole fault), applied after ``overrides``:
+            what a campaign sets.
         duration: overrides ``duration``.
         variants: keep only these variants (all when empty).
 
@@ -57,23 +61,12 @@ def load_scenario(
     """
     path = Path(path)
     file = str(path)
-    try:
-        text = path.read_text(encoding="utf-8")
-    except (OSError, UnicodeDecodeError) as exc:
-        reason = "not UTF-8 text" if isinstance(exc, UnicodeDecodeError) else exc.strerror or str(exc)
-        raise InputError(file, "", f"cannot read the file: {reason}") from None
-    try:
-        raw = yaml.load(text, Loader=_UniqueKeyLoader)  # noqa: S506 - a SafeLoader subclass
-    except yaml.YAMLError as exc:
-        mark = getattr(exc, "problem_mark", None)
-        where = f"line {mark.line + 1}" if mark is not None else ""
-        problem = getattr(exc, "problem", None) or str(exc).splitlines()[0]
-        raise InputError(file, where, f"invalid YAML: {problem}") from None
-    if not isinstance(raw, dict):
-        raise InputError(file, "", "a scenario must be a YAML mapping")
+    raw = read_yaml_mapping(path, "a scenario")
     raw = _unshared(raw)
     for item in overrides:
         _apply_override(raw, item, file)
+    for key, value in (assignments or {}).items():
+        set_path(raw, key, _unshared(value), file)
     if duration is not None:
         raw["duration"] = duration
     try:
@@ -88,6 +81,26 @@ def load_scenario(
     scenario = compile_scenario(path, spec)
     scenario.raw = raw
     return scenario
+
+
+def read_yaml_mapping(path: Path, what: str) -> dict:
+    """A YAML file that must hold a mapping (duplicate keys are errors), for ``what`` ("a scenario")."""
+    file = str(path)
+    try:
+        text = path.read_text(encoding="utf-8")
+    except (OSError, UnicodeDecodeError) as exc:
+        reason = "not UTF-8 text" if isinstance(exc, UnicodeDecodeError) else exc.strerror or str(exc)
+        raise InputError(file, "", f"cannot read the file: {reason}") from None
+    try:
+        raw = yaml.load(text, Loader=_UniqueKeyLoader)  # noqa: S506 - a SafeLoader subclass
+    except yaml.YAMLError as exc:
+        mark = getattr(exc, "problem_mark", None)
+        where = f"line {mark.line + 1}" if mark is not None else ""
+        problem = getattr(exc, "problem", None) or str(exc).splitlines()[0]
+        raise InputError(file, where, f"invalid YAML: {problem}") from None
+    if not isinstance(raw, dict):
+        raise InputError(file, "", f"{what} must be a YAML mapping")
+    return raw
 
 
 def _unshared(node: Any) -> Any:

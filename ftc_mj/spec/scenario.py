@@ -327,10 +327,11 @@ def compile_scenario(path: Path, spec: ScenarioSpec) -> Scenario:
 
     if len(spec.reference) != n:
         raise InputError(file, "reference", f"has {len(spec.reference)} values, the robot has {n} joints")
-    reference = expressions.TimeFunctions(
-        [parse_expression(text, ["t", *spec.parameters], file, f"reference.{i}") for i, text in enumerate(spec.reference)],
-        list(spec.parameters),
-    )
+    reference_exprs = [parse_expression(text, ["t", *spec.parameters], file, f"reference.{i}")
+                       for i, text in enumerate(spec.reference)]
+    # Only the parameters the reference uses: without any, one reference serves every member.
+    used = {symbol.name for expr in reference_exprs for symbol in expr.free_symbols}
+    reference = expressions.TimeFunctions(reference_exprs, [name for name in spec.parameters if name in used])
 
     terms = compile_terms(spec.terms, file, n, list(spec.parameters))
     times = time_grid(spec.duration, spec.control_dt)

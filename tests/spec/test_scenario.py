@@ -147,21 +147,22 @@ def test_reference_terms_signs_spaces_and_values(puma):
     ]
     friction, disturbance, fault = puma.terms
     assert friction.rate is None and disturbance.rate is None
-    np.testing.assert_array_equal(fault.rate, [2.0, 2.0, 2.0])
+    # The fault's size and evolution rate are parameters (a campaign varies them per member).
+    assert fault.rate_parameter == "zeta" and puma.spec.parameters == {"fault_scale": 1.0, "zeta": 2.0}
     rng = np.random.default_rng(7)
     for _ in range(50):
         t = rng.uniform(0, 30)
         q1, q2, q3 = q = rng.uniform(-2, 2, 3)
         qd1, qd2, qd3 = qd = rng.uniform(-5, 5, 3)
-        np.testing.assert_allclose(friction.function(t, q, qd),
+        np.testing.assert_allclose(friction.function(t, q, qd, [1.0, 2.0]),
                                    [1.9 * np.sin(qd1), 2.03 * np.sin(qd2), 1.76 * np.sin(qd3)], rtol=1e-12)
         np.testing.assert_allclose(
-            disturbance.function(t, q, qd),
+            disturbance.function(t, q, qd, [1.0, 2.0]),
             [1.1 * qd1 + 1.2 * np.sin(3 * q1), 1.65 * qd2 + 2.14 * np.sin(2 * q2), -3.01 * qd3 + 1.3 * np.sin(q3)],
             rtol=1e-12,
         )
         np.testing.assert_allclose(
-            fault.function(t, q, qd),
+            fault.function(t, q, qd, [1.0, 2.0]),
             [
                 10 * np.sin(q1 * q2) + 3.7 * np.cos(qd1 * q2) + 5.2 * np.cos(qd1 * qd2),
                 15 * np.sin(q1 * q2) + 3.6 * np.cos(qd1 * q2) + 2.7 * np.cos(qd1 * qd2),
@@ -171,7 +172,8 @@ def test_reference_terms_signs_spaces_and_values(puma):
         )
 
 
-def test_fault_profile(puma):
+def test_fault_profile():
+    puma = load_scenario(PUMA_YAML, overrides=["terms.2.rate=2.0"])
     fault = puma.terms[2]
     for t in (0.0, 5.0, 9.999):
         profile = fault.profile(t)
