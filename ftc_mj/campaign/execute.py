@@ -1,0 +1,479 @@
+"""Running a campaign: groups of runs as batches of members, on a local process pool or a Dask cluster, with
+results written atomically as each batch finishes so that an interrupted campaign resumes where it stopped.
+
+Layout of a results directory::
+
+    DIR/campaign.json       the campaign as resolved, versions, counts, wall time, throughput (at the end)
+    DIR/fingerprint         what the directory was made from (a campaign changed since is refused)
+    DIR/parts/*.parquet     one file per finished batch
+    DIR/runs.parquet        every run and variant, in run order (at the end)
+
+A batch is a task: the base scenario with its group's structure, the runs' member values, and what to keep.
+The task is plain data, so it runs alike in this process, in a worker process and on a Dask worker; a member
+of a batch is the same run as the single run (the batched engine's guarantee), so results do not depend on
+the batch size, the number of workers or the scheduler.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import os
+import time
+from collections.abc import Callable, Iterable, Iterator
+from concurrent.futures import FIRST_COMPLETED, Future, ProcessPoolExecutor, wait
+from dataclasses import dataclass, field
+from functools import lru_cache
+from pathlib import Path
+from typing import Any
+
+import multiprocessing
+import numpy as np
+import pyarrow as pa
+import pyarrow.parquet as pq
+
+from ftc_mj.analysis.diagnosis import detection_statistics
+from ftc_mj.campaign.population import Run, fingerprint, population
+from ftc_mj.campaign.spec import CampaignSpec
+from ftc_mj.engine.members import members_from_overrides
+from ftc_mj.engine.runner import run_batch
+from ftc_mj.spec.errors import InputError
+from ftc_mj.spec.loading import load_scenario
+from ftc_mj.spec.scenario import Scenario, series_bytes
+
+#: Memory for the series of one batch in one worker [bytes] (the batch engine steps members in chunks that fit).
+WORKER_MEMORY = 3 * 1024**3
+#: Default largest batch: beyond it the per-period Python work is amortised and only memory grows.
+MAX_BATCH = 128
+
+
+@dataclass(frozen=True)
+class Task:
+    """One batch: runs of one group, all variants."""
+
+    scenario: str
+    variants: tuple[str, ...]
+    duration: float | None
+    structure: dict[str, Any]
+    runs: tuple[tuple[int, str, dict[str, Any]], ...]  # (index, run_id, member values)
+    scales: tuple[float, ...]
+    nthread: int = 1
+    memory_budget: int = WORKER_MEMORY
+
+
+@dataclass
+class Campaign:
+    """A loaded campaign: its spec, base scenario path, runs and groups (checked: every run compiles)."""
+
+    path: Path
+    spec: CampaignSpec
+    scenario_path: Path
+    runs: list[Run]
+    variants: list[str]
+    n_joints: int
+    member_bytes: int
+    fingerprint: str
+    groups: dict[str, list[Run]] = field(default_factory=dict)
+
+    @property
+    def varied_fields(self) -> list[str]:
+        fields = list(self.spec.grid)
+        if self.spec.samples is not None:
+            fields += list(self.spec.samples.fields)
+        return fields
+
+    @property
+    def control_periods(self) -> int:
+        """Control periods of one run of one variant."""
+        return len(self.scenario.times)
+
+    scenario: Scenario | None = None
+
+
+def load(path: str | Path, runs: int | None = None) -> Campaign:
+    """Read a campaign, expand its population and check every run before anything runs: each group's
+    scenario compiles and each run's member values pass the scenario's schema and the methods' gain checks.
+
+    Raises:
+        InputError: naming the campaign file and the field (a drawn value that is refused names its run).
+    """
+    from ftc_mj.campaign.spec import load_campaign
+
+    path = Path(path)
+    file = str(path)
+    spec = load_campaign(path, runs)
+    scenario_path = (path.parent / spec.scenario).resolve()
+    if not scenario_path.is_file():
+        raise InputError(file, "scenario", f"no such file: {spec.scenario}")
+    base = _scenario(str(scenario_path), tuple(spec.variants or ()), spec.duration, _frozen(spec.set))
+    _check_paths(spec, base, file)
+    variants = [v.name for v in base.variants]
+    base_seed = spec.seed if spec.seed is not None else base.spec.seed
+    all_runs = population(spec, base_seed)
+    campaign = Campaign(path=path, spec=spec, scenario_path=scenario_path, runs=all_runs, variants=variants,
+                        n_joints=base.n_joints, member_bytes=int(series_bytes(base.spec, base.n_joints)),
+                        fingerprint=fingerprint(spec, scenario_path), scenario=base)
+    ids = [run.run_id for run in all_runs]
+    if len(set(ids)) != len(ids):
+        raise InputError(file, "samples", "two runs have the same values and seed (a choice with too few values "
+                         "and no replicates?)")
+    for run in all_runs:
+        campaign.groups.setdefault(run.group, []).append(run)
+    _check_size(campaign, file)
+    for runs_of_group in campaign.groups.values():
+        _check_group(campaign, runs_of_group, file)
+    return campaign
+
+
+def _frozen(values: dict[str, Any]) -> str:
+    return json.dumps(values, sort_keys=True)
+
+
+@lru_cache(maxsize=8)
+def _scenario(path: str, variants: tuple[str, ...], duration: float | None, structure: str) -> Scenario:
+    """A group's compiled scenario (cached: a worker runs many batches of few groups)."""
+    return load_scenario(path, variants=list(variants), duration=duration, assignments=json.loads(structure))
+
+
+def _check_paths(spec: CampaignSpec, scenario: Scenario, file: str) -> None:
+    """Every varied or set path names a field of the scenario (as written or with its defaults)."""
+    documents = [scenario.raw, scenario.spec.model_dump(mode="json")]
+    fields = [("set", p) for p in spec.set] + [("grid", p) for p in spec.grid]
+    fields += [(f"cases.{i}.set", p) for i, case in enumerate(spec.cases) for p in case.set]
+    if spec.samples is not None:
+        fields += [("samples.fields", p) for p in spec.samples.fields]
+    for where, path in fields:
+        if not any(_exists(document, path.split(".")) for document in documents):
+            raise InputError(file, f"{where}.{path}", f"is not a field of the scenario {spec.scenario}")
+
+
+def _exists(node: Any, parts: list[str]) -> bool:
+    for part in parts:
+        if isinstance(node, dict) and part in node:
+            node = node[part]
+        elif isinstance(node, list) and part.isdigit() and int(part) < len(node):
+            node = node[int(part)]
+        else:
+            return False
+    return True
+
+
+def _check_size(campaign: Campaign, file: str) -> None:
+    """Refuse a population whose results table would not fit in half of the machine's memory."""
+    columns = 8 + len(campaign.varied_fields) + campaign.n_joints * (40 + 2 * len(campaign.spec.diagnosis.threshold_scales))
+    table = len(campaign.runs) * len(campaign.variants) * columns * 8
+    memory = os.sysconf("SC_PAGE_SIZE") * os.sysconf("SC_PHYS_PAGES")
+    if table > memory / 2:
+        raise InputError(file, "samples.runs", f"{len(campaign.runs)} runs x {len(campaign.variants)} variants need "
+                         f"about {table / 1e9:.1f} GB of results, more than half of this machine's memory")
+
+
+def _check_group(campaign: Campaign, runs: list[Run], file: str) -> None:
+    """The group's scenario compiles and every run's member values are accepted; a refusal names the run."""
+    spec = campaign.spec
+    try:
+        scenario = _scenario(str(campaign.scenario_path), tuple(campaign.variants), spec.duration,
+                             _frozen(runs[0].structure))
+    except InputError as exc:
+        raise InputError(file, _describe(runs[0]), f"{exc.field}: {exc.problem}") from None
+    try:
+        members_from_overrides(scenario, [run.member for run in runs])
+    except (InputError, ValueError):
+        for run in runs:  # find the run that drew it
+            try:
+                members_from_overrides(scenario, [run.member])
+            except InputError as exc:
+                raise InputError(file, _describe(run), f"{exc.field}: {exc.problem.removeprefix('member 0: ')}") \
+                    from None
+            except ValueError as exc:
+                raise InputError(file, _describe(run), str(exc)) from None
+        raise
+
+
+def _describe(run: Run) -> str:
+    drawn = ", ".join(f"{k}={v}" for k, v in {**({"case": run.case} if run.case else {}), **run.values}.items())
+    return f"run {run.index} ({run.run_id}{': ' + drawn if drawn else ''})"
+
+
+# ------------------------------------------------------------------------------------------------ one batch
+
+
+def run_task(task: Task) -> list[dict[str, Any]]:
+    """Simulate one batch; one row per run and variant (and monitor): status, metrics per joint, detection
+    statistics. What a worker runs."""
+    scenario = _scenario(task.scenario, task.variants, task.duration, _frozen(task.structure))
+    members = members_from_overrides(scenario, [member for _, _, member in task.runs])
+    diagnoser = scenario.diagnoser
+    detection: dict[tuple[int, str], dict[str, np.ndarray]] = {}
+
+    def keep_detection(member: int, results: list) -> None:
+        if diagnoser is None:
+            return
+        for result in results:
+            for one in (result, *result.monitors):
+                detection[member, one.name] = detection_statistics(
+                    one.diagnosis, diagnoser.persistence, scenario.joint_fault_onsets, list(task.scales),
+                    scenario.n_joints)
+
+    outcomes = run_batch(scenario, members, memory_budget=task.memory_budget, nthread=task.nthread,
+                         on_result=keep_detection)
+    onsets = scenario.joint_fault_onsets
+    rows = []
+    for outcome in outcomes:
+        index, run_id, member = task.runs[outcome.member]
+        row: dict[str, Any] = {"run": index, "run_id": run_id, "variant": outcome.variant, "status": outcome.status,
+                               "diverged_at": outcome.diverged_at, "seed": member["seed"]}
+        values = {**outcome.metrics, "fault_onset": onsets,
+                  **detection.get((outcome.member, outcome.variant), {})}
+        for name, per_joint in values.items():
+            for j, value in enumerate(np.asarray(per_joint, dtype=float).tolist()):
+                row[f"{name}.{j + 1}"] = value
+        rows.append(row)
+    return rows
+
+
+# ------------------------------------------------------------------------------------------------ a campaign
+
+
+@dataclass
+class Progress:
+    """What the caller shows: called with (runs done, runs in all) after each batch."""
+
+    update: Callable[[int, int], None] = lambda done, total: None
+
+
+def default_workers() -> int:
+    return max(1, len(os.sched_getaffinity(0)))
+
+
+def tasks_for(campaign: Campaign, pending: list[Run], batch_size: int | None, workers: int) -> list[Task]:
+    """The pending runs as batches of one group each: ``batch_size`` members (default: enough batches to keep
+    every worker busy and to save progress often, at most :data:`MAX_BATCH`)."""
+    if batch_size is None:
+        batch_size = max(1, min(MAX_BATCH, math.ceil(len(pending) / (4 * workers))))
+    nthread = max(1, default_workers() // workers)
+    spec = campaign.spec
+    by_group: dict[str, list[Run]] = {}
+    for run in pending:
+        by_group.setdefault(run.group, []).append(run)
+    tasks = []
+    for runs in by_group.values():
+        for start in range(0, len(runs), batch_size):
+            chunk = runs[start:start + batch_size]
+            tasks.append(Task(scenario=str(campaign.scenario_path), variants=tuple(campaign.variants),
+                              duration=spec.duration, structure=chunk[0].structure,
+                              runs=tuple((run.index, run.run_id, run.member) for run in chunk),
+                              scales=tuple(spec.diagnosis.threshold_scales), nthread=nthread))
+    return tasks
+
+
+def prepare_directory(campaign: Campaign, out: Path) -> set[str]:
+    """Create or check the results directory; the run ids already done (from its parts).
+
+    Raises:
+        InputError: the directory holds another campaign, or something that is not a campaign's results.
+    """
+    file = str(campaign.path)
+    marker = out / "fingerprint"
+    if out.exists() and not out.is_dir():
+        raise InputError(file, "--out", f"{out} is a file, not a directory")
+    if out.is_dir() and any(out.iterdir()):
+        if not marker.is_file():
+            raise InputError(file, "--out", f"{out} is not empty and holds no campaign's results")
+        if marker.read_text().strip() != campaign.fingerprint:
+            raise InputError(file, "--out", f"{out} holds the results of another campaign (or of this one before it "
+                             "changed); choose another --out or remove it")
+    (out / "parts").mkdir(parents=True, exist_ok=True)
+    if not marker.is_file():
+        _write_atomic(marker, (campaign.fingerprint + "\n").encode())
+    done: set[str] = set()
+    for part in sorted((out / "parts").glob("*.parquet")):
+        try:
+            done.update(pq.read_table(part, columns=["run_id"]).column("run_id").to_pylist())
+        except (OSError, pa.ArrowInvalid):
+            part.unlink()  # a part is written atomically: an unreadable one is not ours to keep
+    return done
+
+
+def execute(campaign: Campaign, out: Path, *, batch_size: int | None = None, workers: int | None = None,
+            scheduler: str | None = None, progress: Progress = Progress()) -> dict[str, Any]:
+    """Run what is missing of the campaign into ``out``, then write ``runs.parquet`` and ``campaign.json``;
+    returns the summary written to ``campaign.json``."""
+    start = time.perf_counter()
+    done = prepare_directory(campaign, out)
+    pending = [run for run in campaign.runs if run.run_id not in done]
+    workers = workers or (default_workers() if scheduler is None else 1)
+    tasks = tasks_for(campaign, pending, batch_size, workers)
+    total, finished = len(campaign.runs), len(campaign.runs) - len(pending)
+    progress.update(finished, total)
+    for task, rows in _results(tasks, workers, scheduler):
+        _write_part(out, task, rows)
+        finished += len(task.runs)
+        progress.update(finished, total)
+    simulated = time.perf_counter() - start
+    table = collect(campaign, out)
+    _write_atomic(out / "runs.parquet", _parquet_bytes(table))
+    summary = _summary(campaign, table, simulated, len(pending), scheduler, workers)
+    _write_atomic(out / "campaign.json", (json.dumps(summary, indent=2, default=_json_default) + "\n").encode())
+    return summary
+
+
+def _results(tasks: list[Task], workers: int, scheduler: str | None) -> Iterator[tuple[Task, list[dict]]]:
+    """Each task with its rows, as they finish: in this process (one worker), on a process pool, or on the
+    Dask cluster at ``scheduler``."""
+    if scheduler is not None:
+        from dask.distributed import Client, as_completed
+
+        with Client(scheduler, timeout="20s") as client:
+            futures = {client.submit(run_task, task, pure=False): task for task in tasks}
+            for future in as_completed(futures):
+                yield futures[future], future.result()
+        return
+    if workers == 1 or len(tasks) <= 1:
+        for task in tasks:
+            yield task, run_task(task)
+        return
+    context = multiprocessing.get_context("spawn")  # no fork of a process holding MuJoCo's thread pools
+    with ProcessPoolExecutor(max_workers=workers, mp_context=context) as pool:
+        running: dict[Future, Task] = {pool.submit(run_task, task): task for task in tasks}
+        while running:
+            finished, _ = wait(running, return_when=FIRST_COMPLETED)
+            for future in finished:
+                yield running.pop(future), future.result()
+
+
+def _write_part(out: Path, task: Task, rows: list[dict]) -> None:
+    name = task.runs[0][1] + "-" + task.runs[-1][1] + f"-{len(task.runs)}"
+    _write_atomic(out / "parts" / f"{name}.parquet", _parquet_bytes(pa.Table.from_pylist(rows)))
+
+
+def _parquet_bytes(table: pa.Table) -> bytes:
+    sink = pa.BufferOutputStream()
+    pq.write_table(table, sink)
+    return sink.getvalue().to_pybytes()
+
+
+def _write_atomic(path: Path, content: bytes) -> None:
+    """Write a file so that it is whole or absent: a temporary beside it, flushed, then renamed."""
+    temporary = path.with_name(f".{path.name}.{os.getpid()}.tmp")
+    with open(temporary, "wb") as handle:
+        handle.write(content)
+        handle.flush()
+        os.fsync(handle.fileno())
+    os.replace(temporary, path)
+
+
+def collect(campaign: Campaign, out: Path) -> pa.Table:
+    """Every run of the population from the parts, with its varied fields, in run order then variant order."""
+    tables = [pq.read_table(part) for part in sorted((out / "parts").glob("*.parquet"))]
+    table = pa.concat_tables(tables, promote_options="default") if tables else pa.table({})
+    rows = {(row["run_id"], row["variant"]): row for row in table.to_pylist()}
+    variants = _variant_order(campaign, {variant for _, variant in rows})
+    ordered = []
+    for run in campaign.runs:
+        for variant in variants:
+            row = rows.get((run.run_id, variant))
+            if row is None:
+                continue
+            metrics = {k: v for k, v in row.items() if k not in _LEADING}
+            ordered.append({"run": run.index, "run_id": run.run_id, "variant": variant, "status": row["status"],
+                            "diverged_at": row["diverged_at"], "seed": run.seed, **run.columns(), **metrics})
+    return pa.Table.from_pylist(ordered)
+
+
+_LEADING = ("run", "run_id", "variant", "status", "diverged_at", "seed")
+
+
+def _variant_order(campaign: Campaign, present: Iterable[str]) -> list[str]:
+    """The scenario's variants, each followed by its monitors (``<variant>.<monitor>``)."""
+    present = set(present)
+    order = []
+    for variant in campaign.variants:
+        order.append(variant)
+        order.extend(sorted(name for name in present if name.startswith(variant + ".")))
+    return [name for name in order if name in present]
+
+
+def _summary(campaign: Campaign, table: pa.Table, seconds: float, simulated_runs: int, scheduler: str | None,
+             workers: int) -> dict[str, Any]:
+    from importlib.metadata import version
+
+    statuses = table.column("status").to_pylist() if table.num_rows else []
+    per_run = campaign.control_periods
+    substeps = campaign.scenario.substeps
+    return {
+        "name": campaign.spec.name,
+        "campaign": str(campaign.path),
+        "scenario": str(campaign.scenario_path),
+        "resolved": campaign.spec.model_dump(mode="json"),
+        "fingerprint": campaign.fingerprint,
+        "variants": campaign.variants,
+        "runs": len(campaign.runs),
+        "groups": len(campaign.groups),
+        "rows": table.num_rows,
+        "status_counts": {status: statuses.count(status) for status in sorted(set(statuses))},
+        "versions": {name: version(name) for name in ("ftc_mj", "mujoco", "numpy", "scipy", "pyarrow")},
+        "scheduler": scheduler or "local",
+        "workers": workers,
+        "wall_time": seconds,
+        "simulated_runs": simulated_runs,
+        "runs_per_second": simulated_runs / seconds if seconds > 0 else None,
+        # Control periods simulated over all members (every variant a member), and physics steps per period:
+        # throughput comparable with the bare batched physics (benchmarks/batch_cost.py).
+        "control_steps": simulated_runs * len(campaign.variants) * per_run,
+        "physics_substeps": substeps,
+    }
+
+
+def _json_default(value: Any) -> Any:
+    if isinstance(value, (np.floating, np.integer)):
+        return value.item()
+    return str(value)
+
+
+# ------------------------------------------------------------------------------------------------ one run again
+
+
+def find_run(directory: Path, run_id: str) -> tuple[dict[str, Any], Run]:
+    """The campaign summary of a results directory and its run ``run_id``, rebuilt from the campaign as
+    resolved when it ran (the campaign file may have changed since)."""
+    from ftc_mj.campaign.spec import CampaignSpec
+
+    info = directory / "campaign.json"
+    if not info.is_file():
+        raise InputError(str(directory), "", "no campaign.json: not a finished campaign's results directory")
+    summary = json.loads(info.read_text())
+    spec = CampaignSpec.model_validate(summary["resolved"])
+    scenario_path = Path(summary["scenario"])
+    if not scenario_path.is_file() or fingerprint(spec, scenario_path) != summary["fingerprint"]:
+        raise InputError(str(directory), "scenario", f"{scenario_path} has changed since the campaign ran: the run "
+                         "cannot be replayed as it was")
+    seed = spec.seed if spec.seed is not None else load_scenario(scenario_path).spec.seed
+    for run in population(spec, seed):
+        if run.run_id == run_id:
+            return summary, run
+    raise InputError(str(directory), "RUN_ID", f"no run {run_id!r} in this campaign")
+
+
+def replay(directory: Path, run_id: str, *, variants: list[str] = (), out: Path | None = None,
+           json_path: Path | None = None) -> int:
+    """Simulate one run of a campaign alone through the command line ``python -m ftc_mj.run`` (its table,
+    recording and ``--json``), with every field the run set given as ``--set``; its exit status."""
+    from ftc_mj import run as run_command
+
+    summary, run = find_run(directory, run_id)
+    argv = [summary["scenario"], "--out", str(out or directory / "replay" / f"{run_id}.rrd")]
+    for path, value in run.assignments().items():
+        argv += ["--set", f"{path}={json.dumps(value)}"]  # JSON is YAML; floats keep every bit (repr)
+    resolved = summary["resolved"]
+    if resolved.get("duration") is not None:
+        argv += ["--duration", repr(resolved["duration"])]
+    chosen = list(variants) or summary["variants"]
+    unknown = [v for v in chosen if v not in summary["variants"]]
+    if unknown:
+        raise InputError(str(directory), "--variant", f"unknown variant {unknown[0]!r} (the campaign's: "
+                         f"{', '.join(summary['variants'])})")
+    argv += ["--variant", *chosen]
+    if json_path is not None:
+        argv += ["--json", str(json_path)]
+    return run_command.main(argv)

@@ -1,0 +1,128 @@
+"""A campaign's population: cases x grid x samples x replicates, each run identified by its content.
+
+Run k (0-based) is point ``(sample s, case c, grid point g, replicate r)`` with
+``k = ((s C + c) G + g) R + r``, so the first N runs of a sampled campaign are its first N/(C G R) samples
+whatever ``samples.runs``, and its seed is ``seed + s R + r``: the cases and the grid's points share seeds
+(common random numbers: a sweep compares its points on the same noise), every sample and replicate has its own.
+
+A run's fields split in two (:data:`ftc_mj.engine.members.BATCHABLE`): what may differ between the members of
+one batch (seed, initial states, parameters, mass scales, gains) and what is the batch's structure (a fault's
+kind or onset, the sensors, ...). Runs with the same structure form a group: one compiled scenario, its runs
+stepped together as members.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import itertools
+import json
+import math
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+from scipy.stats import qmc
+
+from ftc_mj.campaign.spec import CampaignSpec, CaseSpec
+from ftc_mj.engine.members import BATCHABLE
+
+
+@dataclass(frozen=True)
+class Run:
+    """One run of the population (all variants)."""
+
+    index: int
+    run_id: str
+    seed: int
+    #: The case's label (None without cases) and its report values.
+    case: str | None
+    case_values: dict[str, float]
+    #: Every varied field (grid and samples) by dotted path, as set.
+    values: dict[str, Any]
+    #: What the batch's structure is made of: the campaign's ``set``, the case's and the structural values.
+    structure: dict[str, Any] = field(hash=False)
+    #: What its member of a batch gets: the batchable values and the seed.
+    member: dict[str, Any] = field(hash=False)
+
+    @property
+    def group(self) -> str:
+        """The key of the runs that share its structure (one scenario, one batch)."""
+        return _digest(self.structure)
+
+    def columns(self) -> dict[str, Any]:
+        """Its columns in ``runs.parquet``: the case, its values and every varied field (non-numbers as JSON)."""
+        out: dict[str, Any] = {}
+        if self.case is not None:
+            out["case"] = self.case
+        out.update(self.case_values)
+        for path, value in self.values.items():
+            out[path] = value if isinstance(value, (int, float, str)) and not isinstance(value, bool) else \
+                json.dumps(value, sort_keys=True)
+        return out
+
+    def assignments(self) -> dict[str, Any]:
+        """Every field this run sets, for a scenario of its own (:func:`ftc_mj.campaign.execute.replay`)."""
+        return {**self.structure, **self.member}
+
+
+def _digest(content: Any, length: int = 12) -> str:
+    text = json.dumps(content, sort_keys=True, separators=(",", ":"), default=float)
+    return hashlib.sha256(text.encode()).hexdigest()[:length]
+
+
+def unit_points(spec: CampaignSpec) -> np.ndarray:
+    """The sampled points in the unit cube, ``(runs, fields)``; point s is the same whatever ``runs``."""
+    samples = spec.samples
+    if samples is None:
+        return np.zeros((1, 0))
+    d = len(samples.fields)
+    if samples.method == "random":
+        return np.array([np.random.default_rng(np.random.SeedSequence(samples.seed, spawn_key=(s,))).random(d)
+                         for s in range(samples.runs)])
+    engine = qmc.Sobol(d, scramble=True, seed=samples.seed) if samples.method == "sobol" else \
+        qmc.Halton(d, scramble=True, seed=samples.seed)
+    if samples.method == "sobol":
+        # Sobol points come in powers of two for their balance; any prefix is still the same points.
+        return engine.random_base2(max(0, math.ceil(math.log2(samples.runs))))[:samples.runs]
+    return engine.random(samples.runs)
+
+
+def population(spec: CampaignSpec, base_seed: int) -> list[Run]:
+    """Every run of the campaign, in run order (see the module docstring)."""
+    cases = spec.cases or [CaseSpec(label="_")]
+    grid_paths = list(spec.grid)
+    grid_points = list(itertools.product(*(spec.grid[path] for path in grid_paths))) or [()]
+    sample_fields = list(spec.samples.fields.items()) if spec.samples is not None else []
+    points = unit_points(spec)
+    R, C, G = spec.replicates, len(cases), len(grid_points)
+    runs = []
+    for s, u in enumerate(points):
+        sampled = {path: distribution.value(float(x)) for (path, distribution), x in zip(sample_fields, u)}
+        for c, case in enumerate(cases):
+            for g, point in enumerate(grid_points):
+                values = {**dict(zip(grid_paths, point)), **sampled}
+                for r in range(R):
+                    seed = base_seed + s * R + r
+                    structure = {**spec.set, **case.set}
+                    member: dict[str, Any] = {"seed": seed}
+                    for path, value in values.items():
+                        (member if BATCHABLE.fullmatch(path) else structure)[path] = value
+                    label = case.label if spec.cases else None
+                    content = {"set": spec.set, "case": case.set, "values": values, "seed": seed}
+                    runs.append(Run(index=((s * C + c) * G + g) * R + r, run_id=_digest(content), seed=seed,
+                                    case=label, case_values=dict(case.values), values=values,
+                                    structure=structure, member=member))
+    return runs
+
+
+def fingerprint(spec: CampaignSpec, scenario_path: Path) -> str:
+    """What a results directory was made from: the campaign as resolved (but its number of sampled runs, which
+    may grow) and the base scenario's text. A directory with another fingerprint holds another campaign."""
+    content = spec.model_dump(mode="json")
+    if content.get("samples"):
+        content["samples"].pop("runs")
+    content.pop("report")  # neither the report's settings nor the description change a run
+    content.pop("description")
+    content["scenario_text"] = scenario_path.read_text(encoding="utf-8")
+    return _digest(content, 24)

@@ -1,0 +1,516 @@
+"""A campaign's report from its results directory alone (``runs.parquet`` and ``campaign.json``), without
+simulating again: ``report.md`` with the tables and ``figures/*.png`` (matplotlib).
+
+Tables: divergence per variant (Wilson interval); per metric, variant and joint the mean, median, 5th and 95th
+percentiles with bootstrap intervals; paired differences against the reference variant on the same runs (mean
+difference, win rate, verdict); the campaign's claims, each with how it depends on every varied field; for
+diagnosis the ROC (AUC), detection and false-alarm probability at the scenario's threshold, false alarms per
+hour, detection delays, detection probability against fault size at a fixed false-alarm probability, and the
+isolation confusion matrix. Figures: box plots of the metrics, ROC curves, detection probability against
+fault size, delay ECDFs, confusion matrices and, for a 2-D grid, a heat map.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import matplotlib
+
+matplotlib.use("Agg")
+import matplotlib.pyplot as plt  # noqa: E402
+import numpy as np  # noqa: E402
+import pyarrow.parquet as pq  # noqa: E402
+
+from ftc_mj.analysis.diagnosis import scale_tag  # noqa: E402
+from ftc_mj.analysis.metrics import unit  # noqa: E402
+from ftc_mj.campaign import statistics as st  # noqa: E402
+from ftc_mj.campaign.spec import CampaignSpec  # noqa: E402
+from ftc_mj.spec.errors import InputError  # noqa: E402
+
+#: One colour per variant, in the scenario's order, in every figure.
+COLOURS = ["#1f77b4", "#d62728", "#2ca02c", "#9467bd", "#ff7f0e", "#8c564b", "#e377c2", "#7f7f7f"]
+#: Fine threshold multiples for ROC curves (the held residual peaks are continuous).
+ROC_SCALES = np.concatenate(([0.0], np.geomspace(0.05, 1000.0, 400)))
+
+
+@dataclass
+class Results:
+    """A results directory, read back: columns by name, per variant."""
+
+    directory: Path
+    summary: dict[str, Any]
+    spec: CampaignSpec
+    variants: list[str]
+    columns: dict[str, np.ndarray]
+
+    def of(self, variant: str, column: str) -> np.ndarray:
+        """One column's values for one variant's rows, in run order."""
+        mask = self.columns["variant"] == variant
+        values = self.columns.get(column)
+        if values is None:
+            return np.full(int(mask.sum()), np.nan)
+        return values[mask]
+
+    def joints(self) -> int:
+        return max((int(name.rsplit(".", 1)[1]) for name in self.columns if name.startswith("rms_error.")), default=0)
+
+    def has(self, column: str) -> bool:
+        return column in self.columns and np.isfinite(self.columns[column].astype(float)).any()
+
+
+def read(directory: Path) -> Results:
+    """Raises InputError if ``directory`` holds no finished campaign."""
+    runs, info = directory / "runs.parquet", directory / "campaign.json"
+    if not runs.is_file() or not info.is_file():
+        raise InputError(str(directory), "", "no finished campaign here (runs.parquet and campaign.json are written "
+                         "when `run` ends; run it again to finish an interrupted one)")
+    summary = json.loads(info.read_text())
+    table = pq.read_table(runs)
+    columns = {}
+    for name in table.column_names:
+        values = table.column(name).to_numpy(zero_copy_only=False)
+        if values.dtype == object:
+            try:
+                values = values.astype(float)
+            except (TypeError, ValueError):
+                values = values.astype(str)
+        columns[name] = values
+    present = set(columns["variant"].tolist()) if "variant" in columns else set()
+    variants = [v for v in summary["variants"] if v in present]
+    variants += sorted(present - set(variants))  # monitors
+    return Results(directory, summary, CampaignSpec.model_validate(summary["resolved"]), variants, columns)
+
+
+# ------------------------------------------------------------------------------------------------ tables
+
+
+def _table(header: list[str], rows: list[list[str]]) -> list[str]:
+    return ["| " + " | ".join(header) + " |", "|" + "---|" * len(header)] + ["| " + " | ".join(r) + " |" for r in rows]
+
+
+def _divergence(results: Results) -> list[str]:
+    rows = []
+    for variant in results.variants:
+        status = results.of(variant, "status")
+        diverged = int(np.sum(status == "diverged"))
+        rows.append([variant, f"{diverged} / {status.size}", st.proportion(diverged, status.size).text(".3f")])
+    return ["## Divergence", "", *_table(["variant", "diverged", "rate [95% Wilson]"], rows), ""]
+
+
+def _metric_tables(results: Results) -> list[str]:
+    lines = ["## Metrics", "", "Per variant and joint, over the runs where the metric is defined (n): mean, median, "
+             "5th and 95th percentiles, each with its 95% bootstrap interval.", ""]
+    resamples = results.spec.report.bootstrap
+    for metric in results.spec.report.metrics:
+        rows = []
+        for j in range(1, results.joints() + 1):
+            column = f"{metric}.{j}"
+            if not results.has(column):
+                continue
+            for variant in results.variants:
+                s = st.summarise(results.of(variant, column), resamples)
+                if s.count:
+                    rows.append([variant, str(j), str(s.count), s.mean.text(), s.median.text(), s.p5.text(),
+                                 s.p95.text()])
+        if rows:
+            lines += [f"### {metric} [{unit(metric)}]", "",
+                      *_table(["variant", "joint", "n", "mean", "median", "p5", "p95"], rows), ""]
+    return lines
+
+
+def _paired_tables(results: Results) -> list[str]:
+    reference = results.spec.report.reference or results.variants[0]
+    others = [v for v in results.variants if v != reference]
+    if not others:
+        return []
+    lines = ["## Paired differences", "",
+             f"`{reference}` minus each other variant on the same runs (negative: `{reference}` lower, i.e. better); "
+             f"win rate: share of runs where `{reference}` is lower (ties half), 95% Wilson interval; verdict "
+             "`holds` when both intervals favour it, `reversed` when both favour the other.", ""]
+    resamples = results.spec.report.bootstrap
+    for metric in results.spec.report.metrics:
+        rows = []
+        for j in range(1, results.joints() + 1):
+            column = f"{metric}.{j}"
+            if not results.has(column):
+                continue
+            for other in others:
+                p = st.paired(results.of(reference, column), results.of(other, column), resamples)
+                if p.count:
+                    rows.append([other, str(j), str(p.count), p.mean_difference.text(), p.win_rate.text(".3f"),
+                                 p.verdict])
+        if rows:
+            lines += [f"### {metric} [{unit(metric)}]", "",
+                      *_table(["vs", "joint", "n", "mean difference", "win rate", "verdict"], rows), ""]
+    return lines
+
+
+def _numeric_fields(results: Results) -> list[str]:
+    fields = list(results.spec.grid) + (list(results.spec.samples.fields) if results.spec.samples else [])
+    fields += [name for case in results.spec.cases for name in case.values]
+    out = []
+    for name in dict.fromkeys(fields):
+        values = results.columns.get(name)
+        if values is not None and values.dtype.kind in "fi" and np.ptp(values) > 0:
+            out.append(name)
+    return out
+
+
+def _claims(results: Results) -> list[str]:
+    claims = results.spec.report.claims
+    if not claims:
+        return []
+    resamples = results.spec.report.bootstrap
+    lines = ["## Claims", "", "Each claim: `better` has the lower metric on the same runs. Verdict as for the paired "
+             "differences. Then, per varied field, how the difference depends on it: Spearman's rho (p-value) and the "
+             "win rate in the lowest and the highest third of the field's values; **depends** where the claim holds "
+             "in one third and not in the other.", ""]
+    rows, dependence_rows = [], []
+    fields = _numeric_fields(results)
+    for claim in claims:
+        joints = claim.joints or list(range(1, results.joints() + 1))
+        for j in joints:
+            column = f"{claim.metric}.{j}"
+            a, b = results.of(claim.better, column), results.of(claim.worse, column)
+            p = st.paired(a, b, resamples)
+            rows.append([claim.name, f"{claim.better} < {claim.worse}", f"{claim.metric}.{j}", str(p.count),
+                         p.mean_difference.text(), p.win_rate.text(".3f"), f"**{p.verdict}**"])
+            for name in fields:
+                field = results.of(claim.better, name).astype(float)
+                rho, pvalue, low, high = st.dependence(a - b, field)
+                if not np.isfinite(rho):
+                    continue
+                flips = (low.low > 0.5) != (high.low > 0.5) or (low.high < 0.5) != (high.high < 0.5)
+                dependence_rows.append([claim.name, str(j), name, f"{rho:+.2f} ({pvalue:.2g})", low.text(".2f"),
+                                        high.text(".2f"), "**depends**" if flips else ""])
+    lines += _table(["claim", "ordering", "metric", "n", "mean difference", "win rate", "verdict"], rows) + [""]
+    if dependence_rows:
+        lines += ["### Dependence on the varied fields", "",
+                  *_table(["claim", "joint", "field", "rho (p)", "win rate, lowest third", "win rate, highest third",
+                           ""], dependence_rows), ""]
+    return lines
+
+
+# ------------------------------------------------------------------------------------------------ diagnosis
+
+
+def _run_peaks(results: Results, variant: str) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Per run: the largest held residual level on a fault-free part (any joint), the largest after the onset
+    on a faulty joint (NaN for a healthy run), and whether the run has a faulty joint."""
+    n = results.joints()
+    healthy = np.column_stack([results.of(variant, f"residual_peak_healthy.{j}") for j in range(1, n + 1)])
+    fault = np.column_stack([results.of(variant, f"residual_peak_fault.{j}") for j in range(1, n + 1)])
+    faulty = np.column_stack([np.isfinite(results.of(variant, f"fault_onset.{j}")) for j in range(1, n + 1)])
+    with np.errstate(invalid="ignore"), np.testing.suppress_warnings() as sup:
+        sup.filter(RuntimeWarning)
+        peak_healthy = np.nanmax(np.where(np.isfinite(healthy), healthy, -np.inf), axis=1)
+        peak_fault = np.nanmax(np.where(faulty & np.isfinite(fault), fault, -np.inf), axis=1)
+    peak_healthy[np.isinf(peak_healthy)] = np.nan
+    peak_fault[~faulty.any(axis=1)] = np.nan
+    peak_fault[np.isinf(peak_fault)] = 0.0  # faulty, never armed after the onset: never detected
+    return peak_healthy, peak_fault, faulty.any(axis=1)
+
+
+def _diagnosed_variants(results: Results) -> list[str]:
+    return [v for v in results.variants if np.isfinite(results.of(v, "residual_peak_healthy.1").astype(float)).any()]
+
+
+def _operating_scale(p_fa: np.ndarray, target: float) -> int | None:
+    """The index of the lowest threshold multiple with a false-alarm probability at most ``target``."""
+    ok = np.flatnonzero(p_fa <= target)
+    return int(ok[0]) if ok.size else None
+
+
+def _diagnosis(results: Results, figures: Path, written: list[Path]) -> list[str]:
+    variants = _diagnosed_variants(results)
+    if not variants:
+        return []
+    target = results.spec.report.false_alarm_probability
+    lines = ["## Fault diagnosis", "",
+             "Per run, the diagnoser's residual over its threshold, held for its persistence (z), before and after "
+             "each joint's onset, and the alarms at multiples c of the scenario's threshold (c = 1: the scenario's "
+             "own). A run false-alarms at c if z > c on a fault-free part; a faulty run is detected at c if z > c "
+             "after the onset on a faulty joint. False-alarm probabilities come from the healthy runs where the "
+             "population has any, else from the fault-free part of every run.", ""]
+    rows, curves = [], {}
+    for variant in variants:
+        peak_healthy, peak_fault, faulty = _run_peaks(results, variant)
+        basis = peak_healthy[~faulty] if (~faulty).sum() else peak_healthy
+        p_fa, p_d = st.roc(basis, peak_fault[faulty], ROC_SCALES)
+        curves[variant] = (p_fa, p_d)
+        fa1 = st.proportion(float(np.sum(basis > 1.0)), int(np.isfinite(basis).sum()))
+        d1 = st.proportion(float(np.sum(peak_fault[faulty] > 1.0)), int(faulty.sum()))
+        alarms = sum(np.nansum(results.of(variant, f"false_alarms_x1.{j}").astype(float))
+                     for j in range(1, results.joints() + 1))
+        hours = sum(np.nansum(results.of(variant, f"healthy_time.{j}").astype(float))
+                    for j in range(1, results.joints() + 1)) / 3600 / max(results.joints(), 1)
+        delays = _delays(results, variant, 1.0)
+        op = _operating_scale(p_fa, target)
+        rows.append([variant, f"{st.auc(p_fa, p_d):.3f}", fa1.text(".3f"), d1.text(".3f"),
+                     f"{alarms / hours:.3g}" if hours > 0 else "-",
+                     f"{np.median(delays):.3g} / {np.percentile(delays, 95):.3g}" if delays.size else "-",
+                     f"{ROC_SCALES[op]:.3g}: {p_d[op]:.3f}" if op is not None else "-"])
+    lines += _table(["variant", "AUC", "P_fa at c = 1", "P_d at c = 1", "false alarms per hour (c = 1)",
+                     "delay median / p95 [s] (c = 1)", f"lowest c with P_fa <= {target:g}: P_d"], rows) + [""]
+    written.append(_roc_figure(results, curves, figures / "roc.png"))
+    lines += ["![ROC](figures/roc.png)", ""]
+    delays = {v: _delays(results, v, 1.0) for v in variants}
+    if any(d.size for d in delays.values()):
+        written.append(_ecdf_figure(results, delays, figures / "delay_ecdf.png"))
+        lines += ["![Detection delay ECDF](figures/delay_ecdf.png)", ""]
+    size = results.spec.report.fault_size
+    if size is not None and size in results.columns:
+        path = _pd_size_figure(results, variants, curves, size, target, figures / "pd_vs_size.png")
+        if path is not None:
+            written.append(path)
+            lines += [f"Detection probability against `{size}` at the lowest threshold multiple with a false-alarm "
+                      f"probability at most {target:g} (per variant), with 95% Wilson intervals:", "",
+                      "![P_d against fault size](figures/pd_vs_size.png)", ""]
+    lines += _confusion(results, variants, figures / "confusion.png", written)
+    return lines
+
+
+def _delays(results: Results, variant: str, scale: float) -> np.ndarray:
+    """Detection delays at ``scale`` over every faulty joint of every run (missed ones left out)."""
+    tag = scale_tag(scale)
+    values = np.concatenate([results.of(variant, f"detection_delay_{tag}.{j}").astype(float)
+                             for j in range(1, results.joints() + 1)])
+    return values[np.isfinite(values)]
+
+
+def _confusion(results: Results, variants: list[str], path: Path, written: list[Path]) -> list[str]:
+    """True faulty joint (or healthy) against the joints the diagnoser isolates at the scenario's threshold."""
+    n = results.joints()
+    labels_true = ["healthy"] + [f"joint {j}" for j in range(1, n + 1)] + ["several"]
+    labels_pred = ["undetected"] + [f"joint {j}" for j in range(1, n + 1)] + ["several"]
+    matrices = {}
+    for variant in variants:
+        faulty = np.column_stack([np.isfinite(results.of(variant, f"fault_onset.{j}")) for j in range(1, n + 1)])
+        isolated = np.column_stack([results.of(variant, f"isolated.{j}").astype(float) > 0.5 for j in range(1, n + 1)])
+        matrix = np.zeros((n + 2, n + 2), dtype=int)
+        for f, i in zip(faulty, isolated):
+            row = 0 if not f.any() else (1 + int(np.flatnonzero(f)[0]) if f.sum() == 1 else n + 1)
+            col = 0 if not i.any() else (1 + int(np.flatnonzero(i)[0]) if i.sum() == 1 else n + 1)
+            matrix[row, col] += 1
+        matrices[variant] = matrix
+    keep_rows = [r for r in range(n + 2) if any(m[r].sum() for m in matrices.values())]
+    lines = ["### Isolation", "", "Rows: the true faulty joint; columns: the joints the diagnoser names faulty at the "
+             "scenario's threshold (counts of runs).", ""]
+    for variant, matrix in matrices.items():
+        lines += [f"`{variant}`", "", *_table(["true \\ isolated", *labels_pred],
+                  [[labels_true[r], *map(str, matrix[r])] for r in keep_rows]), ""]
+    fig, axes = plt.subplots(1, len(matrices), figsize=(3.2 * len(matrices) + 0.6, 3.2), squeeze=False)
+    for ax, (variant, matrix) in zip(axes[0], matrices.items()):
+        shown = matrix[keep_rows]
+        share = shown / np.maximum(shown.sum(axis=1, keepdims=True), 1)
+        ax.imshow(share, cmap="Blues", vmin=0, vmax=1)
+        for (r, c), count in np.ndenumerate(shown):
+            ax.text(c, r, str(count), ha="center", va="center", fontsize=8,
+                    color="white" if share[r, c] > 0.6 else "black")
+        ax.set_xticks(range(n + 2), labels_pred, rotation=45, ha="right", fontsize=8)
+        ax.set_yticks(range(len(keep_rows)), [labels_true[r] for r in keep_rows], fontsize=8)
+        ax.set_title(variant, fontsize=9)
+    axes[0][0].set_ylabel("true")
+    fig.suptitle("Isolation at the scenario's threshold (colour: share of the row)", fontsize=10)
+    fig.tight_layout()
+    written.append(_save(fig, path))
+    return lines + ["![Isolation confusion matrices](figures/confusion.png)", ""]
+
+
+# ------------------------------------------------------------------------------------------------ figures
+
+
+def _save(fig: plt.Figure, path: Path) -> Path:
+    path.parent.mkdir(parents=True, exist_ok=True)
+    fig.savefig(path, dpi=110)
+    plt.close(fig)
+    return path
+
+
+def _colour(results: Results, variant: str) -> str:
+    return COLOURS[results.variants.index(variant) % len(COLOURS)]
+
+
+def _box_figure(results: Results, metric: str, path: Path) -> Path | None:
+    joints = [j for j in range(1, results.joints() + 1) if results.has(f"{metric}.{j}")]
+    if not joints:
+        return None
+    fig, axes = plt.subplots(1, len(joints), figsize=(3.3 * len(joints) + 0.5, 3.4), squeeze=False)
+    for ax, j in zip(axes[0], joints):
+        data = [results.of(v, f"{metric}.{j}").astype(float) for v in results.variants]
+        data = [d[np.isfinite(d)] for d in data]
+        shown = [(v, d) for v, d in zip(results.variants, data) if d.size]
+        boxes = ax.boxplot([d for _, d in shown], whis=(5, 95), showfliers=True, patch_artist=True,
+                           flierprops={"markersize": 2, "alpha": 0.4}, medianprops={"color": "black"})
+        for patch, (v, _) in zip(boxes["boxes"], shown):
+            patch.set_facecolor(_colour(results, v))
+            patch.set_alpha(0.6)
+        ax.set_xticks(range(1, len(shown) + 1), [v for v, _ in shown], rotation=30, ha="right", fontsize=8)
+        positive = np.concatenate([d for _, d in shown])
+        positive = positive[positive > 0]
+        if positive.size and positive.max() / max(positive.min(), 1e-300) > 100:
+            ax.set_yscale("log")
+        ax.set_title(f"joint {j}", fontsize=9)
+        ax.grid(alpha=0.3, axis="y")
+    axes[0][0].set_ylabel(f"{metric} [{unit(metric)}]")
+    fig.suptitle(f"{metric} over {results.summary['runs']} runs (box: quartiles, whiskers: 5th-95th percentile)",
+                 fontsize=10)
+    fig.tight_layout()
+    return _save(fig, path)
+
+
+def _roc_figure(results: Results, curves: dict[str, tuple[np.ndarray, np.ndarray]], path: Path) -> Path:
+    fig, ax = plt.subplots(figsize=(4.6, 4.2))
+    one = int(np.argmin(np.abs(ROC_SCALES - 1.0)))
+    for variant, (p_fa, p_d) in curves.items():
+        colour = _colour(results, variant)
+        ax.plot(np.concatenate(([1.0], p_fa, [0.0])), np.concatenate(([1.0], p_d, [0.0])), color=colour,
+                label=f"{variant} (AUC {st.auc(p_fa, p_d):.3f})")
+        ax.plot(p_fa[one], p_d[one], "o", color=colour, markersize=5)
+    ax.plot([0, 1], [0, 1], ":", color="grey", linewidth=0.8)
+    ax.set_xlabel("false-alarm probability")
+    ax.set_ylabel("detection probability")
+    ax.set_xlim(-0.02, 1.02)
+    ax.set_ylim(-0.02, 1.02)
+    ax.set_title("ROC (dots: the scenario's threshold)", fontsize=10)
+    ax.legend(fontsize=8, loc="lower right")
+    ax.grid(alpha=0.3)
+    fig.tight_layout()
+    return _save(fig, path)
+
+
+def _ecdf_figure(results: Results, delays: dict[str, np.ndarray], path: Path) -> Path:
+    fig, ax = plt.subplots(figsize=(5.0, 3.6))
+    for variant, d in delays.items():
+        if d.size:
+            x = np.sort(d)
+            ax.step(x, np.arange(1, x.size + 1) / x.size, where="post", color=_colour(results, variant),
+                    label=f"{variant} (n = {x.size})")
+    ax.set_xscale("log")
+    ax.set_xlabel("detection delay [s]")
+    ax.set_ylabel("share of detected faults")
+    ax.set_title("Detection delay at the scenario's threshold (ECDF)", fontsize=10)
+    ax.legend(fontsize=8)
+    ax.grid(alpha=0.3)
+    fig.tight_layout()
+    return _save(fig, path)
+
+
+def _pd_size_figure(results: Results, variants: list[str], curves: dict, size: str, target: float,
+                    path: Path) -> Path | None:
+    fig, ax = plt.subplots(figsize=(5.2, 3.8))
+    drawn = False
+    for variant in variants:
+        op = _operating_scale(curves[variant][0], target)
+        if op is None:
+            continue
+        _, peak_fault, faulty = _run_peaks(results, variant)
+        sizes = results.of(variant, size).astype(float)[faulty]
+        detected = peak_fault[faulty] > ROC_SCALES[op]
+        values = np.unique(sizes)
+        if values.size > 8:  # continuous: eight bins of equal count
+            edges = np.unique(np.percentile(sizes, np.linspace(0, 100, 9)))
+            which = np.clip(np.searchsorted(edges, sizes, side="right") - 1, 0, len(edges) - 2)
+            centres = [np.median(sizes[which == b]) for b in range(len(edges) - 1)]
+            groups = [which == b for b in range(len(edges) - 1)]
+        else:
+            centres, groups = list(values), [sizes == v for v in values]
+        estimates = [st.proportion(float(detected[g].sum()), int(g.sum())) for g in groups]
+        y = np.array([e.value for e in estimates])
+        err = np.array([[e.value - e.low for e in estimates], [e.high - e.value for e in estimates]])
+        ax.errorbar(centres, y, yerr=err, marker="o", markersize=4, capsize=3, color=_colour(results, variant),
+                    label=f"{variant} (c = {ROC_SCALES[op]:.3g})")
+        drawn = True
+    if not drawn:
+        plt.close(fig)
+        return None
+    ax.set_xlabel(size)
+    ax.set_ylabel("detection probability")
+    ax.set_ylim(-0.03, 1.03)
+    ax.set_title(f"Detection probability at false-alarm probability <= {target:g}", fontsize=10)
+    ax.legend(fontsize=8)
+    ax.grid(alpha=0.3)
+    fig.tight_layout()
+    return _save(fig, path)
+
+
+def _heatmap(results: Results, figures: Path, written: list[Path]) -> list[str]:
+    axes_fields = [p for p in results.spec.grid if results.columns.get(p) is not None
+                   and results.columns[p].dtype.kind in "fi"]
+    if len(axes_fields) != 2:
+        return []
+    metric, joint = results.spec.report.heatmap.metric, results.spec.report.heatmap.joint
+    column = f"{metric}.{joint}"
+    xs, ys = (sorted(set(results.columns[p].tolist())) for p in axes_fields)
+    variants = results.variants
+    fig, axes = plt.subplots(1, len(variants), figsize=(3.6 * len(variants) + 0.8, 3.4), squeeze=False)
+    grids = []
+    for variant in variants:
+        x, y = results.of(variant, axes_fields[0]), results.of(variant, axes_fields[1])
+        v = results.of(variant, column).astype(float)
+        grid = np.full((len(ys), len(xs)), np.nan)
+        for i, yv in enumerate(ys):
+            for k, xv in enumerate(xs):
+                cell = v[(x == xv) & (y == yv)]
+                cell = cell[np.isfinite(cell)]
+                if cell.size:
+                    grid[i, k] = np.mean(cell)
+        grids.append(grid)
+    finite = np.concatenate([g[np.isfinite(g)] for g in grids]) if grids else np.array([])
+    log = finite.size and finite.min() > 0 and finite.max() / finite.min() > 10
+    from matplotlib.colors import LogNorm, Normalize
+
+    norm = LogNorm(finite.min(), finite.max()) if log else Normalize(finite.min(), finite.max()) if finite.size else None
+    for ax, variant, grid in zip(axes[0], variants, grids):
+        image = ax.imshow(grid, origin="lower", cmap="viridis", norm=norm, aspect="auto")
+        ax.set_xticks(range(len(xs)), [f"{v:g}" for v in xs], fontsize=8)
+        ax.set_yticks(range(len(ys)), [f"{v:g}" for v in ys], fontsize=8)
+        ax.set_xlabel(axes_fields[0].rsplit(".", 1)[-1])
+        ax.set_title(variant, fontsize=9)
+        best = np.unravel_index(np.nanargmin(grid), grid.shape) if np.isfinite(grid).any() else None
+        if best is not None:
+            ax.plot(best[1], best[0], "w*", markersize=10)
+    axes[0][0].set_ylabel(axes_fields[1].rsplit(".", 1)[-1])
+    fig.colorbar(image, ax=axes[0].tolist(), label=f"mean {column} [{unit(metric)}]")
+    fig.suptitle(f"mean {column} over the grid (star: lowest)", fontsize=10)
+    written.append(_save(fig, figures / "heatmap.png"))
+    return ["## Grid", "", f"Mean `{column}` over `{axes_fields[0]}` (x) and `{axes_fields[1]}` (y); the star marks "
+            "the lowest.", "", "![Heat map](figures/heatmap.png)", ""]
+
+
+# ------------------------------------------------------------------------------------------------ the report
+
+
+def write_report(directory: Path) -> list[Path]:
+    """Write ``report.md`` and ``figures/*.png`` into ``directory``; the files written."""
+    results = read(directory)
+    summary = results.summary
+    figures = directory / "figures"
+    written: list[Path] = []
+    counts = ", ".join(f"{k}: {v}" for k, v in summary["status_counts"].items())
+    per_period = summary["wall_time"] / summary["control_steps"] * 1e6 if summary.get("control_steps") else math.nan
+    lines = [f"# Campaign `{summary['name']}`", "", results.spec.description.strip(), "",
+             f"- base scenario: `{Path(summary['scenario']).name}`; variants: {', '.join(summary['variants'])}",
+             f"- runs: {summary['runs']} ({summary['groups']} structure groups), rows: {summary['rows']} ({counts})",
+             f"- last `run`: {summary['simulated_runs']} runs simulated in {summary['wall_time']:.1f} s "
+             f"({summary['runs_per_second'] or 0:.3g} runs/s, {per_period:.3g} us per member and control period "
+             f"with {summary['physics_substeps']} physics steps; {summary['scheduler']}, {summary['workers']} "
+             "worker(s))", ""]
+    lines += _divergence(results)
+    lines += _claims(results)
+    lines += _metric_tables(results)
+    for metric in results.spec.report.metrics:
+        path = _box_figure(results, metric, figures / f"box_{metric}.png")
+        if path is not None:
+            written.append(path)
+            lines += [f"![{metric}](figures/{path.name})", ""]
+    lines += _paired_tables(results)
+    lines += _diagnosis(results, figures, written)
+    lines += _heatmap(results, figures, written)
+    report = directory / "report.md"
+    report.write_text("\n".join(lines) + "\n")
+    return [report, *written]
