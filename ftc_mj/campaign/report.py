@@ -205,10 +205,8 @@ def _run_peaks(results: Results, variant: str) -> tuple[np.ndarray, np.ndarray, 
     healthy = np.column_stack([results.of(variant, f"residual_peak_healthy.{j}") for j in range(1, n + 1)])
     fault = np.column_stack([results.of(variant, f"residual_peak_fault.{j}") for j in range(1, n + 1)])
     faulty = np.column_stack([np.isfinite(results.of(variant, f"fault_onset.{j}")) for j in range(1, n + 1)])
-    with np.errstate(invalid="ignore"), np.testing.suppress_warnings() as sup:
-        sup.filter(RuntimeWarning)
-        peak_healthy = np.nanmax(np.where(np.isfinite(healthy), healthy, -np.inf), axis=1)
-        peak_fault = np.nanmax(np.where(faulty & np.isfinite(fault), fault, -np.inf), axis=1)
+    peak_healthy = np.max(np.where(np.isfinite(healthy), healthy, -np.inf), axis=1)
+    peak_fault = np.max(np.where(faulty & np.isfinite(fault), fault, -np.inf), axis=1)
     peak_healthy[np.isinf(peak_healthy)] = np.nan
     peak_fault[~faulty.any(axis=1)] = np.nan
     peak_fault[np.isinf(peak_fault)] = 0.0  # faulty, never armed after the onset: never detected
