@@ -142,6 +142,7 @@ def _check_paths(spec: CampaignSpec, scenario: Scenario, file: str) -> None:
     fields += [(f"cases.{i}.set", p) for i, case in enumerate(spec.cases) for p in case.set]
     if spec.samples is not None:
         fields += [("samples.fields", p) for p in spec.samples.fields]
+        fields += [(f"samples.fields.{p}.also", q) for p, d in spec.samples.fields.items() for q in d.also]
     for where, path in fields:
         if not any(_exists(document, path.split(".")) for document in documents):
             raise InputError(file, f"{where}.{path}", f"is not a field of the scenario {spec.scenario}")

@@ -95,6 +95,7 @@ def population(spec: CampaignSpec, base_seed: int) -> list[Run]:
     grid_points = list(itertools.product(*(spec.grid[path] for path in grid_paths))) or [()]
     sample_fields = list(spec.samples.fields.items()) if spec.samples is not None else []
     points = unit_points(spec)
+    also = {path: distribution.also for path, distribution in sample_fields}
     R, C, G = spec.replicates, len(cases), len(grid_points)
     runs = []
     for s, u in enumerate(points):
@@ -107,7 +108,8 @@ def population(spec: CampaignSpec, base_seed: int) -> list[Run]:
                     structure = {**spec.set, **case.set}
                     member: dict[str, Any] = {"seed": seed}
                     for path, value in values.items():
-                        (member if BATCHABLE.fullmatch(path) else structure)[path] = value
+                        for target in (path, *also.get(path, ())):
+                            (member if BATCHABLE.fullmatch(target) else structure)[target] = value
                     label = case.label if spec.cases else None
                     content = {"set": spec.set, "case": case.set, "values": values, "seed": seed}
                     runs.append(Run(index=((s * C + c) * G + g) * R + r, run_id=_digest(content), seed=seed,

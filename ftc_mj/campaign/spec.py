@@ -41,9 +41,9 @@ from ftc_mj.spec.schema import FiniteFloat, PositiveFloat, Strict
 
 PositiveInt = Annotated[StrictInt, Field(gt=0)]
 NonNegativeInt = Annotated[StrictInt, Field(ge=0)]
-Name = Annotated[StrictStr, Field(pattern=r"^[A-Za-z0-9_][A-Za-z0-9_.-]*$")]
 #: A dotted path into the scenario, as ``--set`` takes it.
 FieldPath = Annotated[StrictStr, Field(pattern=r"^[A-Za-z_][A-Za-z0-9_]*(\.[A-Za-z0-9_]+)*$")]
+Name = Annotated[StrictStr, Field(pattern=r"^[A-Za-z0-9_][A-Za-z0-9_.-]*$")]
 
 #: Multiples of the scenario's own threshold at which the detection statistics are kept (ROC points).
 DEFAULT_THRESHOLD_SCALES = (0.25, 0.5, 0.75, 1.0, 1.25, 1.5, 2.0, 3.0, 4.0, 6.0, 8.0, 12.0, 16.0)
@@ -60,6 +60,9 @@ class Distribution(Strict):
     log_uniform: tuple[PositiveFloat, PositiveFloat] | None = None
     normal: tuple[FiniteFloat, PositiveFloat] | None = None
     choice: Annotated[list[Any], Field(min_length=1)] | None = None
+    #: Other fields that take the same value in each run (e.g. a gain shared by every variant); the column
+    #: is the field's own.
+    also: list[FieldPath] = []
 
     @model_validator(mode="after")
     def _exactly_one(self) -> "Distribution":
@@ -185,6 +188,9 @@ class CampaignSpec(Strict):
     @model_validator(mode="after")
     def _consistent(self) -> "CampaignSpec":
         sampled = set(self.samples.fields) if self.samples is not None else set()
+        if self.samples is not None:
+            for distribution in self.samples.fields.values():
+                sampled |= set(distribution.also)
         for path in ("seed",):
             if path in self.grid or path in sampled:
                 raise ValueError("seed cannot be swept or sampled: use replicates")
