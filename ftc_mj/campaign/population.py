@@ -37,7 +37,7 @@ class Run:
     seed: int
     #: The case's label (None without cases) and its report values.
     case: str | None
-    case_values: dict[str, float]
+    case_values: dict[str, float | str]
     #: Every varied field (grid and samples) by dotted path, as set.
     values: dict[str, Any]
     #: What the batch's structure is made of: the campaign's ``set``, the case's and the structural values.

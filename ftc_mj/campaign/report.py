@@ -400,38 +400,56 @@ def _ecdf_figure(results: Results, delays: dict[str, np.ndarray], path: Path) ->
 
 def _pd_size_figure(results: Results, variants: list[str], curves: dict, size: str, target: float,
                     path: Path) -> Path | None:
-    fig, ax = plt.subplots(figsize=(5.2, 3.8))
-    drawn = False
-    for variant in variants:
-        op = _operating_scale(curves[variant][0], target)
-        if op is None:
-            continue
-        _, peak_fault, faulty = _run_peaks(results, variant)
-        sizes = results.of(variant, size).astype(float)[faulty]
-        detected = peak_fault[faulty] > ROC_SCALES[op]
-        values = np.unique(sizes)
-        if values.size > 8:  # continuous: eight bins of equal count
-            edges = np.unique(np.percentile(sizes, np.linspace(0, 100, 9)))
-            which = np.clip(np.searchsorted(edges, sizes, side="right") - 1, 0, len(edges) - 2)
-            centres = [np.median(sizes[which == b]) for b in range(len(edges) - 1)]
-            groups = [which == b for b in range(len(edges) - 1)]
-        else:
-            centres, groups = list(values), [sizes == v for v in values]
-        estimates = [st.proportion(float(detected[g].sum()), int(g.sum())) for g in groups]
-        y = np.array([e.value for e in estimates])
-        err = np.array([[e.value - e.low for e in estimates], [e.high - e.value for e in estimates]])
-        ax.errorbar(centres, y, yerr=err, marker="o", markersize=4, capsize=3, color=_colour(results, variant),
-                    label=f"{variant} (c = {ROC_SCALES[op]:.3g})")
-        drawn = True
-    if not drawn:
-        plt.close(fig)
+    """P_d against the fault's size at the operating threshold, one panel per fault kind if the campaign names
+    a kind column, each variant one colour."""
+    kind_column = results.spec.report.fault_kind
+    kinds = [None]
+    if kind_column is not None and kind_column in results.columns:
+        kinds = [k for k in dict.fromkeys(results.of(variants[0], kind_column).tolist())]
+    operating = {v: _operating_scale(curves[v][0], target) for v in variants}
+    panels = []
+    for kind in kinds:
+        lines = []
+        for variant in variants:
+            op = operating[variant]
+            if op is None:
+                continue
+            _, peak_fault, faulty = _run_peaks(results, variant)
+            if kind is not None:
+                faulty = faulty & (results.of(variant, kind_column) == kind)
+            if not faulty.any():
+                continue
+            sizes = results.of(variant, size).astype(float)[faulty]
+            detected = peak_fault[faulty] > ROC_SCALES[op]
+            values = np.unique(sizes)
+            if values.size > 8:  # continuous: eight bins of equal count
+                edges = np.unique(np.percentile(sizes, np.linspace(0, 100, 9)))
+                which = np.clip(np.searchsorted(edges, sizes, side="right") - 1, 0, len(edges) - 2)
+                centres = [float(np.median(sizes[which == b])) for b in range(len(edges) - 1)]
+                groups = [which == b for b in range(len(edges) - 1)]
+            else:
+                centres, groups = list(values), [sizes == v for v in values]
+            lines.append((variant, centres, [st.proportion(float(detected[g].sum()), int(g.sum())) for g in groups]))
+        if lines:
+            panels.append((kind, lines))
+    if not panels:
         return None
-    ax.set_xlabel(size)
-    ax.set_ylabel("detection probability")
-    ax.set_ylim(-0.03, 1.03)
-    ax.set_title(f"Detection probability at false-alarm probability <= {target:g}", fontsize=10)
-    ax.legend(fontsize=8)
-    ax.grid(alpha=0.3)
+    fig, axes = plt.subplots(1, len(panels), figsize=(3.4 * len(panels) + 1.2, 3.6), squeeze=False, sharey=True)
+    for ax, (kind, lines) in zip(axes[0], panels):
+        for variant, centres, estimates in lines:
+            y = np.array([e.value for e in estimates])
+            err = np.array([[e.value - e.low for e in estimates], [e.high - e.value for e in estimates]])
+            ax.errorbar(centres, y, yerr=err, marker="o", markersize=4, capsize=3, color=_colour(results, variant),
+                        label=f"{variant} (c = {ROC_SCALES[operating[variant]]:.3g})")
+        ax.set_xlabel(size)
+        ax.set_ylim(-0.03, 1.03)
+        ax.grid(alpha=0.3)
+        if kind is not None:
+            ax.set_title(str(kind), fontsize=9)
+    axes[0][0].set_ylabel("detection probability")
+    axes[0][-1].legend(fontsize=7, loc="lower right")
+    fig.suptitle(f"Detection probability at false-alarm probability <= {target:g} (95% Wilson intervals)",
+                 fontsize=10)
     fig.tight_layout()
     return _save(fig, path)
 

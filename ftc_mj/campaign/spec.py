@@ -106,7 +106,8 @@ class CaseSpec(Strict):
     """A structural alternative: a label (a column), numbers to report it by (columns), and fields to set."""
 
     label: Name
-    values: dict[Name, FiniteFloat] = {}
+    #: Columns to report the case by: numbers (a fault's size) or names (its kind).
+    values: dict[Name, FiniteFloat | StrictStr] = {}
     set: dict[FieldPath, Any] = {}
 
 
@@ -151,6 +152,9 @@ class ReportSpec(Strict):
     reference: StrictStr | None = None
     #: The column that measures the fault's size (a case value or a varied field), for P_d against size.
     fault_size: StrictStr | None = None
+    #: A column that names the fault's kind: P_d against size is drawn per kind (sizes of different kinds
+    #: are not comparable).
+    fault_kind: StrictStr | None = None
     #: The false-alarm probability at which P_d against size is drawn.
     false_alarm_probability: Annotated[float, Field(gt=0, lt=1)] = 0.05
     claims: list[ClaimSpec] = []
