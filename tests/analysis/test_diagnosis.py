@@ -331,3 +331,34 @@ def test_table_json_and_recording(tmp_path: Path, capsys: pytest.CaptureFixture)
     if exe is not None:
         verify = subprocess.run([exe, "rrd", "verify", str(rec)], capture_output=True, text=True, timeout=120)
         assert verify.returncode == 0, verify.stdout + verify.stderr
+
+
+def test_detection_statistics_at_every_threshold_multiple():
+    """The held residual peak decides the alarm at each multiple, and the scaled diagnoser's delays and false
+    alarms follow from the residual as the diagnoser's own do."""
+    from ftc_mj.analysis.diagnosis import Diagnosis, detection_statistics, persistent
+
+    dt = 0.01
+    t = np.arange(200) * dt
+    residual = np.zeros((200, 2))
+    residual[50:53, 0] = 3.0  # a 3-sample blip at 3x the threshold before the onset: too short to alarm
+    residual[60:70, 0] = 1.5  # 10 samples at 1.5x: a false alarm at c <= 1.5
+    residual[120:, 1] = 4.0   # the fault on joint 2 from 1.2 s, at 4x
+    threshold = np.ones((200, 2))
+    threshold[:20] = np.nan  # armed from 0.2 s
+    armed = t >= 0.2
+    diagnosis = Diagnosis(space="torque", t=t, signal=residual, fault_estimate=residual, residual=residual,
+                          threshold=threshold, alarm=persistent(residual > threshold, 5), armed=armed,
+                          mean=np.zeros(2), std=np.ones(2), injected=np.zeros((200, 2)))
+    onsets = np.array([np.nan, 1.2])
+    stats = detection_statistics(diagnosis, 5, onsets, [1.0, 2.0, 5.0], 2)
+    assert stats["residual_peak_healthy"][0] == 1.5  # the 3x blip is not held for 5 samples
+    assert stats["residual_peak_healthy"][1] == 0.0 and np.isnan(stats["residual_peak_fault"][0])
+    assert stats["residual_peak_fault"][1] == 4.0
+    np.testing.assert_array_equal(stats["false_alarms_x1"], [1, 0])
+    np.testing.assert_array_equal(stats["false_alarms_x2"], [0, 0])
+    assert stats["detection_delay_x1"][1] == pytest.approx(4 * dt)  # raised on the 5th sample above
+    assert stats["detection_delay_x2"][1] == pytest.approx(4 * dt)
+    assert np.isnan(stats["detection_delay_x5"][1])  # never above 5x: missed
+    np.testing.assert_array_equal(stats["isolated"], [0, 1])
+    assert stats["healthy_time"][0] == pytest.approx(1.8) and stats["healthy_time"][1] == pytest.approx(1.0)
