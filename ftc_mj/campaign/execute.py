@@ -33,7 +33,7 @@ import pyarrow as pa
 import pyarrow.parquet as pq
 
 from ftc_mj.analysis.diagnosis import detection_statistics
-from ftc_mj.campaign.population import Run, fingerprint, population
+from ftc_mj.campaign.population import Run, fingerprint, population, population_size
 from ftc_mj.campaign.spec import CampaignSpec
 from ftc_mj.engine.members import members_from_overrides
 from ftc_mj.engine.runner import run_batch
@@ -109,6 +109,7 @@ def load(path: str | Path, runs: int | None = None) -> Campaign:
     _check_paths(spec, base, file)
     variants = [v.name for v in base.variants]
     base_seed = spec.seed if spec.seed is not None else base.spec.seed
+    _check_size(spec, population_size(spec), len(variants), base.n_joints, file)
     all_runs = population(spec, base_seed)
     campaign = Campaign(path=path, spec=spec, scenario_path=scenario_path, runs=all_runs, variants=variants,
                         n_joints=base.n_joints, member_bytes=int(series_bytes(base.spec, base.n_joints)),
@@ -119,7 +120,6 @@ def load(path: str | Path, runs: int | None = None) -> Campaign:
                          "and no replicates?)")
     for run in all_runs:
         campaign.groups.setdefault(run.group, []).append(run)
-    _check_size(campaign, file)
     for runs_of_group in campaign.groups.values():
         _check_group(campaign, runs_of_group, file)
     return campaign
@@ -159,14 +159,19 @@ def _exists(node: Any, parts: list[str]) -> bool:
     return True
 
 
-def _check_size(campaign: Campaign, file: str) -> None:
-    """Refuse a population whose results table would not fit in half of the machine's memory."""
-    columns = 8 + len(campaign.varied_fields) + campaign.n_joints * (40 + 2 * len(campaign.spec.diagnosis.threshold_scales))
-    table = len(campaign.runs) * len(campaign.variants) * columns * 8
+def _check_size(spec: CampaignSpec, runs: int, variants: int, n_joints: int, file: str) -> None:
+    """Refuse, before expanding it, a population whose results table would not fit in half of the machine's
+    memory (8 bytes a value; about 40 metric and statistics columns per joint plus two per threshold multiple)."""
+    fields = len(spec.grid) + (len(spec.samples.fields) if spec.samples is not None else 0)
+    columns = 8 + fields + n_joints * (40 + 2 * len(spec.diagnosis.threshold_scales))
+    table = runs * variants * columns * 8
     memory = os.sysconf("SC_PAGE_SIZE") * os.sysconf("SC_PHYS_PAGES")
     if table > memory / 2:
-        raise InputError(file, "samples.runs", f"{len(campaign.runs)} runs x {len(campaign.variants)} variants need "
-                         f"about {table / 1e9:.1f} GB of results, more than half of this machine's memory")
+        factors = {"samples.runs": spec.samples.runs if spec.samples is not None else 0, "replicates": spec.replicates,
+                   "grid": math.prod(len(v) for v in spec.grid.values()), "cases": len(spec.cases)}
+        raise InputError(file, max(factors, key=factors.get),  # the largest factor of the population
+                         f"{runs} runs x {variants} variants need about {table / 1e9:.3g} GB of results, more than "
+                         "half of this machine's memory")
 
 
 def _check_group(campaign: Campaign, runs: list[Run], file: str) -> None:

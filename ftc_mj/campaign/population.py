@@ -88,6 +88,13 @@ def unit_points(spec: CampaignSpec) -> np.ndarray:
     return engine.random(samples.runs)
 
 
+def population_size(spec: CampaignSpec) -> int:
+    """The number of runs, without making them."""
+    grid = math.prod(len(values) for values in spec.grid.values())
+    samples = spec.samples.runs if spec.samples is not None else 1
+    return samples * max(1, len(spec.cases)) * grid * spec.replicates
+
+
 def population(spec: CampaignSpec, base_seed: int) -> list[Run]:
     """Every run of the campaign, in run order (see the module docstring)."""
     cases = spec.cases or [CaseSpec(label="_")]

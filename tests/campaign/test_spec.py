@@ -102,3 +102,10 @@ def test_distributions_map_quantiles_to_values():
     assert Distribution(normal=(0.0, 1.0)).value(0.975) == pytest.approx(1.96, abs=1e-3)
     choice = Distribution(choice=["a", "b", "c"])
     assert [choice.value(u) for u in (0.0, 0.34, 0.99)] == ["a", "b", "c"]
+
+
+def test_a_population_too_large_for_the_machine_is_refused_before_it_is_made(tmp_path, capsys):
+    path = small_campaign.write(tmp_path, campaign_changes={"replicates": 10**9})
+    assert main(["run", str(path), "--out", str(tmp_path / "out"), "--quiet"]) == 2
+    err = capsys.readouterr().err
+    assert f"{path}: replicates: 8000000000 runs x 2 variants need about" in err and "half of this machine" in err
