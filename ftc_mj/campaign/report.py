@@ -31,8 +31,10 @@ from ftc_mj.campaign import statistics as st  # noqa: E402
 from ftc_mj.campaign.spec import CampaignSpec  # noqa: E402
 from ftc_mj.spec.errors import InputError  # noqa: E402
 
-#: One colour per variant, in the scenario's order, in every figure.
+#: One colour and line style per variant, in the scenario's order, in every figure (styles tell overlapping
+#: curves apart).
 COLOURS = ["#1f77b4", "#d62728", "#2ca02c", "#9467bd", "#ff7f0e", "#8c564b", "#e377c2", "#7f7f7f"]
+STYLES = ["-", "--", "-.", ":"]
 #: Fine threshold multiples for ROC curves (the held residual peaks are continuous).
 ROC_SCALES = np.concatenate(([0.0], np.geomspace(0.05, 1000.0, 400)))
 
@@ -301,7 +303,8 @@ def _confusion(results: Results, variants: list[str], path: Path, written: list[
     for variant, matrix in matrices.items():
         lines += [f"`{variant}`", "", *_table(["true \\ isolated", *labels_pred],
                   [[labels_true[r], *map(str, matrix[r])] for r in keep_rows]), ""]
-    fig, axes = plt.subplots(1, len(matrices), figsize=(3.2 * len(matrices) + 0.6, 3.2), squeeze=False)
+    fig, axes = plt.subplots(1, len(matrices), figsize=(3.2 * len(matrices) + 0.6, 1.6 + 0.42 * len(keep_rows)),
+                             squeeze=False)
     for ax, (variant, matrix) in zip(axes[0], matrices.items()):
         shown = matrix[keep_rows]
         share = shown / np.maximum(shown.sum(axis=1, keepdims=True), 1)
@@ -331,6 +334,10 @@ def _save(fig: plt.Figure, path: Path) -> Path:
 
 def _colour(results: Results, variant: str) -> str:
     return COLOURS[results.variants.index(variant) % len(COLOURS)]
+
+
+def _style(results: Results, variant: str) -> str:
+    return STYLES[results.variants.index(variant) % len(STYLES)]
 
 
 def _box_figure(results: Results, metric: str, path: Path) -> Path | None:
@@ -367,7 +374,7 @@ def _roc_figure(results: Results, curves: dict[str, tuple[np.ndarray, np.ndarray
     for variant, (p_fa, p_d) in curves.items():
         colour = _colour(results, variant)
         ax.plot(np.concatenate(([1.0], p_fa, [0.0])), np.concatenate(([1.0], p_d, [0.0])), color=colour,
-                label=f"{variant} (AUC {st.auc(p_fa, p_d):.3f})")
+                linestyle=_style(results, variant), linewidth=1.6, label=f"{variant} (AUC {st.auc(p_fa, p_d):.3f})")
         ax.plot(p_fa[one], p_d[one], "o", color=colour, markersize=5)
     ax.plot([0, 1], [0, 1], ":", color="grey", linewidth=0.8)
     ax.set_xlabel("false-alarm probability")
@@ -387,7 +394,7 @@ def _ecdf_figure(results: Results, delays: dict[str, np.ndarray], path: Path) ->
         if d.size:
             x = np.sort(d)
             ax.step(x, np.arange(1, x.size + 1) / x.size, where="post", color=_colour(results, variant),
-                    label=f"{variant} (n = {x.size})")
+                    linestyle=_style(results, variant), label=f"{variant} (n = {x.size})")
     ax.set_xscale("log")
     ax.set_xlabel("detection delay [s]")
     ax.set_ylabel("share of detected faults")
@@ -434,13 +441,13 @@ def _pd_size_figure(results: Results, variants: list[str], curves: dict, size: s
             panels.append((kind, lines))
     if not panels:
         return None
-    fig, axes = plt.subplots(1, len(panels), figsize=(3.4 * len(panels) + 1.2, 3.6), squeeze=False, sharey=True)
+    fig, axes = plt.subplots(1, len(panels), figsize=(3.4 * len(panels) + 2.4, 3.8), squeeze=False, sharey=True)
     for ax, (kind, lines) in zip(axes[0], panels):
         for variant, centres, estimates in lines:
             y = np.array([e.value for e in estimates])
             err = np.array([[e.value - e.low for e in estimates], [e.high - e.value for e in estimates]])
             ax.errorbar(centres, y, yerr=err, marker="o", markersize=4, capsize=3, color=_colour(results, variant),
-                        label=f"{variant} (c = {ROC_SCALES[operating[variant]]:.3g})")
+                        linestyle=_style(results, variant), label=f"{variant} (c = {ROC_SCALES[operating[variant]]:.3g})")
         ax.set_xlabel(size)
         ax.set_ylim(-0.03, 1.03)
         ax.grid(alpha=0.3)
@@ -448,8 +455,7 @@ def _pd_size_figure(results: Results, variants: list[str], curves: dict, size: s
             ax.set_title(str(kind), fontsize=9)
     axes[0][0].set_ylabel("detection probability")
     axes[0][-1].legend(fontsize=7, loc="lower right")
-    fig.suptitle(f"Detection probability at false-alarm probability <= {target:g} (95% Wilson intervals)",
-                 fontsize=10)
+    fig.suptitle(f"P_d at P_fa <= {target:g} (c: the threshold multiple; 95% Wilson intervals)", fontsize=10)
     fig.tight_layout()
     return _save(fig, path)
 
