@@ -90,7 +90,8 @@ class Campaign:
     scenario: Scenario | None = None
 
 
-def load(path: str | Path, runs: int | None = None) -> Campaign:
+def load(path: str | Path, runs: int | None = None, variants: list[str] | None = None,
+         duration: float | None = None) -> Campaign:
     """Read a campaign, expand its population and check every run before anything runs: each group's
     scenario compiles and each run's member values pass the scenario's schema and the methods' gain checks.
 
@@ -102,6 +103,10 @@ def load(path: str | Path, runs: int | None = None) -> Campaign:
     path = Path(path)
     file = str(path)
     spec = load_campaign(path, runs)
+    if variants is not None:  # a tuning evaluates one variant on the campaign's population
+        spec.variants = list(variants)
+    if duration is not None:
+        spec.duration = duration
     scenario_path = (path.parent / spec.scenario).resolve()
     if not scenario_path.is_file():
         raise InputError(file, "scenario", f"no such file: {spec.scenario}")
@@ -255,20 +260,27 @@ def default_workers() -> int:
 def tasks_for(campaign: Campaign, pending: list[Run], batch_size: int | None, workers: int) -> list[Task]:
     """The pending runs as batches of one group each: ``batch_size`` members (default: enough batches to keep
     every worker busy and to save progress often, at most :data:`MAX_BATCH`)."""
+    return member_tasks(campaign, [(run.index, run.run_id, run, run.member) for run in pending], batch_size, workers)
+
+
+def member_tasks(campaign: Campaign, members: list[tuple[int, str, Run, dict[str, Any]]], batch_size: int | None,
+                 workers: int) -> list[Task]:
+    """Members ``(index, id, run, member values)`` (a run's, or a run's with other gains, as a tuning asks) as
+    batches of one group each; see :func:`tasks_for`."""
     if batch_size is None:
-        batch_size = max(1, min(MAX_BATCH, math.ceil(len(pending) / (4 * workers))))
+        batch_size = max(1, min(MAX_BATCH, math.ceil(len(members) / (4 * workers))))
     nthread = max(1, default_workers() // workers)
     spec = campaign.spec
-    by_group: dict[str, list[Run]] = {}
-    for run in pending:
-        by_group.setdefault(run.group, []).append(run)
+    by_group: dict[str, list] = {}
+    for member in members:
+        by_group.setdefault(member[2].group, []).append(member)
     tasks = []
-    for runs in by_group.values():
-        for start in range(0, len(runs), batch_size):
-            chunk = runs[start:start + batch_size]
+    for group in by_group.values():
+        for start in range(0, len(group), batch_size):
+            chunk = group[start:start + batch_size]
             tasks.append(Task(scenario=str(campaign.scenario_path), variants=tuple(campaign.variants),
-                              duration=spec.duration, structure=chunk[0].structure,
-                              runs=tuple((run.index, run.run_id, run.member) for run in chunk),
+                              duration=spec.duration, structure=chunk[0][2].structure,
+                              runs=tuple((index, run_id, values) for index, run_id, _, values in chunk),
                               scales=tuple(spec.diagnosis.threshold_scales), nthread=nthread))
     return tasks
 
@@ -312,7 +324,7 @@ def execute(campaign: Campaign, out: Path, *, batch_size: int | None = None, wor
     tasks = tasks_for(campaign, pending, batch_size, workers)
     total, finished = len(campaign.runs), len(campaign.runs) - len(pending)
     progress.update(finished, total)
-    for task, rows in _results(tasks, workers, scheduler):
+    for task, rows in results(tasks, workers, scheduler):
         _write_part(out, task, rows)
         finished += len(task.runs)
         progress.update(finished, total)
@@ -324,7 +336,7 @@ def execute(campaign: Campaign, out: Path, *, batch_size: int | None = None, wor
     return summary
 
 
-def _results(tasks: list[Task], workers: int, scheduler: str | None) -> Iterator[tuple[Task, list[dict]]]:
+def results(tasks: list[Task], workers: int, scheduler: str | None) -> Iterator[tuple[Task, list[dict]]]:
     """Each task with its rows, as they finish: in this process (one worker), on a process pool, or on the
     Dask cluster at ``scheduler``."""
     if scheduler is not None:

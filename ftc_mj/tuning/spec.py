@@ -1,0 +1,137 @@
+"""The tuning file: which variant's gains to tune, within which bounds, on which population, for which cost,
+under which constraints. Example::
+
+    name: ch5_proposed
+    campaign: ../campaigns/ch5_monte_carlo.yaml   # the population of conditions (its scenario, set, samples)
+    variant: proposed
+    duration: 20.0                 # optional: shorter runs than the campaign's
+    conditions: 12                 # training: the population's first runs
+    held_out: 64                   # the check: the runs after them (other seeds and draws)
+    gains:                         # dotted paths of batchable gains, bounds, log scale where a gain spans decades
+      variants.proposed.controller.gains.mu: {low: 0.05, high: 5.0, log: true}
+    cost:
+      weights: {rms_error_converged: 1.0, chattering: 0.1}   # each metric relative to the scenario's own gains
+      aggregate: mean_cvar         # mean, or mean + CVaR of the worst `fraction` of the conditions
+      fraction: 0.2
+    constraints: {divergence: true, false_alarms: 0, detection_delay: 1.0}
+    optimizer: {population: 8, generations: 10, sigma: 0.25, seed: 0}
+
+A condition's cost is sum_m w_m * mean over joints of metric_m / the same with the scenario's gains on the same
+condition: the scenario's gains cost sum_m w_m on every condition, and a cost below that is an improvement.
+"""
+
+from __future__ import annotations
+
+import math
+from pathlib import Path
+from typing import Annotated, Literal
+
+from pydantic import Field, StrictBool, StrictInt, StrictStr, ValidationError, field_validator, model_validator
+
+from ftc_mj.analysis.metrics import METRICS
+from ftc_mj.campaign.spec import FieldPath, Name
+from ftc_mj.engine.members import BATCHABLE
+from ftc_mj.spec.errors import InputError, validation_error
+from ftc_mj.spec.loading import read_yaml_mapping
+from ftc_mj.spec.schema import NonNegativeFloat, PositiveFloat, Strict
+
+PositiveInt = Annotated[StrictInt, Field(gt=0)]
+
+
+class GainBounds(Strict):
+    low: float
+    high: float
+    #: Search the logarithm (a gain that spans decades); needs 0 < low.
+    log: StrictBool = False
+
+    @model_validator(mode="after")
+    def _ordered(self) -> "GainBounds":
+        if not (math.isfinite(self.low) and math.isfinite(self.high) and self.low < self.high):
+            raise ValueError(f"low {self.low:g} must be below high {self.high:g}")
+        if self.log and self.low <= 0:
+            raise ValueError("a log-scale gain needs low > 0")
+        return self
+
+    def to_unit(self, value: float) -> float:
+        if self.log:
+            return (math.log(value) - math.log(self.low)) / (math.log(self.high) - math.log(self.low))
+        return (value - self.low) / (self.high - self.low)
+
+    def from_unit(self, u: float) -> float:
+        u = min(max(u, 0.0), 1.0)
+        if self.log:
+            return math.exp(math.log(self.low) + u * (math.log(self.high) - math.log(self.low)))
+        return self.low + u * (self.high - self.low)
+
+
+class CostSpec(Strict):
+    weights: Annotated[dict[StrictStr, PositiveFloat], Field(min_length=1)]
+    aggregate: Literal["mean", "mean_cvar"] = "mean"
+    #: The worst fraction of the conditions whose mean is CVaR.
+    fraction: Annotated[float, Field(gt=0, le=1)] = 0.2
+
+    @field_validator("weights")
+    @classmethod
+    def _metrics(cls, weights: dict[str, float]) -> dict[str, float]:
+        for metric in weights:
+            if metric not in METRICS:
+                raise ValueError(f"unknown metric {metric!r}")
+        return weights
+
+
+class ConstraintsSpec(Strict):
+    #: No run may diverge.
+    divergence: StrictBool = True
+    #: At most this many false alarms in a run (all joints); none: not constrained.
+    false_alarms: Annotated[StrictInt, Field(ge=0)] | None = None
+    #: Every fault detected within this many seconds (a missed one violates it); none: not constrained.
+    detection_delay: PositiveFloat | None = None
+
+
+class OptimizerSpec(Strict):
+    #: Candidates per generation (CMA-ES's lambda); default 4 + 3 ln(dimension).
+    population: PositiveInt | None = None
+    generations: PositiveInt = 10
+    #: Initial step size in the unit box of the bounds.
+    sigma: Annotated[float, Field(gt=0, le=1)] = 0.25
+    seed: Annotated[StrictInt, Field(ge=0)] = 0
+    #: Added to a candidate's cost per violating condition, as a share of the conditions (explicit penalty).
+    penalty: NonNegativeFloat = 10.0
+
+
+class TuningSpec(Strict):
+    name: Name
+    description: str = ""
+    #: A campaign file, relative to this one: its scenario, `set` and population are the conditions.
+    campaign: StrictStr
+    variant: StrictStr
+    duration: PositiveFloat | None = None
+    conditions: PositiveInt
+    held_out: PositiveInt
+    gains: Annotated[dict[FieldPath, GainBounds], Field(min_length=1)]
+    cost: CostSpec
+    constraints: ConstraintsSpec = ConstraintsSpec()
+    optimizer: OptimizerSpec = OptimizerSpec()
+
+    @model_validator(mode="after")
+    def _batchable_gains(self) -> "TuningSpec":
+        for path in self.gains:
+            if BATCHABLE.fullmatch(path) is None or not path.startswith(f"variants.{self.variant}."):
+                raise ValueError(f"gains: {path} is not a gain of variant {self.variant} "
+                                 f"(variants.{self.variant}.observer.gains.* or .controller.gains.*)")
+        return self
+
+
+def load_tuning(path: Path, generations: int | None = None) -> TuningSpec:
+    """Read and validate a tuning file; ``generations`` overrides the optimizer's."""
+    file = str(path)
+    raw = read_yaml_mapping(path, "a tuning")
+    try:
+        spec = TuningSpec.model_validate(raw)
+    except ValidationError as exc:
+        raise validation_error(file, "", exc) from None
+    if generations is not None:
+        if generations < 1:
+            raise InputError(file, "--generations", f"must be at least 1, not {generations}")
+        spec.optimizer.generations = generations
+    return spec
