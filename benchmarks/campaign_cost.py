@@ -23,25 +23,12 @@ import tempfile
 import time
 from pathlib import Path
 
-import mujoco
 import numpy as np
-from mujoco.batch import Batch
 
+from batch_cost import bare  # the same bare physics as the batch benchmark (this folder is on sys.path)
 from ftc_mj.campaign import execute
 
 ROOT = Path(__file__).resolve().parents[1]
-
-
-def bare(model: mujoco.MjModel, rows: int, substeps: int, periods: int, threads: int) -> float:
-    """Seconds per row and period of a Batch that only writes ``ctrl`` (a PD law) between steps."""
-    batch = Batch(model, rows, nthread=threads, persistent=True)
-    qpos, ctrl = batch.bind("qpos"), batch.bind("ctrl")
-    stage = int(mujoco.mjtStage.mjSTAGE_VEL)
-    start = time.perf_counter()
-    for _ in range(periods):
-        ctrl[:] = -10.0 * qpos
-        batch.step(nstep=substeps, stage=stage)
-    return (time.perf_counter() - start) / (periods * rows)
 
 
 def one_by_one(campaign: execute.Campaign, count: int) -> float:

@@ -26,18 +26,13 @@ from rich.table import Table
 from ftc_mj.analysis.metrics import METRICS, compute_metrics, unit
 from ftc_mj.engine.results import VariantResult
 from ftc_mj.engine.runner import run_scenario
-from ftc_mj.spec.errors import InputError
+from ftc_mj.spec.errors import ArgumentParser, InputError
 from ftc_mj.spec.loading import load_scenario
 from ftc_mj.spec.scenario import Scenario
 
 
-class _ArgumentParser(argparse.ArgumentParser):
-    def error(self, message: str) -> None:  # one line and exit 2, as for every other bad input
-        self.exit(2, f"{self.prog}: error: {message}\n")
-
-
 def build_parser() -> argparse.ArgumentParser:
-    parser = _ArgumentParser(prog="python -m ftc_mj.run", description=__doc__.split("\n\n")[1])
+    parser = ArgumentParser(prog="python -m ftc_mj.run", description=__doc__.split("\n\n")[1])
     parser.add_argument("scenario", type=Path, help="scenario YAML file")
     parser.add_argument("--out", type=Path, help="recording path (default: the scenario's output)")
     parser.add_argument("--variant", nargs="+", default=[], metavar="NAME", help="run only these variants")

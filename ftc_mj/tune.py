@@ -14,16 +14,11 @@ import argparse
 import sys
 from pathlib import Path
 
-from ftc_mj.spec.errors import InputError
-
-
-class _ArgumentParser(argparse.ArgumentParser):
-    def error(self, message: str) -> None:  # one line and exit 2, as for every other bad input
-        self.exit(2, f"{self.prog}: error: {message}\n")
+from ftc_mj.spec.errors import ArgumentParser, InputError
 
 
 def build_parser() -> argparse.ArgumentParser:
-    parser = _ArgumentParser(prog="python -m ftc_mj.tune", description=__doc__.split("\n\n")[1])
+    parser = ArgumentParser(prog="python -m ftc_mj.tune", description=__doc__.split("\n\n")[1])
     parser.add_argument("tuning", type=Path, help="tuning YAML file")
     parser.add_argument("--out", type=Path, metavar="DIR", help="results directory (default: results/tuning/<name>/)")
     parser.add_argument("--generations", type=int, metavar="G", help="override the optimizer's generations")

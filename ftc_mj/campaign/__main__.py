@@ -24,18 +24,13 @@ from pathlib import Path
 from rich.console import Console
 from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn, TimeRemainingColumn
 
-from ftc_mj.spec.errors import InputError
-
-
-class _ArgumentParser(argparse.ArgumentParser):
-    def error(self, message: str) -> None:  # one line and exit 2, as for every other bad input
-        self.exit(2, f"{self.prog}: error: {message}\n")
+from ftc_mj.spec.errors import ArgumentParser, InputError
 
 
 def build_parser() -> argparse.ArgumentParser:
-    parser = _ArgumentParser(prog="python -m ftc_mj.campaign", description="Monte Carlo, sweeps and fault-diagnosis "
+    parser = ArgumentParser(prog="python -m ftc_mj.campaign", description="Monte Carlo, sweeps and fault-diagnosis "
                              "statistics over populations of runs.")
-    commands = parser.add_subparsers(dest="command", required=True, parser_class=_ArgumentParser)
+    commands = parser.add_subparsers(dest="command", required=True, parser_class=ArgumentParser)
     run = commands.add_parser("run", help="run a campaign (resumes an interrupted one)")
     run.add_argument("campaign", type=Path)
     run.add_argument("--out", type=Path, metavar="DIR", help="results directory (default: results/<name>/)")

@@ -149,19 +149,24 @@ def _check_paths(spec: CampaignSpec, scenario: Scenario, file: str) -> None:
         fields += [("samples.fields", p) for p in spec.samples.fields]
         fields += [(f"samples.fields.{p}.also", q) for p, d in spec.samples.fields.items() for q in d.also]
     for where, path in fields:
-        if not any(_exists(document, path.split(".")) for document in documents):
+        if field_value(documents, path) is None:
             raise InputError(file, f"{where}.{path}", f"is not a field of the scenario {spec.scenario}")
 
 
-def _exists(node: Any, parts: list[str]) -> bool:
-    for part in parts:
-        if isinstance(node, dict) and part in node:
-            node = node[part]
-        elif isinstance(node, list) and part.isdigit() and int(part) < len(node):
-            node = node[int(part)]
+def field_value(documents: list[Any], path: str) -> Any:
+    """The value at a dotted path in the first of ``documents`` that has it (e.g. the scenario as written, then
+    with its defaults); None where none has."""
+    for node in documents:
+        for part in path.split("."):
+            if isinstance(node, dict) and part in node:
+                node = node[part]
+            elif isinstance(node, list) and part.isdigit() and int(part) < len(node):
+                node = node[int(part)]
+            else:
+                break
         else:
-            return False
-    return True
+            return node
+    return None
 
 
 def _check_size(spec: CampaignSpec, runs: int, variants: int, n_joints: int, file: str) -> None:

@@ -103,16 +103,18 @@ def _divergence(results: Results) -> list[str]:
     return ["## Divergence", "", *_table(["variant", "diverged", "rate [95% Wilson]"], rows), ""]
 
 
+def _defined_columns(results: Results, metric: str) -> list[tuple[int, str]]:
+    """(joint, column) of a metric's joints with any defined value."""
+    return [(j, f"{metric}.{j}") for j in range(1, results.joints() + 1) if results.has(f"{metric}.{j}")]
+
+
 def _metric_tables(results: Results) -> list[str]:
     lines = ["## Metrics", "", "Per variant and joint, over the runs where the metric is defined (n): mean, median, "
              "5th and 95th percentiles, each with its 95% bootstrap interval.", ""]
     resamples = results.spec.report.bootstrap
     for metric in results.spec.report.metrics:
         rows = []
-        for j in range(1, results.joints() + 1):
-            column = f"{metric}.{j}"
-            if not results.has(column):
-                continue
+        for j, column in _defined_columns(results, metric):
             for variant in results.variants:
                 s = st.summarise(results.of(variant, column), resamples)
                 if s.count:
@@ -136,10 +138,7 @@ def _paired_tables(results: Results) -> list[str]:
     resamples = results.spec.report.bootstrap
     for metric in results.spec.report.metrics:
         rows = []
-        for j in range(1, results.joints() + 1):
-            column = f"{metric}.{j}"
-            if not results.has(column):
-                continue
+        for j, column in _defined_columns(results, metric):
             for other in others:
                 p = st.paired(results.of(reference, column), results.of(other, column), resamples)
                 if p.count:
@@ -341,7 +340,7 @@ def _style(results: Results, variant: str) -> str:
 
 
 def _box_figure(results: Results, metric: str, path: Path) -> Path | None:
-    joints = [j for j in range(1, results.joints() + 1) if results.has(f"{metric}.{j}")]
+    joints = [j for j, _ in _defined_columns(results, metric)]
     if not joints:
         return None
     fig, axes = plt.subplots(1, len(joints), figsize=(3.3 * len(joints) + 0.5, 3.4), squeeze=False)

@@ -94,7 +94,7 @@ def prepare(path: Path, generations: int | None = None) -> Tuning:
     documents = [campaign.scenario.raw, campaign.scenario.spec.model_dump(mode="json")]
     baseline = {}
     for gain in paths:
-        value = next((v for v in (_lookup(d, gain.split(".")) for d in documents) if v is not None), None)
+        value = execute.field_value(documents, gain)
         if not isinstance(value, (int, float)) or isinstance(value, bool):
             raise InputError(file, f"gains.{gain}", "is not a number of the scenario (a gain given per joint is "
                              "tuned by its elements, e.g. .0)")
@@ -115,17 +115,6 @@ def prepare(path: Path, generations: int | None = None) -> Tuning:
             raise InputError(file, "gains", f"the {'lower' if corner == 0 else 'upper'} bounds are not valid gains: "
                              f"{exc.field}: {exc.problem.removeprefix('member 0: ')}") from None
     return tuning
-
-
-def _lookup(node: Any, parts: list[str]) -> Any:
-    for part in parts:
-        if isinstance(node, dict) and part in node:
-            node = node[part]
-        elif isinstance(node, list) and part.isdigit() and int(part) < len(node):
-            node = node[int(part)]
-        else:
-            return None
-    return node
 
 
 # ------------------------------------------------------------------------------------------------ evaluation
