@@ -27,7 +27,7 @@ import numpy as np
 from ftc_mj.robot import editing
 from ftc_mj.spec.errors import InputError
 
-_MOVABLE = (mujoco.mjtJoint.mjJNT_HINGE, mujoco.mjtJoint.mjJNT_SLIDE)
+_MOVABLE = (int(mujoco.mjtJoint.mjJNT_HINGE), int(mujoco.mjtJoint.mjJNT_SLIDE))
 
 
 def rebuild(
@@ -91,8 +91,8 @@ def _choose_joints(model: mujoco.MjModel, joints: Sequence[str] | None, lock: di
     """The controlled joints (checked, in the model's order) and every other joint's value to hold."""
     names = [model.joint(j).name for j in range(model.njnt)]
     for j, joint in enumerate(names):
-        kind = model.jnt_type[j]
-        if kind == mujoco.mjtJoint.mjJNT_FREE:
+        kind = int(model.jnt_type[j])
+        if kind == int(mujoco.mjtJoint.mjJNT_FREE):
             raise InputError(source, field, f"{name}: joint {joint!r} is a free joint (a floating base): the testbed "
                                             "simulates fixed-base arms")
         if kind not in _MOVABLE:
