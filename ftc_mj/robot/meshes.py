@@ -29,6 +29,8 @@ from lxml import etree
 MUJOCO_FORMATS = (".stl", ".obj", ".msh")
 #: Formats converted here: those trimesh reads (COLLADA through pycollada).
 CONVERTED_FORMATS = (".dae", ".ply", ".glb", ".gltf", ".off", ".3mf")
+#: MuJoCo refuses meshes with fewer vertices.
+_MUJOCO_MIN_VERTICES = 4
 #: Bumped when the conversion changes, so that old cache entries are not reused.
 _CONVERTER_VERSION = "1"
 
@@ -87,8 +89,12 @@ def _read_parts(source: Path, data: bytes) -> list[tuple[object, tuple[float, ..
     parts = []
     for rgba, group in by_colour.items():
         merged = trimesh.util.concatenate(group) if len(group) > 1 else group[0].copy()
-        merged.apply_scale(scale)
-        parts.append((merged, rgba))
+        merged.merge_vertices()
+        if len(merged.vertices) >= _MUJOCO_MIN_VERTICES:  # a lone triangle: MuJoCo refuses it, nothing to see
+            merged.apply_scale(scale)
+            parts.append((merged, rgba))
+    if not parts:
+        raise MeshConversionError(f"it holds no part of {_MUJOCO_MIN_VERTICES} vertices or more (MuJoCo's minimum)")
     return parts
 
 

@@ -448,7 +448,7 @@ def _with_mimic_joints(robot: UrdfRobot, lock: dict[str, float], source: str, fi
                                  f"{lock[name]} disagrees with the mimic of {name_of_file}: joint {name!r} follows "
                                  f"{leader!r}, so it is at {value:.12g} (leave it out to follow its leader)")
     for name, joint in followers.items():
-        if name not in lock:
+        if name not in lock or joint.mimic.joint not in lock:
             raise InputError(source, f"{field}.lock", f"joint {name!r} of {name_of_file} mimics {joint.mimic.joint!r}: "
                                                       f"lock {joint.mimic.joint!r} (the mimic joint follows it) or "
                                                       f"{name!r} (a mimic joint has no motor of its own)")
@@ -518,9 +518,12 @@ def _compile_urdf(robot: UrdfRobot) -> mujoco.MjSpec:
     # MuJoCo's URDF defaults drop visual geoms, merge bodies joined by fixed joints and strip mesh paths.
     compiler.attrib.update({"discardvisual": "false", "fusestatic": "false", "strippath": "false"})
     try:
-        return mujoco.MjSpec.from_string(etree.tostring(root, encoding="unicode"))
+        spec = mujoco.MjSpec.from_string(etree.tostring(root, encoding="unicode"))
     except ValueError as exc:
         raise InputError(str(robot.path), "", f"MuJoCo cannot read it: {_first_lines(exc)}") from None
+    for mesh in spec.meshes:  # drawn only (mass from <inertial>): a flat mesh, a logo or a plate, is fine
+        mesh.inertia = mujoco.mjtMeshInertia.mjMESH_INERTIA_SHELL
+    return spec
 
 
 def _split_mesh_visual(link: etree._Element, visual: etree._Element, parts: Sequence[MeshPart]) -> None:
