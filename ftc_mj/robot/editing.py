@@ -108,14 +108,33 @@ def add_motors_and_sensors(spec: mujoco.MjSpec, joints: Sequence[str], limits: S
     for k, (name, limit) in enumerate(zip(joints, limits)):
         spec.joint(name).actfrclimited = mujoco.mjtLimited.mjLIMITED_FALSE
         motor = spec.add_actuator(name=f"motor{k + 1}", target=name, trntype=mujoco.mjtTrn.mjTRN_JOINT)
+        # Every field a motor has, not the file's default actuator (a <position> default would add a servo).
+        motor.dyntype, motor.gaintype = mujoco.mjtDyn.mjDYN_NONE, mujoco.mjtGain.mjGAIN_FIXED
+        motor.biastype = mujoco.mjtBias.mjBIAS_NONE
+        motor.gainprm, motor.biasprm, motor.dynprm = _unit_gain(len(motor.gainprm)), np.zeros(len(motor.biasprm)), \
+            _unit_gain(len(motor.dynprm))
+        motor.gear = [1.0, 0, 0, 0, 0, 0]
+        motor.forcelimited = motor.actlimited = mujoco.mjtLimited.mjLIMITED_FALSE
+        motor.actdim = 0
         motor.ctrllimited = mujoco.mjtLimited.mjLIMITED_FALSE if limit is None else mujoco.mjtLimited.mjLIMITED_TRUE
         if limit is not None:
             motor.ctrlrange = [-limit, limit]
-        spec.add_sensor(name=f"{name}_pos", type=mujoco.mjtSensor.mjSENS_JOINTPOS, objtype=mujoco.mjtObj.mjOBJ_JOINT,
-                        objname=name)
+        _exact(spec.add_sensor(name=f"{name}_pos", type=mujoco.mjtSensor.mjSENS_JOINTPOS,
+                               objtype=mujoco.mjtObj.mjOBJ_JOINT, objname=name))
     for name in joints:  # tachometers after all encoders, as in models/*.xml
-        spec.add_sensor(name=f"{name}_vel", type=mujoco.mjtSensor.mjSENS_JOINTVEL, objtype=mujoco.mjtObj.mjOBJ_JOINT,
-                        objname=name)
+        _exact(spec.add_sensor(name=f"{name}_vel", type=mujoco.mjtSensor.mjSENS_JOINTVEL,
+                               objtype=mujoco.mjtObj.mjOBJ_JOINT, objname=name))
+
+
+def _unit_gain(size: int) -> np.ndarray:
+    gain = np.zeros(size)
+    gain[0] = 1.0
+    return gain
+
+
+def _exact(sensor: mujoco.MjsSensor) -> None:
+    """No noise and no cutoff, whatever the file's default sensor says: the scenario corrupts readings."""
+    sensor.noise, sensor.cutoff = 0.0, 0.0
 
 
 def disable_contacts(spec: mujoco.MjSpec) -> None:
