@@ -26,7 +26,8 @@ from pathlib import Path
 
 import mujoco
 import numpy as np
-from mujoco.batch import Batch
+
+from batch_cost import bare  # the bare physics batch, measured as batch_cost.py measures it (this folder is on sys.path)
 
 from ftc_mj.engine.members import replicates
 from ftc_mj.engine.runner import run_batch, simulate_variant
@@ -37,18 +38,6 @@ HERE = Path(__file__).resolve().parent
 SCENARIOS = {3: HERE.parent / "scenarios" / "puma_fault.yaml",
              6: HERE.parent / "scenarios" / "robots" / "ur5e_fault.yaml",
              7: HERE.parent / "scenarios" / "robots" / "panda_fault.yaml"}
-
-
-def bare_physics(model: mujoco.MjModel, members: int, substeps: int, periods: int, threads: int) -> float:
-    """Seconds per member and period of a Batch that only writes ``ctrl`` between steps."""
-    batch = Batch(model, members, nthread=threads, persistent=True)
-    qpos, ctrl = batch.bind("qpos"), batch.bind("ctrl")
-    stage = int(mujoco.mjtStage.mjSTAGE_VEL)
-    start = time.perf_counter()
-    for _ in range(periods):
-        ctrl[:] = -10.0 * qpos
-        batch.step(nstep=substeps, stage=stage)
-    return (time.perf_counter() - start) / (periods * members)
 
 
 def nominal_evaluation(model: mujoco.MjModel, members: int, periods: int, threads: int) -> float:
@@ -73,13 +62,13 @@ def measure(joints: int, members: int, duration: float, rounds: int, threads: in
         assert simulate_variant(scenario, variant).status == "ok"
         cost = best["single"]
         cost["closed"] = min(cost["closed"], (time.perf_counter() - start) / periods)
-        cost["physics"] = min(cost["physics"], bare_physics(scenario.model, 1, scenario.substeps, periods, 1))
+        cost["physics"] = min(cost["physics"], bare(scenario.model, 1, scenario.substeps, periods, 1))
         cost["nominal"] = min(cost["nominal"], nominal_evaluation(scenario.model, 1, periods, 1))
         start = time.perf_counter()
         assert all(o.status == "ok" for o in run_batch(scenario, batch, nthread=threads))
         cost = best["batch"]
         cost["closed"] = min(cost["closed"], (time.perf_counter() - start) / (periods * members))
-        cost["physics"] = min(cost["physics"], bare_physics(scenario.model, members, scenario.substeps, periods, threads))
+        cost["physics"] = min(cost["physics"], bare(scenario.model, members, scenario.substeps, periods, threads))
         cost["nominal"] = min(cost["nominal"], nominal_evaluation(scenario.model, members, periods, threads))
     for cost in best.values():
         cost["rest"] = cost["closed"] - cost["physics"] - cost["nominal"]
