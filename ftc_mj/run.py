@@ -65,17 +65,23 @@ def _run_with_progress(scenario: Scenario, console: Console | None) -> list[Vari
 
 
 def metrics_table(scenario: Scenario, results: Sequence[VariantResult], metrics: dict[str, dict]) -> Table:
-    """Metric rows, variant columns, one value per joint in each cell."""
-    table = Table(title=f"{scenario.name}: metrics, one line per joint", show_lines=True)
+    """One line per metric and variant (the metric named on its first), one column per joint: a 7-joint arm
+    fits a screen."""
+    n = scenario.n_joints
+    table = Table(title=f"{scenario.name}: metrics, one column per joint", show_lines=False)
     table.add_column("metric", no_wrap=True)
     table.add_column("unit", no_wrap=True)
-    for result in results:
-        status = "" if result.status == "ok" else f"\n[red]diverged at {result.diverged_at:.3f} s[/red]"
-        table.add_column(f"{result.name}{status}", justify="right")
+    table.add_column("variant", no_wrap=True)
+    for joint in range(n):
+        table.add_column(scenario.model.joint(joint).name or f"joint {joint + 1}", justify="right")
+    names = {r.name: r.name if r.status == "ok" else f"{r.name} [red](diverged at {r.diverged_at:.3f} s)[/red]"
+             for r in results}
     space = scenario.diagnoser.space if scenario.diagnoser is not None else None
     for metric in METRICS:
-        cells = ["\n".join(_format(v) for v in metrics[r.name][metric]) for r in results]
-        table.add_row(metric, unit(metric, space), *cells)
+        for k, result in enumerate(results):
+            first = k == 0
+            table.add_row(metric if first else "", unit(metric, space) if first else "", names[result.name],
+                          *(_format(v) for v in metrics[result.name][metric]))
     return table
 
 

@@ -1,6 +1,8 @@
-"""The robot's MuJoCo model: the ``robot`` section of a scenario, loading an MJCF or URDF file (the latter
-through :mod:`ftc_mj.robot.urdf`), the checks the loop relies on (one joint, actuator and position sensor per
-DOF), and the ``sensordata`` addresses of the joint sensors."""
+"""The robot's MuJoCo model: the ``robot`` section of a scenario, where the model comes from (a file, a
+``package://`` name, or a MuJoCo Menagerie robot), how it is made a testbed robot (URDF through
+:mod:`ftc_mj.robot.urdf`; an MJCF used as it is, or rebuilt by :mod:`ftc_mj.robot.mjcf`), the checks the loop
+relies on (one joint, actuator and position sensor per DOF), and the ``sensordata`` addresses of the joint
+sensors."""
 
 from __future__ import annotations
 
@@ -9,26 +11,37 @@ from typing import Literal
 
 import mujoco
 import numpy as np
+from pydantic import Field
 
-from ftc_mj.robot import urdf
+from ftc_mj.robot import mjcf, urdf
+from ftc_mj.robot.packages import resolve_package_uri, split_package_uri
 from ftc_mj.spec.errors import InputError
 from ftc_mj.spec.schema import FiniteFloat, NonNegativeFloat, PositiveFloat, Strict
 
+#: The options that rebuild a model; an MJCF in the testbed's form is used as it is without them.
+_REBUILD_OPTIONS = ("joints", "lock", "torque_limits", "armature", "contacts")
 
-class UrdfOptions(Strict):
-    """Options of a URDF robot (``ftc_mj/robot/urdf.py``); an MJCF model states them in its own file."""
 
+class RobotSpec(Strict):
+    #: MJCF or URDF file (``.urdf``), relative to the scenario file, or ``package://NAME/...`` (a ROS package).
+    model: str | None = None
+    #: Instead of ``model``: a MuJoCo Menagerie robot by name (``universal_robots_ur5e``), through the
+    #: ``mujoco-menagerie`` package (downloaded on first use; a local checkout from ``MENAGERIE_ROOT``).
+    menagerie: str | None = None
+    #: The Menagerie entry point (an XML of the robot's folder); default: the robot alone (its default model).
+    menagerie_entry: str | None = None
+    #: The controlled joints, by name, in the model's order. With an MJCF it rebuilds the model as a testbed
+    #: robot (:mod:`ftc_mj.robot.mjcf`); default: every movable joint that is not locked.
+    joints: list[str] | None = Field(default=None, min_length=1)
     #: Joints to lock, by name: angle [rad] (position [m] for a prismatic joint).
     lock: dict[str, FiniteFloat] = {}
-    #: |torque| limit of the free joints' motors, one value or one per free joint; overrides URDF efforts.
-    torque_limits: PositiveFloat | list[PositiveFloat] | None = None
+    #: |torque| limit of the controlled joints' motors: one value or one per joint; overrides URDF efforts.
+    #: ``model`` (MJCF): the model's own actuator force ranges.
+    torque_limits: PositiveFloat | list[PositiveFloat] | Literal["model"] | None = None
     #: Reflected rotor inertia of the free joints [kg m^2], one value or one per free joint (URDF has none).
     armature: NonNegativeFloat | list[NonNegativeFloat] | None = None
-
-
-class RobotSpec(UrdfOptions):
-    #: MJCF or URDF file (``.urdf``), relative to the scenario file.
-    model: str
+    #: A rebuilt MJCF's contacts: ``off`` (the testbed's convention) or ``keep``. URDF robots have none.
+    contacts: Literal["off", "keep"] | None = None
     #: Sensors the controller may read: joint encoders always; tachometers only where the chapter assumes
     #: them (Chapter 2). A method whose ``requires`` names a sensor not listed here is refused at load time.
     sensors: list[Literal["position", "velocity"]] = ["position"]
@@ -44,34 +57,96 @@ class PlantSpec(Strict):
 
 
 def load_robot(scenario_path: Path, robot: RobotSpec, file: str) -> tuple[Path, mujoco.MjModel]:
-    """The robot's model file (resolved against the scenario file's folder) and its checked MjModel."""
-    model_path = (scenario_path.parent / robot.model).resolve()
-    if not model_path.is_file():
-        raise InputError(file, "robot.model", f"model file {robot.model!r} not found")
-    model = _load_model(model_path, robot, file)
+    """The robot's model file and its checked MjModel."""
+    if robot.menagerie is not None:
+        if robot.model is not None:
+            raise InputError(file, "robot.menagerie", "give either robot.model or robot.menagerie, not both")
+        model_path = _menagerie_xml(robot, file)
+        model = _load_mjcf(model_path, robot, file, f"Menagerie's {robot.menagerie!r}", rebuild=True)
+    elif robot.model is None:
+        raise InputError(file, "robot.model", "required field is missing (or give robot.menagerie)")
+    else:
+        model_path = _model_file(scenario_path, robot.model, file)
+        if urdf.is_urdf(model_path):
+            model = _load_urdf(model_path, robot, file)
+        else:
+            model = _load_mjcf(model_path, robot, file, repr(robot.model), rebuild=robot.joints is not None)
     n = model.nv
     if model.nq != n or model.nu != n:
-        raise InputError(file, "robot.model", f"needs one hinge/slide joint and one actuator per DOF (nq={model.nq}, nv={n}, nu={model.nu})")
+        raise InputError(file, "robot.model", f"needs one hinge/slide joint and one actuator per DOF (nq={model.nq}, "
+                                              f"nv={n}, nu={model.nu}); or give robot.joints to make it a testbed "
+                                              "robot")
     if position_sensor_addresses(model) is None:
-        raise InputError(file, "robot.model", "needs one jointpos sensor per joint")
+        raise InputError(file, "robot.model", "needs one jointpos sensor per joint (or give robot.joints to make it a "
+                                              "testbed robot: motors and sensors are then added)")
     if "velocity" in robot.sensors and velocity_sensor_addresses(model) is None:
         raise InputError(file, "robot.sensors", "velocity sensing needs one jointvel sensor per joint in the model")
     return model_path, model
 
 
-def _load_model(model_path: Path, robot: RobotSpec, file: str) -> mujoco.MjModel:
-    """The robot's MjModel: a URDF through ftc_mj.robot.urdf, anything else as MJCF."""
-    if urdf.is_urdf(model_path):
-        return urdf.load_model(model_path, lock=robot.lock, torque_limits=robot.torque_limits,
-                               armature=robot.armature, source=file, field="robot")
-    for option in UrdfOptions.model_fields:
-        if getattr(robot, option) not in (None, {}):
-            raise InputError(file, f"robot.{option}", "is for URDF models only; an MJCF model sets it in its file")
+def _model_file(scenario_path: Path, name: str, file: str) -> Path:
+    """The model file ``name`` gives: relative to the scenario file's folder, or a ``package://`` name."""
+    if split_package_uri(name) is not None:
+        found = resolve_package_uri(name)
+        if found is None:
+            raise InputError(file, "robot.model", f"{name!r} not found (ROS packages are looked up in "
+                                                  "ROS_PACKAGE_PATH, AMENT_PREFIX_PATH and those installed with "
+                                                  "Python packages)")
+        return found
+    model_path = (scenario_path.parent / name).resolve()
+    if not model_path.is_file():
+        raise InputError(file, "robot.model", f"model file {name!r} not found")
+    return model_path
+
+
+def _menagerie_xml(robot: RobotSpec, file: str) -> Path:
+    """The XML of a Menagerie robot's entry point (downloaded on first use by ``mujoco-menagerie``)."""
+    import mujoco_menagerie
+
     try:
-        return mujoco.MjModel.from_xml_path(str(model_path))
+        entry = mujoco_menagerie.get(robot.menagerie)
+    except mujoco_menagerie.UnknownRobotError as exc:
+        raise InputError(file, "robot.menagerie", str(exc)) from None
+    try:
+        return entry.xml(robot.menagerie_entry or entry.default_model)
+    except mujoco_menagerie.UnknownEntryPointError as exc:
+        raise InputError(file, "robot.menagerie_entry", str(exc)) from None
+    except (mujoco_menagerie.MenagerieError, OSError) as exc:
+        raise InputError(file, "robot.menagerie", f"cannot get {robot.menagerie!r}: {exc} (a local Menagerie "
+                                                  "checkout is read from MENAGERIE_ROOT)") from None
+
+
+def _load_urdf(model_path: Path, robot: RobotSpec, file: str) -> mujoco.MjModel:
+    if robot.contacts == "keep":
+        raise InputError(file, "robot.contacts", "a URDF robot has no contacts here (its <collision> shapes are not "
+                                                 "used)")
+    return urdf.load_model(model_path, joints=robot.joints, lock=robot.lock, torque_limits=robot.torque_limits,
+                           armature=robot.armature, source=file, field="robot")
+
+
+def _load_mjcf(model_path: Path, robot: RobotSpec, file: str, name: str, rebuild: bool) -> mujoco.MjModel:
+    """An MJCF model: as it is in the testbed's form, or rebuilt as a testbed robot."""
+    if robot.armature is not None:
+        raise InputError(file, "robot.armature", "is for URDF models only; an MJCF model sets it in its file")
+    if not rebuild:
+        for option in _REBUILD_OPTIONS:
+            if getattr(robot, option) not in (None, {}):
+                raise InputError(file, f"robot.{option}", "is for URDF models only, or for an MJCF rebuilt as a "
+                                                          "testbed robot (give robot.joints)")
+        try:
+            return mujoco.MjModel.from_xml_path(str(model_path))
+        except ValueError as exc:
+            raise InputError(file, "robot.model", f"MuJoCo cannot load {name}: {_first_line(exc)}") from None
+    try:
+        spec = mujoco.MjSpec.from_file(str(model_path))
     except ValueError as exc:
-        first_line = str(exc).strip().splitlines()[0] if str(exc).strip() else "cannot compile"
-        raise InputError(file, "robot.model", f"MuJoCo cannot load {robot.model!r}: {first_line}") from None
+        raise InputError(file, "robot.model", f"MuJoCo cannot load {name}: {_first_line(exc)}") from None
+    return mjcf.rebuild(spec, joints=robot.joints, lock=robot.lock, torque_limits=robot.torque_limits,
+                        contacts=robot.contacts or "off", name=name, source=file)
+
+
+def _first_line(exc: Exception) -> str:
+    return str(exc).strip().splitlines()[0] if str(exc).strip() else "cannot compile"
 
 
 def position_sensor_addresses(model: mujoco.MjModel) -> np.ndarray | None:

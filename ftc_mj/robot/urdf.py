@@ -6,12 +6,14 @@ by element; any problem raises :class:`~ftc_mj.spec.errors.InputError` naming th
 builds an ``MjSpec`` from it (visual geometry kept, mesh paths resolved here), which is edited into the
 testbed's conventions, those of ``models/*.xml``:
 
-* locked joints removed, their angle baked into the child body's frame (exact, no constraint);
-* per free joint, in kinematic order: a ``<motor>`` ``motor<k>`` (gear 1; ``ctrlrange`` = +-torque limit when
-  one is known), a ``<jointpos>`` sensor ``<joint>_pos`` and, after all of those, a ``<jointvel>`` sensor
-  ``<joint>_vel`` (read only with ``robot.sensors: [position, velocity]``); optional armature (URDF has none);
+* locked joints removed, their angle baked into the child body's frame (exact, no constraint); a mimic joint
+  must be locked, and is locked by itself where its leader is (at ``multiplier * leader + offset``);
+* per free joint, in kinematic order, a torque motor and the joint sensors (:mod:`ftc_mj.robot.editing`);
+  optional armature (URDF has none);
 * contacts disabled (``<collision>`` elements are not used), inertia only from ``<inertial>``,
-  ``implicitfast`` integrator, 1 ms timestep (the scenario sets its own).
+  ``implicitfast`` integrator, 1 ms timestep (the scenario sets its own);
+* visual meshes in a format MuJoCo does not read (COLLADA ``.dae`` as ROS packages ship them, PLY, glTF)
+  converted once into cached OBJ parts, one per colour (:mod:`ftc_mj.robot.meshes`).
 
 Kinematic order is depth first from the root link, children in the order their joints appear in the file:
 the order of ``qpos`` in the compiled model.
@@ -21,17 +23,18 @@ from __future__ import annotations
 
 import io
 import math
-import os
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 from typing import TYPE_CHECKING
 from urllib.parse import unquote
-
 import mujoco
 import numpy as np
 from lxml import etree
 
+from ftc_mj.robot import editing, meshes as mesh_files
+from ftc_mj.robot.meshes import CONVERTED_FORMATS, MUJOCO_FORMATS, MeshConversionError, MeshPart
+from ftc_mj.robot.packages import resolve_package_uri
 from ftc_mj.spec.errors import InputError
 
 if TYPE_CHECKING:  # imported when a URDF is read: it takes about 1 s (trimesh), which MJCF runs need not pay
@@ -39,8 +42,8 @@ if TYPE_CHECKING:  # imported when a URDF is read: it takes about 1 s (trimesh),
 
 #: URDF joint types the testbed simulates (a fixed-base arm); floating and planar joints are refused.
 SUPPORTED_JOINTS = ("revolute", "continuous", "prismatic", "fixed")
-#: Mesh formats MuJoCo reads.
-MESH_FORMATS = (".stl", ".obj", ".msh")
+#: Mesh formats a URDF may use: those MuJoCo reads, and those converted for it.
+MESH_FORMATS = MUJOCO_FORMATS + CONVERTED_FORMATS
 # Relative tolerance of the inertia checks (A + B >= C, eigenvalues >= 0): files round their numbers.
 _INERTIA_TOLERANCE = 1e-9
 
@@ -53,8 +56,9 @@ class UrdfRobot:
     urdf: yourdfpy.URDF
     #: Revolute, continuous and prismatic joints, in kinematic order.
     movable: tuple[str, ...]
-    #: Absolute mesh file of every <mesh> element used, by its filename as written.
-    meshes: Mapping[str, Path]
+    #: The files MuJoCo reads for every <mesh> element used (the file itself, or its converted parts, each
+    #: with the colour the file gives it), by its filename as written.
+    meshes: Mapping[str, tuple[MeshPart, ...]]
     #: The parsed XML, for MuJoCo's URDF compiler.
     xml: etree._Element
 
@@ -94,7 +98,7 @@ def read_urdf(path: Path) -> UrdfRobot:
     for joint in urdf.robot.joints:
         _check_joint(file, joint)
     moving_links = {joint.child for joint in urdf.robot.joints if joint.type != "fixed"}
-    meshes: dict[str, Path] = {}
+    meshes: dict[str, tuple[MeshPart, ...]] = {}
     for link in urdf.robot.links:
         _check_inertial(file, link, link.name in moving_links)
         for index, geometry in enumerate(_drawn_geometries(link)):
@@ -181,12 +185,14 @@ def _check_tree(file: str, urdf: yourdfpy.URDF) -> list[str]:
                 raise InputError(file, f"joint {joint.name!r}", f"its {role} link {link!r} does not exist")
         if joint.child in parent_joint:
             raise InputError(file, f"joint {joint.name!r}",
-                             f"link {joint.child!r} is already the child of joint {parent_joint[joint.child]!r}")
+                             f"link {joint.child!r} is already the child of joint {parent_joint[joint.child]!r} "
+                             "(closed kinematic loops are not supported: a link has one parent joint)")
         parent_joint[joint.child] = joint.name
         children[joint.parent].append(joint)
     roots = [name for name in links if name not in parent_joint]
     if len(roots) != 1:
-        problem = "no root link (the joints form a loop)" if not roots else f"{len(roots)} root links: {roots}"
+        problem = ("no root link (the joints form a closed loop, which is not supported)" if not roots
+                   else f"{len(roots)} root links: {roots}")
         raise InputError(file, "<robot>", f"must be one tree of links; found {problem}")
     # Depth first, children in the order of their joints in the file: MuJoCo's body (and so qpos) order.
     order, seen, stack = [], {roots[0]}, list(reversed(children[roots[0]]))
@@ -198,7 +204,13 @@ def _check_tree(file: str, urdf: yourdfpy.URDF) -> list[str]:
         stack.extend(reversed(children[joint.child]))
     if len(seen) != len(links):
         loose = next(name for name in links if name not in seen)
-        raise InputError(file, f"link {loose!r}", "is not connected to the root link (the joints form a loop)")
+        raise InputError(file, f"link {loose!r}", "is not connected to the root link (the joints form a closed "
+                                                  "loop, which is not supported)")
+    for joint in urdf.robot.joints:
+        leader = joint.mimic.joint if joint.mimic is not None else None
+        if leader is not None and (leader not in urdf.joint_map or urdf.joint_map[leader].type == "fixed"
+                                   or leader == joint.name):
+            raise InputError(file, f"joint {joint.name!r}: mimic", f"joint {leader!r} is not another movable joint")
     return order
 
 
@@ -208,11 +220,17 @@ def _finite(value: float | None) -> bool:
 
 def _check_joint(file: str, joint: yourdfpy.Joint) -> None:
     element = f"joint {joint.name!r}"
+    if joint.type in ("floating", "planar"):
+        raise InputError(file, element, f"type {joint.type!r} is not supported: a {joint.type} joint makes a "
+                                        "mobile base, and the testbed simulates fixed-base arms (make it fixed)")
     if joint.type not in SUPPORTED_JOINTS:
         raise InputError(file, element, f"type {joint.type!r} is not supported (a fixed-base arm: "
                                         f"{', '.join(SUPPORTED_JOINTS)})")
     if joint.mimic is not None:
-        raise InputError(file, element, "mimic joints are not supported (lock it or make it a free joint)")
+        for attribute in ("multiplier", "offset"):
+            value = getattr(joint.mimic, attribute)
+            if value is not None and not _finite(value):
+                raise InputError(file, f"{element}: mimic", f"{attribute} must be a number, got {value}")
     if joint.type == "fixed":
         return
     axis = np.asarray(joint.axis, dtype=float)
@@ -288,34 +306,40 @@ def _check_geometry(file: str, element: str, geometry: yourdfpy.Geometry | None,
     if target is None:
         raise InputError(file, f"{element}: mesh", f"file {filename!r} not found (relative names are relative to "
                                                    "the URDF file; package://NAME/... is looked up in the folders "
-                                                   "above it and in ROS_PACKAGE_PATH)")
-    if target.suffix.lower() not in MESH_FORMATS:
-        raise InputError(file, f"{element}: mesh", f"{filename!r}: MuJoCo reads {', '.join(MESH_FORMATS)} meshes, "
-                                                   f"not {target.suffix or 'files without an extension'}")
+                                                   "above it, ROS_PACKAGE_PATH, AMENT_PREFIX_PATH and the ROS "
+                                                   "packages installed with Python packages)")
     scale = geometry.mesh.scale
     if scale is not None and not all(_finite(v) and v != 0 for v in np.atleast_1d(scale)):
         raise InputError(file, f"{element}: mesh", f"scale must be non-zero numbers, got {scale}")
-    meshes[filename] = target
+    suffix = target.suffix.lower()
+    if suffix in MUJOCO_FORMATS:
+        meshes[filename] = (MeshPart(target, None),)
+    elif suffix in CONVERTED_FORMATS:
+        if filename not in meshes:
+            try:
+                meshes[filename] = tuple(mesh_files.convert(target))
+            except (MeshConversionError, OSError) as exc:
+                raise InputError(file, f"{element}: mesh", f"{filename!r}: MuJoCo reads {', '.join(MUJOCO_FORMATS)} "
+                                                           f"meshes, and this {suffix} file cannot be converted: "
+                                                           f"{exc}") from None
+    else:
+        raise InputError(file, f"{element}: mesh", f"{filename!r}: MuJoCo reads {', '.join(MUJOCO_FORMATS)} meshes, "
+                                                   f"and {', '.join(CONVERTED_FORMATS)} are converted; not "
+                                                   f"{target.suffix or 'files without an extension'}")
 
 
 def resolve_mesh(filename: str, base: Path) -> Path | None:
     """The existing file a URDF mesh ``filename`` names, or None.
 
-    Plain and ``file://`` names are relative to ``base`` (the URDF's folder) unless absolute. For
-    ``package://NAME/rest``, the package folder NAME is looked for among ``base`` and the folders above it
-    (a URDF usually lives in its package), then in each folder of ``ROS_PACKAGE_PATH``.
+    Plain and ``file://`` names are relative to ``base`` (the URDF's folder) unless absolute.
+    ``package://NAME/rest`` is looked up as :mod:`ftc_mj.robot.packages` says (the folders above ``base``,
+    ``ROS_PACKAGE_PATH``, ``AMENT_PREFIX_PATH``, ROS packages installed with Python packages).
     """
     if filename.startswith("package://"):
-        package, _, rest = unquote(filename[len("package://"):]).partition("/")
-        roots = [folder for folder in (base, *base.parents) if folder.name == package]
-        for entry in filter(None, os.environ.get("ROS_PACKAGE_PATH", "").split(os.pathsep)):
-            entry_path = Path(entry)
-            roots += [entry_path] if entry_path.name == package else [entry_path / package]
-        candidates = [root / rest for root in roots] if package and rest else []
-    else:
-        name = unquote(filename[len("file://"):]) if filename.startswith("file://") else filename
-        candidates = [base / name] if name and "://" not in name else []
-    return next((c.resolve() for c in candidates if c.is_file()), None)
+        return resolve_package_uri(filename, base)
+    name = unquote(filename[len("file://"):]) if filename.startswith("file://") else filename
+    candidate = base / name if name and "://" not in name else None
+    return candidate.resolve() if candidate is not None and candidate.is_file() else None
 
 
 # ------------------------------------------------------------------------------------------ building
@@ -324,8 +348,9 @@ def resolve_mesh(filename: str, base: Path) -> Path | None:
 def load_model(
     path: Path,
     *,
+    joints: Sequence[str] | None = None,
     lock: Mapping[str, float] | None = None,
-    torque_limits: float | Sequence[float] | None = None,
+    torque_limits: float | Sequence[float] | str | None = None,
     armature: float | Sequence[float] | None = None,
     source: str,
     field: str = "robot",
@@ -334,9 +359,12 @@ def load_model(
 
     Args:
         path: the URDF file.
-        lock: joints to lock, by name, at an angle [rad] (a position [m] for a prismatic joint).
+        joints: the joints to control, in kinematic order; the other movable joints are locked (at their
+            ``lock`` value, else at 0). Default: every movable joint not locked.
+        lock: joints to lock, by name, at an angle [rad] (a position [m] for a prismatic joint). A mimic joint
+            whose leader is locked is locked with it, at ``multiplier * leader + offset``.
         torque_limits: |torque| limit of the free joints' motors [N m or N], one value or one per free joint;
-            replaces the URDF's effort limits. Without it, a joint's effort limit (when > 0) is its torque
+            replaces the URDF's effort limits. Without it (or with ``"model"``), a joint's effort limit (when > 0) is its torque
             limit and a joint without one is unlimited.
         armature: reflected rotor inertia of the free joints [kg m^2], one value or one per free joint
             (URDF cannot express it).
@@ -348,32 +376,20 @@ def load_model(
     """
     robot = read_urdf(path)
     lock = dict(lock or {})
+    if joints is not None:
+        lock.update(_hold_the_others(robot, joints, lock, source, field))
+    lock = _with_mimic_joints(robot, lock, source, field)
     free = _check_lock(robot, lock, source, field)
-    limits = _torque_limits(robot, free, torque_limits, source, field)
-    armatures = _per_free_joint(armature, free, source, f"{field}.armature")
+    limits = _torque_limits(robot, free, None if torque_limits == "model" else torque_limits, source, field)
+    armatures = editing.per_joint(armature, free, source, f"{field}.armature")
 
     spec = _compile_urdf(robot)
-    for name, value in lock.items():
-        _lock(spec, name, value)
-    for k, name in enumerate(free):
-        joint = spec.joint(name)
-        # MuJoCo turns URDF efforts into joint force limits; the motor's ctrlrange is the one limit here.
-        joint.actfrclimited = mujoco.mjtLimited.mjLIMITED_FALSE
-        if armatures is not None:
-            joint.armature = armatures[k]
-        motor = spec.add_actuator(name=f"motor{k + 1}", target=name, trntype=mujoco.mjtTrn.mjTRN_JOINT)
-        motor.ctrllimited = mujoco.mjtLimited.mjLIMITED_FALSE if limits[k] is None else mujoco.mjtLimited.mjLIMITED_TRUE
-        if limits[k] is not None:
-            motor.ctrlrange = [-limits[k], limits[k]]
-        spec.add_sensor(name=f"{name}_pos", type=mujoco.mjtSensor.mjSENS_JOINTPOS, objtype=mujoco.mjtObj.mjOBJ_JOINT,
-                        objname=name)
-    # Tachometers after all encoders, as in models/*.xml; read only if the scenario declares velocity sensing.
-    for name in free:
-        spec.add_sensor(name=f"{name}_vel", type=mujoco.mjtSensor.mjSENS_JOINTVEL, objtype=mujoco.mjtObj.mjOBJ_JOINT,
-                        objname=name)
-    for geom in spec.geoms:  # visual only: contacts are off in this testbed
-        geom.contype = geom.conaffinity = 0
-    spec.option.disableflags |= mujoco.mjtDisableBit.mjDSBL_CONTACT
+    editing.lock_joints(spec, _compile(spec, robot.path), lock)
+    if armatures is not None:
+        for name, value in zip(free, armatures):
+            spec.joint(name).armature = value
+    editing.add_motors_and_sensors(spec, free, limits)
+    editing.disable_contacts(spec)  # visual only: contacts are off in this testbed
     spec.option.integrator = mujoco.mjtIntegrator.mjINT_IMPLICITFAST  # as models/*.xml (see models/README.md)
     spec.option.timestep = 0.001
     # URDF semantics: a link's mass is its <inertial>, never its geometry.
@@ -383,6 +399,60 @@ def load_model(
     if compiled != free:  # the actuators, sensors and scenario vectors assume this order
         raise RuntimeError(f"{robot.path}: MuJoCo ordered the joints {compiled}, expected {free}")
     return model
+
+
+def _hold_the_others(robot: UrdfRobot, joints: Sequence[str], lock: Mapping[str, float], source: str,
+                     field: str) -> dict[str, float]:
+    """Check the controlled ``joints``; the movable joints neither controlled, locked nor mimic joints are held
+    at 0."""
+    name_of_file = robot.path.name
+    for k, name in enumerate(joints):
+        if name not in robot.movable:
+            raise InputError(source, f"{field}.joints.{k}", f"{name_of_file} has no movable joint {name!r} (movable "
+                                                            f"joints: {', '.join(robot.movable)})")
+        if name in lock:
+            raise InputError(source, f"{field}.joints.{k}", f"joint {name!r} is also in {field}.lock")
+    in_order = [name for name in robot.movable if name in joints]
+    if list(joints) != in_order or len(set(joints)) != len(joints):
+        raise InputError(source, f"{field}.joints", f"must name each joint once, in kinematic order (the order of "
+                                                    f"qpos): {in_order}")
+    held = {}
+    for name in robot.movable:
+        if name not in joints and name not in lock and robot.joint(name).mimic is None:
+            limit = robot.joint(name).limit
+            if robot.joint(name).type != "continuous" and not limit.lower <= 0.0 <= limit.upper:
+                raise InputError(source, f"{field}.lock", f"joint {name!r} is not in {field}.joints, so it is locked, "
+                                                          f"at 0 unless {field}.lock says; 0 is outside its limits "
+                                                          f"[{limit.lower}, {limit.upper}]")
+            held[name] = 0.0
+    return held
+
+
+def _with_mimic_joints(robot: UrdfRobot, lock: dict[str, float], source: str, field: str) -> dict[str, float]:
+    """``lock`` with every mimic joint whose leader is locked, at the value the mimic gives; a mimic joint
+    given its own value must agree with it. A mimic joint left free is refused: the testbed drives every free
+    joint with its own motor, and a mimic joint has none of its own."""
+    name_of_file = robot.path.name
+    followers = {joint.name: joint for joint in robot.urdf.robot.joints if joint.mimic is not None}
+    # Chains (a mimic of a mimic) resolve in as many passes as they are long.
+    for _ in range(len(followers)):
+        for name, joint in followers.items():
+            leader, mimic = joint.mimic.joint, joint.mimic
+            if leader not in lock:
+                continue
+            value = (1.0 if mimic.multiplier is None else mimic.multiplier) * lock[leader] + (mimic.offset or 0.0)
+            if name not in lock:
+                lock[name] = value
+            elif not math.isclose(lock[name], value, rel_tol=1e-9, abs_tol=1e-12):
+                raise InputError(source, f"{field}.lock.{name}",
+                                 f"{lock[name]} disagrees with the mimic of {name_of_file}: joint {name!r} follows "
+                                 f"{leader!r}, so it is at {value:.12g} (leave it out to follow its leader)")
+    for name, joint in followers.items():
+        if name not in lock or joint.mimic.joint not in lock:
+            raise InputError(source, f"{field}.lock", f"joint {name!r} of {name_of_file} mimics {joint.mimic.joint!r}: "
+                                                      f"lock {joint.mimic.joint!r} (the mimic joint follows it) or "
+                                                      f"{name!r} (a mimic joint has no motor of its own)")
+    return lock
 
 
 def _check_lock(robot: UrdfRobot, lock: Mapping[str, float], source: str, field: str) -> list[str]:
@@ -405,22 +475,9 @@ def _check_lock(robot: UrdfRobot, lock: Mapping[str, float], source: str, field:
     return free
 
 
-def _per_free_joint(value: float | Sequence[float] | None, free: list[str], source: str,
-                    field: str) -> list[float] | None:
-    """One value for every free joint, or one value each."""
-    if value is None:
-        return None
-    if isinstance(value, (int, float)):
-        return [float(value)] * len(free)
-    if len(value) != len(free):
-        raise InputError(source, field, f"has {len(value)} values, the robot has {len(free)} free joints "
-                                        f"({', '.join(free)})")
-    return [float(v) for v in value]
-
-
 def _torque_limits(robot: UrdfRobot, free: list[str], torque_limits: float | Sequence[float] | None, source: str,
                    field: str) -> list[float | None]:
-    given = _per_free_joint(torque_limits, free, source, f"{field}.torque_limits")
+    given = editing.per_joint(torque_limits, free, source, f"{field}.torque_limits")
     if given is not None:
         return list(given)
     efforts = [robot.joint(name).limit.effort if robot.joint(name).limit is not None else None for name in free]
@@ -428,9 +485,9 @@ def _torque_limits(robot: UrdfRobot, free: list[str], torque_limits: float | Seq
 
 
 def _compile_urdf(robot: UrdfRobot) -> mujoco.MjSpec:
-    """MuJoCo's URDF compiler on the checked file: visuals kept, every mesh as an absolute path."""
+    """MuJoCo's URDF compiler on the checked file: visuals kept, every mesh as an absolute path (a converted
+    mesh as one visual per part, coloured as its file colours it unless the URDF gives a material)."""
     root = etree.fromstring(etree.tostring(robot.xml))  # a copy to edit
-    geom_names: set[str] = set()
     for link in root.findall("link"):
         has_visual = link.find("visual") is not None
         for collision in link.findall("collision"):
@@ -439,12 +496,18 @@ def _compile_urdf(robot: UrdfRobot) -> mujoco.MjSpec:
             else:
                 collision.tag = "visual"  # drawn in its place, as read_urdf checked it
         for visual in link.findall("visual"):
-            name = visual.get("name")
-            if name is not None and (not name or name in geom_names):
-                del visual.attrib["name"]  # MuJoCo would warn on stdout and drop it anyway
-            geom_names.add(name)
-    for mesh in root.findall("link/visual/geometry/mesh"):
-        mesh.set("filename", str(robot.meshes[mesh.get("filename", "")]))
+            mesh = visual.find("geometry/mesh")
+            if mesh is not None:
+                _split_mesh_visual(link, visual, robot.meshes[mesh.get("filename", "")])
+    geom_names: set[str | None] = set()
+    for visual in root.findall("link/visual"):
+        name = visual.get("name")
+        if name is not None and (not name or name in geom_names):
+            del visual.attrib["name"]  # MuJoCo would warn on stdout and drop it anyway
+        geom_names.add(name)
+    # MuJoCo's URDF parser does not read <mimic>; the mimic joints are locked (or refused) here.
+    for mimic in root.findall("joint/mimic"):
+        mimic.getparent().remove(mimic)
     extension = root.find("mujoco")
     if extension is None:
         extension = etree.Element("mujoco")
@@ -455,38 +518,39 @@ def _compile_urdf(robot: UrdfRobot) -> mujoco.MjSpec:
     # MuJoCo's URDF defaults drop visual geoms, merge bodies joined by fixed joints and strip mesh paths.
     compiler.attrib.update({"discardvisual": "false", "fusestatic": "false", "strippath": "false"})
     try:
-        return mujoco.MjSpec.from_string(etree.tostring(root, encoding="unicode"))
+        spec = mujoco.MjSpec.from_string(etree.tostring(root, encoding="unicode"))
     except ValueError as exc:
         raise InputError(str(robot.path), "", f"MuJoCo cannot read it: {_first_lines(exc)}") from None
+    for mesh in spec.meshes:  # drawn only (mass from <inertial>): a flat mesh, a logo or a plate, is fine
+        mesh.inertia = mujoco.mjtMeshInertia.mjMESH_INERTIA_SHELL
+    return spec
+
+
+def _split_mesh_visual(link: etree._Element, visual: etree._Element, parts: Sequence[MeshPart]) -> None:
+    """Point ``visual`` at its mesh file, or replace it by one visual per converted part. A part's colour is
+    used where the URDF gives the visual no material colour of its own."""
+    named = {m.get("name") for m in link.getparent().findall("material") if m.find("color") is not None}
+    own_colour = any(m.find("color") is not None or m.get("name") in named for m in visual.findall("material"))
+    position = list(link).index(visual)
+    for k, part in enumerate(parts):
+        copy = visual if k == 0 else etree.fromstring(etree.tostring(visual))
+        copy.find("geometry/mesh").set("filename", str(part.path))
+        if k > 0:
+            if copy.get("name"):
+                copy.set("name", f"{copy.get('name')}_{k}")
+            link.insert(position + k, copy)
+        if part.rgba is not None and not own_colour:
+            for material in copy.findall("material"):
+                copy.remove(material)
+            rgba = " ".join(f"{c:g}" for c in part.rgba)
+            material = etree.SubElement(copy, "material", name=f"mesh_rgba_{rgba.replace(' ', '_')}")
+            etree.SubElement(material, "color", rgba=rgba)
 
 
 def _first_lines(exc: Exception) -> str:
     """MuJoCo's error, its element included, on one line."""
     lines = [line.strip() for line in str(exc).strip().splitlines() if line.strip()]
     return "; ".join(lines[:2]).removeprefix("Error: ") or "unknown error"
-
-
-def _lock(spec: mujoco.MjSpec, name: str, value: float) -> None:
-    """Remove joint ``name``, its body frozen where the joint at ``value`` puts it (exact, no constraint).
-
-    A URDF joint sits at its child link's origin, so the body turns about (or slides along) the axis through
-    its own origin: the lock is a change of the body's frame only.
-    """
-    joint = spec.joint(name)
-    body = joint.parent
-    offset = value - joint.ref
-    axis = np.asarray(joint.axis, dtype=float) / np.linalg.norm(joint.axis)
-    frame = np.asarray(body.quat, dtype=float) / np.linalg.norm(body.quat)
-    if joint.type == mujoco.mjtJoint.mjJNT_HINGE:
-        turn, quat = np.zeros(4), np.zeros(4)
-        mujoco.mju_axisAngle2Quat(turn, axis, offset)
-        mujoco.mju_mulQuat(quat, frame, turn)
-        body.quat = quat
-    else:  # slide: the origin moves along the axis, given in the body frame
-        shift = np.zeros(3)
-        mujoco.mju_rotVecQuat(shift, axis * offset, frame)
-        body.pos = np.asarray(body.pos, dtype=float) + shift
-    spec.delete(joint)
 
 
 def _compile(spec: mujoco.MjSpec, path: Path) -> mujoco.MjModel:

@@ -475,3 +475,133 @@ def test_recording_draws_the_urdf_meshes_and_primitives(outcomes):
     for vertex in expected:
         assert np.min(np.linalg.norm(placed - vertex, axis=1)) < 1e-6
     assert len(bracket["Mesh3D:triangle_indices"]) == 12
+
+
+# ------------------------------------------------------------- URDF as ROS packages ship it (issue 13)
+
+MESH_DATA = ROOT / "tests" / "data" / "meshes"
+#: Two fingers on the test arm's hand, the second mimicking the first (as the Panda's gripper), and the
+#: forearm drawn by a two-colour COLLADA file (as ROS description packages draw their links).
+GRIPPER = """
+  <joint name="finger_left" type="prismatic">
+    <parent link="hand"/><child link="left"/>
+    <origin xyz="0.06 0 0"/><axis xyz="0 1 0"/>
+    <limit lower="0" upper="0.04" effort="20" velocity="0.2"/>
+  </joint>
+  <link name="left">
+    <inertial><mass value="0.02"/><inertia ixx="1e-6" ixy="0" ixz="0" iyy="1e-6" iyz="0" izz="1e-6"/></inertial>
+    <visual><geometry><box size="0.01 0.01 0.02"/></geometry></visual>
+  </link>
+  <joint name="finger_right" type="prismatic">
+    <parent link="hand"/><child link="right"/>
+    <origin xyz="0.06 0 0"/><axis xyz="0 -1 0"/>
+    <limit lower="0" upper="0.04" effort="20" velocity="0.2"/>
+    <mimic joint="finger_left" multiplier="0.5" offset="0.01"/>
+  </joint>
+  <link name="right">
+    <inertial><mass value="0.02"/><inertia ixx="1e-6" ixy="0" ixz="0" iyy="1e-6" iyz="0" izz="1e-6"/></inertial>
+    <visual><geometry><box size="0.01 0.01 0.02"/></geometry></visual>
+  </link>
+</robot>"""
+
+
+def ros_arm(directory: Path) -> Path:
+    """The test arm with the gripper and the COLLADA forearm, its mesh given as package://test_arm/..."""
+    package = directory / "test_arm"
+    shutil.copytree(DATA / "meshes", package / "meshes")
+    shutil.copy(MESH_DATA / "two_colours.dae", package / "meshes" / "forearm.dae")
+    text = ARM_URDF.read_text(encoding="utf-8").replace("</robot>", GRIPPER)
+    fore = ('<geometry><mesh filename="meshes/bracket.obj"/></geometry>\n      <material name="grey"/>')
+    assert fore in text
+    text = text.replace(fore, '<geometry><mesh filename="package://test_arm/meshes/forearm.dae"/></geometry>')
+    text = text.replace('filename="meshes/bracket.obj"', 'filename="../meshes/bracket.obj"')
+    (package / "urdf").mkdir()
+    urdf = package / "urdf" / "arm.urdf"
+    urdf.write_text(text, encoding="utf-8")
+    return urdf
+
+
+@pytest.fixture()
+def mesh_cache(tmp_path, monkeypatch) -> Path:
+    monkeypatch.setenv("FTC_MJ_CACHE_DIR", str(tmp_path / "cache"))
+    return tmp_path / "cache"
+
+
+def test_collada_visual_and_locked_mimic_joint(tmp_path, mesh_cache):
+    urdf = ros_arm(tmp_path)
+    before = sorted(p.name for p in urdf.parent.parent.rglob("*"))
+    model = load_model(urdf, lock={"wrist": 0.3, "finger_left": 0.02}, source="test")
+    assert [model.joint(i).name for i in range(model.njnt)] == ["shoulder", "elbow"]
+    # The mimic finger is locked with its leader at 0.5 * 0.02 + 0.01 = 0.02 m along its axis (0, -1, 0).
+    np.testing.assert_allclose(model.body("right").pos, [0.06, -0.02, 0.0], atol=1e-15)
+    np.testing.assert_allclose(model.body("left").pos, [0.06, 0.02, 0.0], atol=1e-15)
+    # The forearm's COLLADA file: two parts, each with its file's colour (the visual has no material).
+    fore = [g for g in range(model.ngeom) if model.geom_bodyid[g] == model.body("fore").id]
+    assert len(fore) == 2 and all(model.geom_type[g] == mujoco.mjtGeom.mjGEOM_MESH for g in fore)
+    colours = sorted(tuple(np.round(model.geom_rgba[g], 3)) for g in fore)
+    assert colours == [(0.102, 0.2, 0.902, 1.0), (0.8, 0.102, 0.102, 1.0)]
+    assert sorted(p.name for p in urdf.parent.parent.rglob("*")) == before  # nothing written beside the files
+    assert any(mesh_cache.rglob("*.obj"))
+
+
+def test_mimic_joint_given_its_own_value_must_agree(tmp_path, mesh_cache):
+    urdf = ros_arm(tmp_path)
+    load_model(urdf, lock={"wrist": 0.3, "finger_left": 0.02, "finger_right": 0.02}, source="test")  # agrees
+    with pytest.raises(InputError) as info:
+        load_model(urdf, lock={"wrist": 0.3, "finger_left": 0.02, "finger_right": 0.03}, source="s.yaml")
+    assert info.value.field == "robot.lock.finger_right" and "disagrees with the mimic" in info.value.problem
+
+
+@pytest.mark.parametrize("lock", [{"wrist": 0.3}, {"wrist": 0.3, "finger_right": 0.02}])
+def test_free_mimic_joint_is_refused(tmp_path, mesh_cache, lock):
+    """A mimic joint has no motor of its own: it must follow a locked leader."""
+    with pytest.raises(InputError) as info:
+        load_model(ros_arm(tmp_path), lock=lock, source="s.yaml")
+    assert info.value.field == "robot.lock" and "mimics 'finger_left'" in info.value.problem
+
+
+def test_controlled_joints_lock_the_others(tmp_path, mesh_cache):
+    """robot.joints on a URDF: the joints not named are locked (at their lock value, else 0); names in order."""
+    urdf = ros_arm(tmp_path)
+    model = load_model(urdf, joints=["elbow", "wrist"], lock={"finger_left": 0.0}, source="test")
+    assert [model.joint(i).name for i in range(model.njnt)] == ["elbow", "wrist"]
+    for joints, field, problem in [(["wrist", "elbow"], "robot.joints", "kinematic order"),
+                                   (["elbow", "knee"], "robot.joints.1", "no movable joint 'knee'"),
+                                   (["elbow", "finger_left"], "robot.joints.1", "also in robot.lock")]:
+        with pytest.raises(InputError) as info:
+            load_model(urdf, joints=joints, lock={"finger_left": 0.0}, source="s.yaml")
+        assert info.value.field == field and problem in info.value.problem, (joints, info.value)
+
+
+def test_ros_arm_records_its_collada_meshes(tmp_path, mesh_cache, monkeypatch, capfd):
+    """Through the command line, with package:// resolved from ROS_PACKAGE_PATH: the recording draws both
+    COLLADA parts where the URDF puts them, in their colours."""
+    urdf = ros_arm(tmp_path / "ros")
+    monkeypatch.setenv("ROS_PACKAGE_PATH", str(tmp_path / "ros"))
+    data = yaml.safe_load(ARM_YAML.read_text(encoding="utf-8"))
+    data["robot"] = {"model": "package://test_arm/urdf/arm.urdf", "lock": {"wrist": 0.3, "finger_left": 0.04}}
+    data["duration"] = 0.05
+    scenario = tmp_path / "ros.yaml"
+    scenario.write_text(yaml.safe_dump(data, sort_keys=False), encoding="utf-8")
+    monkeypatch.chdir(tmp_path)
+    assert main([str(scenario), "--out", "rec.rrd", "--quiet"]) == 0, capfd.readouterr().err
+    static: dict[str, dict] = {}
+    for chunk in RrdReader(tmp_path / "rec.rrd").stream().to_chunks():
+        if chunk.is_static and chunk.entity_path.startswith("/world/fore/geoms/"):
+            batch = chunk.to_record_batch()
+            for column in (c for c in batch.schema.names if ":" in c):
+                static.setdefault(chunk.entity_path, {})[column] = batch.column(column).to_pylist()[0]
+    meshes = {path: fields for path, fields in static.items() if "Mesh3D:vertex_positions" in fields}
+    assert len(meshes) == 2
+    placed = []
+    for mesh in meshes.values():  # MuJoCo centres a mesh; its geom frame puts it back
+        x, y, z, w = np.array(mesh["Transform3D:quaternion"], dtype=float).ravel()
+        rotation = np.zeros(9)
+        mujoco.mju_quat2Mat(rotation, np.array([w, x, y, z]))
+        vertices = np.array(mesh["Mesh3D:vertex_positions"], dtype=float)
+        placed.append(vertices @ rotation.reshape(3, 3).T + np.array(mesh["Transform3D:translation"], dtype=float).ravel())
+    corners = sorted(sorted(map(tuple, np.round(p, 9))) for p in placed)
+    # the squares of the file (millimetres) in metres, 0.12 m along the forearm, the second 15 mm up
+    expected = [sorted((0.12 + a, b, h) for a in (0.0, 0.1) for b in (0.0, 0.1)) for h in (0.0, 0.015)]
+    np.testing.assert_allclose(corners, expected, atol=1e-9)
+    assert urdf.is_file()
