@@ -165,7 +165,7 @@ def _legend(figure: Figure, layout: Layout, kind: str | None) -> list[Line2D]:
 
 def save(fig: plt.Figure, stem: Path, formats: Sequence[str], dpi: int) -> list[Path]:
     """Write ``fig`` as ``stem.<format>`` for each format, without time stamps (a regenerated figure is the same
-    file). PNGs are stored with a 256-colour palette: line plots look the same at a third of the size."""
+    file). PNGs are stored with a 64-colour palette: line plots look the same at a third of the size."""
     from PIL import Image
 
     written = []
@@ -175,7 +175,7 @@ def save(fig: plt.Figure, stem: Path, formats: Sequence[str], dpi: int) -> list[
             buffer = io.BytesIO()
             fig.savefig(buffer, format="png", dpi=dpi, metadata={"Software": None})
             buffer.seek(0)
-            image = Image.open(buffer).convert("RGB").quantize(colors=256, method=Image.Quantize.MEDIANCUT, dither=Image.Dither.NONE)
+            image = Image.open(buffer).convert("RGB").quantize(colors=64, method=Image.Quantize.MEDIANCUT, dither=Image.Dither.NONE)
             image.save(path, optimize=True)
         else:
             metadata = {"Date": None} if fmt == "svg" else {"CreationDate": None, "ModDate": None}

@@ -312,8 +312,7 @@ class Layout:
         if document.pop("version", None) != cls.VERSION:
             raise ValueError("the recording's figure layout is of another version of ftc_mj")
         document["variants"] = [VariantStyle(**v) for v in document["variants"]]
-        document["figures"] = [Figure(**{**f, **{k: tuple(f[k]) if isinstance(f[k], list) else f[k]
-                                                  for k in ("variants", "joints", "window", "zoom", "zoom_range", "zoom_variants")}})
+        document["figures"] = [Figure(**{k: tuple(v) if isinstance(v, list) else v for k, v in f.items()})
                                for f in document["figures"]]
         return cls(**document)
 

@@ -101,7 +101,7 @@ OTHER_VIEWS: tuple[tuple[str, tuple[str, ...]], ...] = (
 #: Quantities a recording without scenario figures shows as figures.
 GENERIC_QUANTITIES = ("tracking_error", "velocity_error", "luaf", "luaf_error", "torque")
 #: Line widths [points]: a variant's own line, its ground truth underneath.
-LINE_WIDTH, TRUTH_WIDTH = 1.5, 4.0
+LINE_WIDTH, TRUTH_WIDTH = 1.5, 3.0
 
 # MuJoCo's viewer hides geom groups 3..5 by default (where collision duplicates usually live); do the same.
 _MAX_VISIBLE_GROUP = 2
@@ -472,13 +472,13 @@ def _figure_tab(figure: Figure, layout: Layout, series: Series, t: np.ndarray) -
                      if series[e][0].shape[1] == len(shown) and not shown.all()}
         label = f"{layout.joints[joint]} [{figure.unit}]" if figure.unit else layout.joints[joint]
         main = entities[0] if entities else None
+        # No legend box over the data: the top plot's title is the key (a legend would also list the columns
+        # this figure hides); every plot has the same colours, and hovering a line names it.
+        title = f"{label}   {_colour_key(layout, figure.variants, kind)}" if row == 0 else label
         legend = rrb.PlotLegend(visible=False)
-        if row == 0 and main is not None:
-            legend = rrb.PlotLegend(corner=_emptiest_corner(t, series[main][0][:, shown] if len(shown) ==
-                                                            series[main][0].shape[1] else series[main][0]))
         window = figure.window
         overview = rrb.TimeSeriesView(
-            name=label, origin="/", contents=entities, overrides=overrides, plot_legend=legend,
+            name=title, origin="/", contents=entities, overrides=overrides, plot_legend=legend,
             axis_x=rrb.TimeAxis(link="Independent", view_range=_time_range(*window)) if window else None)
         if zoom is None:
             rows.append(overview)
@@ -504,16 +504,9 @@ def _time_range(start: float, end: float) -> rrb.TimeRange:
                          end=rrb.TimeRangeBoundary.absolute(seconds=end))
 
 
-def _emptiest_corner(t: np.ndarray, values: np.ndarray) -> rrb.Corner2D:
-    """The plot corner where the legend (a box of about a quarter of the width and 10 % of the height per entry)
-    covers the fewest samples."""
-    finite = np.isfinite(values)
-    if len(t) < 2 or not finite.any():
-        return rrb.Corner2D.RightTop
-    low, high = float(values[finite].min()), float(values[finite].max())
-    y = (values - low) / ((high - low) or 1.0)
-    x = np.broadcast_to(((t - t[0]) / (t[-1] - t[0]))[:, None], y.shape)
-    height = min(0.6, 0.1 * values.shape[1] + 0.05)
-    corners = {rrb.Corner2D.RightTop: (x > 0.75) & (y > 1 - height), rrb.Corner2D.LeftTop: (x < 0.25) & (y > 1 - height),
-               rrb.Corner2D.RightBottom: (x > 0.75) & (y < height), rrb.Corner2D.LeftBottom: (x < 0.25) & (y < height)}
-    return min(corners, key=lambda corner: int(np.count_nonzero(corners[corner] & finite)))
+def _colour_key(layout: Layout, variants: Sequence[str], kind: str | None) -> str:
+    """'red: proposed · blue: nftsmc_tosmo · ...' for a figure's variants, and what its second lines are."""
+    key = " · ".join(f"{COLOR_NAMES.get(layout.style(v).color, layout.style(v).color)}: {v}" for v in variants)
+    companion = {"truth": "wide pale: truth", "reference": "grey: reference", "threshold": "second line: threshold",
+                 "injected": "second line: injected fault"}.get(kind or "")
+    return f"{key} · {companion}" if companion else key
