@@ -178,7 +178,7 @@ def main(argv: Sequence[str] | None = None) -> int:
             from ftc_mj.outputs.recording import write_recording  # rerun is heavy to import; only when recording
 
             write_recording(recording_path, scenario=scenario.name, model=scenario.model, results=results,
-                            fault_onsets=onsets, seed=scenario.spec.seed)
+                            fault_onsets=onsets, seed=scenario.spec.seed, figures=scenario.figures)
             written.append(recording_path)
         if args.json is not None:
             _write_json_atomically(args.json, metrics_document(scenario, results, metrics))

@@ -1,23 +1,32 @@
-"""Write the variants of one scenario into a single Rerun recording (``.rrd``), side by side.
+"""Write the variants of one scenario into a single Rerun recording (``.rrd``), laid out like the figures.
 
-Every quantity lives under its own top-level entity with one child per variant, so one plot overlays
-the same quantity of all variants (as in a paper's comparison figures)::
+Every quantity is stored per joint, one column per variant (all variants of the run, monitors included, in
+order; NaN where a variant has no value, e.g. after it diverged), so one plot overlays the variants of one
+joint as in the dissertation's comparison figures::
 
-    /q_ref/<variant>   /q/<variant>   /tracking_error/<variant>
-    /velocity/true/<variant>   /velocity/estimate/<variant>   /velocity_error/<variant>
-    /luaf/true/<variant>   /luaf/estimate/<variant>   /luaf_error/<variant>
-    /torque/<variant>   /sliding/<variant>   /fault/<variant>   /fault_active/<variant>
-    /velocity/measured/<variant>   /torque_delivered/<variant>   (when recorded)
-    /fault_torque/<variant>   /fault_acceleration/<variant>   (when recorded)
-    /diagnosis/residual/<variant>   /diagnosis/threshold/<variant>   /diagnosis/alarm/<variant>
-    /diagnosis/fault_estimate/<variant>   /diagnosis/injected/<variant>   (with a diagnosis section)
-    /extras/<name>/<variant>
+    /q/joint<k>   /tracking_error/joint<k>   /velocity/true/joint<k>   /velocity/estimate/joint<k>
+    /velocity_error/joint<k>   /luaf/true/joint<k>   /luaf/estimate/joint<k>   /luaf_error/joint<k>
+    /torque/joint<k>   /sliding/joint<k>   /fault/joint<k>
+    /velocity/measured/joint<k>   /torque_delivered/joint<k>   /fault_torque/joint<k>
+    /fault_acceleration/joint<k>   (when recorded)
+    /diagnosis/residual/joint<k>   /diagnosis/threshold/joint<k>   /diagnosis/alarm/joint<k>
+    /diagnosis/fault_estimate/joint<k>   (with a diagnosis section; the injected fault is /fault_torque or
+                                          /fault_acceleration, by the diagnosis space)
+    /extras/<name>/joint<k>
+    /q_ref/joint<k>   /fault_active   (the same for every variant: one column)
     /events (fault onsets, alarms raised and cleared, divergences)   /info (scenario, seed, variants, status)
     /world/<body>   /world/<body>/geoms/<geom>   (robot of the first variant that recorded body poses)
 
-Each series entity holds an (N, n) ``Scalars`` column on the ``sim_time`` timeline (a duration, seconds)
-with n static line names. Time series are sent column-wise (``send_columns``): per-sample ``rr.log`` is
-about 1000x slower. A blueprint stored in the file opens the viewer already arranged.
+Each series entity holds an (N, V) ``Scalars`` column on the ``sim_time`` timeline (a duration, seconds) with
+static line names and colours: each variant one colour (:func:`ftc_mj.outputs.layout.variant_styles`), its
+ground truth in a wide pale line of the same colour. Values are float32 (7 significant digits: errors are
+stored as errors, computed in float64, so nothing a figure or a ground-truth comparison shows is lost; half
+the size of float64). Time series are sent column-wise (``send_columns``): per-sample ``rr.log`` is about 1000x
+slower.
+
+The figures (:class:`ftc_mj.outputs.layout.Layout`) are stored as a recording property
+(``/__properties/ftc_mj_layout``), from which ``python -m ftc_mj.figures`` draws them; a blueprint stored in
+the file opens the viewer on the same figures, one tab each, per-joint plots stacked, the zoom panels beside.
 """
 
 from __future__ import annotations
@@ -34,59 +43,65 @@ import rerun as rr
 import rerun.blueprint as rrb
 
 from ftc_mj.engine.results import VariantResult
+from ftc_mj.outputs.layout import COLOR_NAMES, Figure, Layout, data_range, generic_figures, variant_styles, zoom_span
 
 TIMELINE = "sim_time"
+LAYOUT_PROPERTY = "ftc_mj_layout"
 
-# (entity prefix, VariantResult attribute or property, suffix of the line names). The suffixes tell the two
-# lines of one joint apart where two entities share a plot (q with its reference, truth with estimate).
+# (entity prefix, VariantResult attribute or property, line kind). The kind names a variant's lines where two
+# entities share a plot: "" the variant's name, else "<variant> <kind>" (truth drawn wide and pale).
 SERIES: tuple[tuple[str, str, str], ...] = (
-    ("q_ref", "q_ref", " ref"),
     ("q", "q_meas", ""),
     ("tracking_error", "tracking_error", ""),
-    ("velocity/true", "qd_true", " true"),
-    ("velocity/estimate", "qd_hat", " est"),
+    ("velocity/true", "qd_true", "true"),
+    ("velocity/estimate", "qd_hat", ""),
     ("velocity_error", "velocity_error", ""),
-    ("luaf/true", "luaf_true", " true"),
-    ("luaf/estimate", "luaf_hat", " est"),
+    ("luaf/true", "luaf_true", "true"),
+    ("luaf/estimate", "luaf_hat", ""),
     ("luaf_error", "luaf_error", ""),
     ("torque", "tau", ""),
     ("sliding", "sliding", ""),
     ("fault", "fault", ""),
-    ("fault_active", "fault_active", ""),
 )
-#: Ground truth a result may lack (results built without it): logged when present.
+#: Ground truth a result may lack (results built without it): logged when a variant has it.
 OPTIONAL_SERIES: tuple[tuple[str, str, str], ...] = (
-    ("velocity/measured", "qd_meas", " meas"),
-    ("torque_delivered", "tau_delivered", " delivered"),
+    ("velocity/measured", "qd_meas", "measured"),
+    ("torque_delivered", "tau_delivered", ""),
     ("fault_torque", "fault_torque", ""),
     ("fault_acceleration", "fault_acceleration", ""),
 )
-#: The diagnoser's output (attributes of ftc_mj.analysis.diagnosis.Diagnosis), under /diagnosis.
+#: The diagnoser's output (attributes of ftc_mj.analysis.diagnosis.Diagnosis), under /diagnosis. Its injected
+#: fault is fault_torque or fault_acceleration, already recorded.
 DIAGNOSIS_SERIES: tuple[tuple[str, str, str], ...] = (
-    ("diagnosis/residual", "residual", " residual"),
-    ("diagnosis/threshold", "threshold", " threshold"),
+    ("diagnosis/residual", "residual", ""),
+    ("diagnosis/threshold", "threshold", "threshold"),
     ("diagnosis/alarm", "alarm", ""),
-    ("diagnosis/fault_estimate", "fault_estimate", " est"),
-    ("diagnosis/injected", "injected", " injected"),
+    ("diagnosis/fault_estimate", "fault_estimate", ""),
 )
-
-# One time-series view per quantity: (title, entity prefixes shown together).
-VIEWS: tuple[tuple[str, tuple[str, ...]], ...] = (
+#: Series the same for every variant, logged once: (entity prefix, attribute, line name).
+SHARED_SERIES: tuple[tuple[str, str, str], ...] = (("q_ref", "q_ref", "reference"),
+                                                    ("fault_active", "fault_active", "fault active"))
+#: Quantities in the "Other signals" tab, when no figure shows them: (title, entity prefixes).
+OTHER_VIEWS: tuple[tuple[str, tuple[str, ...]], ...] = (
     ("Joint position q and reference", ("q", "q_ref")),
-    ("Tracking error q - q_ref", ("tracking_error",)),
-    ("Velocity: true and estimate", ("velocity",)),
-    ("Velocity estimation error", ("velocity_error",)),
-    ("LUAF: true and estimate", ("luaf",)),
-    ("LUAF estimation error", ("luaf_error",)),
-    ("Torque: commanded and delivered", ("torque", "torque_delivered")),
+    ("Tracking error q - q_ref [rad]", ("tracking_error",)),
+    ("Velocity: true and estimate [rad/s]", ("velocity",)),
+    ("Velocity estimation error [rad/s]", ("velocity_error",)),
+    ("LUaF: true and estimate [rad/s^2]", ("luaf",)),
+    ("LUaF estimation error [rad/s^2]", ("luaf_error",)),
+    ("Torque: commanded and delivered [N m]", ("torque", "torque_delivered")),
     ("Sliding variable", ("sliding",)),
     ("Fault signal and fault active", ("fault", "fault_active")),
     ("Generalized fault force [N m]", ("fault_torque",)),
     ("Fault acceleration M^-1 force [rad/s^2]", ("fault_acceleration",)),
     ("Diagnosis: residual and threshold", ("diagnosis/residual", "diagnosis/threshold")),
     ("Diagnosis: alarms", ("diagnosis/alarm",)),
-    ("Fault estimate and injected fault", ("diagnosis/fault_estimate", "diagnosis/injected")),
+    ("Fault estimate", ("diagnosis/fault_estimate",)),
 )
+#: Quantities a recording without scenario figures shows as figures.
+GENERIC_QUANTITIES = ("tracking_error", "velocity_error", "luaf", "luaf_error", "torque")
+#: Line widths [points]: a variant's own line, its ground truth underneath.
+LINE_WIDTH, TRUTH_WIDTH = 1.5, 3.0
 
 # MuJoCo's viewer hides geom groups 3..5 by default (where collision duplicates usually live); do the same.
 _MAX_VISIBLE_GROUP = 2
@@ -101,35 +116,40 @@ def write_recording(
     fault_onsets: Sequence[float] = (),
     seed: int | None = None,
     pose_stride: int = 10,
+    figures: Sequence[Figure] | None = None,
 ) -> None:
     """Write all ``results`` of ``scenario`` into one ``.rrd`` at ``path``, atomically.
 
-    The file is written beside ``path`` under a temporary name and moved onto ``path`` only once complete,
-    so ``path`` never holds a half-written recording; on any error the temporary file is removed and the
-    error re-raised. Body poses (of the first variant that has them) are kept every ``pose_stride`` samples
-    plus the last one.
+    ``figures`` (a scenario's, :attr:`ftc_mj.spec.scenario.Scenario.figures`) lay out the viewer and are stored
+    for ``python -m ftc_mj.figures``; without them, one figure per core quantity. The file is written beside
+    ``path`` under a temporary name and moved onto ``path`` only once complete, so ``path`` never holds a
+    half-written recording; on any error the temporary file is removed and the error re-raised. Body poses (of
+    the first variant that has them) are kept every ``pose_stride`` samples plus the last one.
     """
     if pose_stride < 1:
         raise ValueError(f"pose_stride must be >= 1, got {pose_stride}")
+    if not results:
+        raise ValueError("no results to record")
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
     tmp = path.with_name(f"{path.name}.tmp-{os.getpid()}-{uuid.uuid4().hex[:8]}")
     posed = next((r for r in results if r.body_xpos.size > 0), None)
-    extra_names = sorted({name for r in results for name in r.extras})
-    logged = {prefix for prefix, _, _ in SERIES}
-    logged |= {prefix for prefix, attr, _ in OPTIONAL_SERIES if any(getattr(r, attr) is not None for r in results)}
-    if any(r.diagnosis is not None for r in results):
-        logged |= {prefix for prefix, _, _ in DIAGNOSIS_SERIES}
+    t = _common_time(results)
+    layout = _layout(scenario, model, results, t, fault_onsets, figures)
     # A fresh stream per call (never the global one), so several recordings in one process do not mix.
     rec = rr.RecordingStream("ftc_mj", recording_id=str(uuid.uuid4()))
     try:
-        rec.save(tmp, default_blueprint=_blueprint(posed is not None, extra_names, logged))
+        series = _series(results, len(t))
+        rec.save(tmp, default_blueprint=_blueprint(layout, series, t, posed.name if posed else None))
         rec.send_recording_name(scenario)
+        rec.send_property(LAYOUT_PROPERTY, rr.AnyValues(json=layout.to_json()))
         rec.log("/info", rr.TextDocument(_info_markdown(scenario, seed, results, fault_onsets),
                                          media_type=rr.MediaType.MARKDOWN), static=True)
         _log_events(rec, results, fault_onsets)
-        for result in results:
-            _log_variant(rec, result)
+        time = _time_column(t)
+        for entity, (values, names, colors, widths) in series.items():
+            rec.log(entity, rr.SeriesLines(names=names, colors=colors, widths=widths), static=True)
+            rec.send_columns(entity, indexes=[time], columns=rr.Scalars.columns(scalars=values))
         if posed is not None:
             _log_geometry(rec, model)
             _log_poses(rec, model, posed, pose_stride)
@@ -142,24 +162,60 @@ def write_recording(
         raise
 
 
-def read_series(path: Path, entity: str, component: str = "Scalars:scalars") -> tuple[np.ndarray, np.ndarray]:
-    """Read one time series back from a recording: times [s] and values ``(N, k)``, in time order.
+def read_layout(path: Path) -> Layout:
+    """The figure layout a recording was written with."""
+    from rerun.chunk import RrdReader
 
-    For analysis scripts and tests; e.g. ``read_series(path, "/luaf/estimate/proposed")``.
-    """
+    for chunk in RrdReader(path).stream().to_chunks():
+        if chunk.entity_path == f"/__properties/{LAYOUT_PROPERTY}":
+            return Layout.from_json(chunk.to_record_batch().column("json").to_pylist()[0][0])
+    raise KeyError(f"{path} holds no ftc_mj figure layout (written by another program or version)")
+
+
+def read_entities(path: Path, entities: set[str] | None = None) -> dict[str, tuple[np.ndarray, np.ndarray]]:
+    """Time series of a recording in one pass: entity -> (times [s], values (N, k) float64), in time order.
+    All scalar series when ``entities`` is None."""
     import pyarrow as pa
     from rerun.chunk import RrdReader
 
-    batches = [
-        chunk.to_record_batch()
-        for chunk in RrdReader(path).stream().to_chunks()
-        if chunk.entity_path == entity and not chunk.is_static
-    ]
-    if not batches:
-        raise KeyError(f"no time series at {entity} in {path}")
-    table = pa.Table.from_batches(batches, schema=batches[0].schema).sort_by("sim_time")
-    nanoseconds = table.column("sim_time").to_numpy().astype("timedelta64[ns]").astype(np.int64)
-    return nanoseconds * 1e-9, np.array(table.column(component).to_pylist(), dtype=float)
+    batches: dict[str, list] = {}
+    for chunk in RrdReader(path).stream().to_chunks():
+        if chunk.is_static or (entities is not None and chunk.entity_path not in entities):
+            continue
+        batch = chunk.to_record_batch()
+        if "Scalars:scalars" in batch.schema.names:
+            batches.setdefault(chunk.entity_path, []).append(batch)
+    found = {}
+    for entity, parts in batches.items():
+        table = pa.Table.from_batches(parts, schema=parts[0].schema).sort_by(TIMELINE)
+        nanoseconds = table.column(TIMELINE).to_numpy().astype("timedelta64[ns]").astype(np.int64)
+        values = table.column("Scalars:scalars").combine_chunks().flatten().to_numpy(zero_copy_only=False)
+        found[entity] = (nanoseconds * 1e-9, values.astype(np.float64).reshape(len(nanoseconds), -1))
+    return found
+
+
+def read_series(path: Path, entity: str) -> tuple[np.ndarray, np.ndarray]:
+    """Read one time series back from a recording: times [s] and values ``(N, k)``, in time order.
+
+    ``entity`` is a stored entity (``/luaf/estimate/joint2``: one column per variant) or a variant's quantity
+    (``/luaf/estimate/proposed``: one column per joint, that variant's samples only). For analysis scripts and
+    tests; values are the recorded float32 ones.
+    """
+    layout = read_layout(path)
+    prefix, _, last = entity.rpartition("/")
+    names = [s.name for s in layout.variants]
+    if last not in names:
+        series = read_entities(path, {entity})
+        if entity not in series:
+            raise KeyError(f"no time series at {entity} in {path}")
+        return series[entity]
+    joints = [_ep(*prefix.strip("/").split("/"), f"joint{k + 1}") for k in range(len(layout.joints))]
+    series = read_entities(path, set(joints))
+    if not series:
+        raise KeyError(f"no time series at {prefix} in {path}")
+    column, samples = names.index(last), layout.samples[last]
+    times = series[joints[0]][0][:samples]
+    return times, np.stack([series[j][1][:samples, column] for j in joints], axis=1)
 
 
 def _ep(*parts: str) -> str:
@@ -174,36 +230,104 @@ def _time_column(t: np.ndarray) -> rr.TimeColumn:
     return rr.TimeColumn(TIMELINE, duration=ns)
 
 
+def _common_time(results: Sequence[VariantResult]) -> np.ndarray:
+    """The longest variant's time axis; every variant's must be a prefix of it (a diverged one stops early)."""
+    t = np.asarray(max((r.t for r in results), key=len), dtype=np.float64)
+    for r in results:
+        if not np.array_equal(r.t, t[:len(r.t)]):
+            raise ValueError(f"variant {r.name!r}: its time axis is not the other variants'")
+    return t
+
+
+def _layout(scenario: str, model: mujoco.MjModel, results: Sequence[VariantResult], t: np.ndarray,
+            fault_onsets: Sequence[float], figures: Sequence[Figure] | None) -> Layout:
+    names = [r.name for r in results]
+    dt = float(t[1] - t[0]) if len(t) > 1 else 0.0
+    joints = [_dof_name(model, dof) for dof in range(model.nv)]
+    if figures is None:
+        chosen = generic_figures(model.nv, names, GENERIC_QUANTITIES)
+    else:  # a figure's variants that did not run are left out
+        chosen = [f for f in (_with_variants(f, names) for f in figures) if f.variants]
+    return Layout(scenario=scenario, duration=float(t[-1]) + dt if len(t) else 0.0,
+                  fault_onsets=[float(x) for x in fault_onsets], joints=joints, variants=variant_styles(names),
+                  samples={r.name: len(r.t) for r in results}, figures=chosen)
+
+
+def _with_variants(figure: Figure, names: Sequence[str]) -> Figure:
+    from dataclasses import replace
+
+    return replace(figure, variants=tuple(v for v in figure.variants if v in names))
+
+
+def _dof_name(model: mujoco.MjModel, dof: int) -> str:
+    joint = int(model.dof_jntid[dof])
+    return mujoco.mj_id2name(model, mujoco.mjtObj.mjOBJ_JOINT, joint) or f"joint{dof + 1}"
+
+
 def _rows(result: VariantResult, label: str, value: np.ndarray) -> np.ndarray:
-    """``value`` as a float64 (N, k) array, checked against the variant's time axis."""
+    """``value`` as an (N, k) array, checked against the variant's time axis."""
     arr = np.asarray(value, dtype=np.float64)
     arr = arr.reshape(len(arr), int(np.prod(arr.shape[1:])))  # (N,) -> (N, 1); reshape(-1) fails for N = 0
     if len(arr) != len(result.t):
         raise ValueError(f"variant {result.name!r}: {label} has {len(arr)} rows, t has {len(result.t)}")
-    return np.ascontiguousarray(arr)
+    return arr
 
 
-def _send_series(rec: rr.RecordingStream, entity: str, name: str, values: np.ndarray,
-                 time: rr.TimeColumn, suffix: str = "") -> None:
-    """One (N, k) Scalars column plus the static names of its k lines."""
-    k = values.shape[1]
-    names = [f"{name}{suffix}"] if k == 1 else [f"{name} joint{i + 1}{suffix}" for i in range(k)]
-    rec.log(entity, rr.SeriesLines(names=names), static=True)
-    rec.send_columns(entity, indexes=[time], columns=rr.Scalars.columns(scalars=values))
+def _hex_rgb(color: str) -> list[int]:
+    return [int(color[i:i + 2], 16) for i in (1, 3, 5)]
 
 
-def _log_variant(rec: rr.RecordingStream, result: VariantResult) -> None:
-    time = _time_column(result.t)
-    sources = [(result, series) for series in SERIES]
-    sources += [(result, series) for series in OPTIONAL_SERIES if getattr(result, series[1]) is not None]
-    if result.diagnosis is not None:
-        sources += [(result.diagnosis, series) for series in DIAGNOSIS_SERIES]
-    for source, (prefix, attr, suffix) in sources:
-        values = _rows(result, attr, getattr(source, attr))
-        _send_series(rec, _ep(*prefix.split("/"), result.name), result.name, values, time, suffix)
-    for extra, value in result.extras.items():
-        _send_series(rec, _ep("extras", extra, result.name), result.name,
-                     _rows(result, f"extras[{extra!r}]", value), time)
+def _pale(rgb: list[int]) -> list[int]:
+    """The colour blended 60 % toward white: a variant's ground truth, drawn under its estimate."""
+    return [round(c + 0.6 * (255 - c)) for c in rgb]
+
+
+Series = dict[str, tuple[np.ndarray, list[str], list[list[int]], list[float]]]
+
+
+def _series(results: Sequence[VariantResult], n_samples: int) -> Series:
+    """Every entity to log: (N, V) float32 values (NaN where a variant has none), line names, colours, widths."""
+    styles = variant_styles([r.name for r in results])
+    rgb = [_hex_rgb(s.color) for s in styles]
+    sources: list[tuple[str, str, str, list]] = []  # (prefix, attribute, kind, per-variant source or None)
+    for prefix, attr, kind in SERIES:
+        sources.append((prefix, attr, kind, list(results)))
+    for prefix, attr, kind in OPTIONAL_SERIES:
+        if any(getattr(r, attr) is not None for r in results):
+            sources.append((prefix, attr, kind, [r if getattr(r, attr) is not None else None for r in results]))
+    if any(r.diagnosis is not None for r in results):
+        for prefix, attr, kind in DIAGNOSIS_SERIES:
+            sources.append((prefix, attr, kind, [r.diagnosis for r in results]))
+    for extra in sorted({name for r in results for name in r.extras}):
+        sources.append((f"extras/{extra}", extra, "", [r if extra in r.extras else None for r in results]))
+
+    series: Series = {}
+    for prefix, attr, kind, owners in sources:
+        columns = []
+        for result, owner in zip(results, owners):
+            value = None if owner is None else (owner.extras[attr] if prefix.startswith("extras/") else getattr(owner, attr))
+            columns.append(None if value is None else _rows(result, f"{prefix} ({attr})", value))
+        width = max(c.shape[1] for c in columns if c is not None)
+        names = [r.name if not kind else f"{r.name} {kind}" for r in results]
+        colors = [_pale(c) if kind == "true" else c for c in rgb]
+        widths = [TRUTH_WIDTH if kind == "true" else LINE_WIDTH] * len(results)
+        for joint in range(width):
+            values = np.full((n_samples, len(results)), np.nan, dtype=np.float32)
+            for v, column in enumerate(columns):
+                if column is not None:
+                    values[:len(column), v] = column[:, min(joint, column.shape[1] - 1)]
+            series[_ep(*prefix.split("/"), f"joint{joint + 1}")] = (values, names, colors, widths)
+    longest = max(results, key=lambda r: len(r.t))
+    for prefix, attr, name in SHARED_SERIES:
+        value = _rows(longest, attr, getattr(longest, attr)).astype(np.float32)
+        color = [[90, 90, 90]]
+        if prefix == "fault_active":
+            series[_ep(prefix)] = (np.ascontiguousarray(value[:, :1]), [name], color, [LINE_WIDTH])
+            continue
+        for joint in range(value.shape[1]):
+            series[_ep(prefix, f"joint{joint + 1}")] = (np.ascontiguousarray(value[:, joint:joint + 1]), [name],
+                                                        color, [LINE_WIDTH])
+    return series
 
 
 def _log_events(rec: rr.RecordingStream, results: Sequence[VariantResult], fault_onsets: Sequence[float]) -> None:
@@ -230,10 +354,11 @@ def _info_markdown(scenario: str, seed: int | None, results: Sequence[VariantRes
                    fault_onsets: Sequence[float]) -> str:
     lines = [f"# {scenario}", "", f"- seed: {seed if seed is not None else 'not set'}",
              f"- fault onsets [s]: {', '.join(f'{t:g}' for t in fault_onsets) or 'none'}", "",
-             "| variant | observer | controller | samples | status |", "|---|---|---|---|---|"]
-    for r in results:
+             "| variant | colour | observer | controller | samples | status |", "|---|---|---|---|---|---|"]
+    for r, style in zip(results, variant_styles([r.name for r in results])):
         status = r.status if r.diverged_at is None else f"{r.status} at t = {r.diverged_at:g} s"
-        lines.append(f"| {r.name} | {r.observer} | {r.controller} | {len(r.t)} | {status} |")
+        colour = COLOR_NAMES.get(style.color, style.color)
+        lines.append(f"| {r.name} | {colour} | {r.observer} | {r.controller} | {len(r.t)} | {status} |")
     return "\n".join(lines) + "\n"
 
 
@@ -303,20 +428,85 @@ def _log_poses(rec: rr.RecordingStream, model: mujoco.MjModel, result: VariantRe
                                                         quaternion=_xyzw(xquat[rows, b])))
 
 
-def _blueprint(with_3d: bool, extra_names: Sequence[str], logged: set[str]) -> rrb.Blueprint:
-    """3-D robot, info and events on the left; a grid of one plot per quantity (all variants overlaid) on the right,
-    for the quantities in ``logged`` (entity prefixes)."""
-    plots = [rrb.TimeSeriesView(name=title, origin="/", contents=[f"/{p}/**" for p in prefixes])
-             for title, prefixes in VIEWS if logged.intersection(prefixes)]
-    plots += [rrb.TimeSeriesView(name=f"extra: {name}", origin=_ep("extras", name)) for name in extra_names]
+def _blueprint(layout: Layout, series: Series, t: np.ndarray, posed: str | None) -> rrb.Blueprint:
+    """The robot, info and events on the left; on the right one tab per figure (per-joint plots stacked, each
+    with its zoom panel beside it), then a tab of the other recorded signals."""
+    tabs: list[rrb.Container] = [_figure_tab(figure, layout, series, t) for figure in layout.figures]
+    shown = {figure.entity for figure in layout.figures}
+    others = [rrb.TimeSeriesView(name=title, origin="/", contents=[f"/{p}/**" for p in prefixes] + [f"/{p}" for p in prefixes],
+                                 plot_legend=rrb.PlotLegend(visible=False))
+              for title, prefixes in OTHER_VIEWS
+              if any(e.startswith(tuple(f"/{p}" for p in prefixes)) for e in series) and not shown.issuperset(prefixes)]
+    others += [rrb.TimeSeriesView(name=f"extra: {e.split('/')[2]}", origin=e.rsplit("/", 1)[0],
+                                  plot_legend=rrb.PlotLegend(visible=False))
+               for e in sorted({e.rsplit("/", 1)[0] + "/joint1" for e in series if e.startswith("/extras/")})
+               if e.split("/")[2] not in {f.quantity.removeprefix("extras.") for f in layout.figures}]
+    if others:
+        tabs.append(rrb.Grid(*others, grid_columns=2, name="Other signals"))
     side: list[rrb.View] = [rrb.TextDocumentView(name="Info", origin="/info"),
                             rrb.TextLogView(name="Events", origin="/events")]
-    shares = [1.0, 1.0]
-    if with_3d:
-        side.insert(0, rrb.Spatial3DView(name="Robot", origin="/world"))
+    shares = [2.0, 1.0]
+    if posed is not None:
+        side.insert(0, rrb.Spatial3DView(name=f"Robot: variant {posed}", origin="/world"))
         shares.insert(0, 3.0)
     return rrb.Blueprint(
-        rrb.Horizontal(rrb.Vertical(*side, row_shares=shares), rrb.Grid(*plots, grid_columns=3),
-                       column_shares=[1, 3]),
-        collapse_panels=False,
+        rrb.Horizontal(rrb.Vertical(*side, row_shares=shares), rrb.Tabs(*tabs, active_tab=0), column_shares=[1, 4]),
+        collapse_panels=True,
     )
+
+
+def _figure_tab(figure: Figure, layout: Layout, series: Series, t: np.ndarray) -> rrb.Container:
+    """One figure: a row per joint, the overview plot and, with a zoom, the zoomed plot beside it. The legend
+    sits in the top plot only, in the corner with the least data (every plot has the same colours)."""
+    companion, kind = figure.companion
+    shown = np.array([s.name in figure.variants for s in layout.variants])
+    in_zoom = np.array([s.name in figure.shown_in_zoom() for s in layout.variants])
+    zoom = zoom_span(figure, layout.duration)
+    rows: list[rrb.View | rrb.Container] = []
+    for row, joint in enumerate(figure.joints):
+        entities = [_ep(*figure.entity.split("/"), f"joint{joint + 1}")]
+        if companion is not None:
+            entities.append(_ep(*companion.split("/"), f"joint{joint + 1}"))
+        entities = [e for e in entities if e in series]
+        overrides = {e: rr.SeriesLines(visible_series=shown) for e in entities
+                     if series[e][0].shape[1] == len(shown) and not shown.all()}
+        label = f"{layout.joints[joint]} [{figure.unit}]" if figure.unit else layout.joints[joint]
+        main = entities[0] if entities else None
+        # No legend box over the data: the top plot's title is the key (a legend would also list the columns
+        # this figure hides); every plot has the same colours, and hovering a line names it.
+        title = f"{label}   {_colour_key(layout, figure.variants, kind)}" if row == 0 else label
+        legend = rrb.PlotLegend(visible=False)
+        window = figure.window
+        overview = rrb.TimeSeriesView(
+            name=title, origin="/", contents=entities, overrides=overrides, plot_legend=legend,
+            axis_x=rrb.TimeAxis(link="Independent", view_range=_time_range(*window)) if window else None)
+        if zoom is None:
+            rows.append(overview)
+            continue
+        limits = figure.zoom_range
+        if limits is None and main is not None:
+            inside = (t >= zoom[0]) & (t <= zoom[1])
+            values = series[main][0][inside]
+            limits = data_range(values[:, in_zoom] if values.shape[1] == len(in_zoom) else values)
+        zoom_overrides = {e: rr.SeriesLines(visible_series=in_zoom) for e in entities
+                          if series[e][0].shape[1] == len(in_zoom) and not in_zoom.all()}
+        zoomed = rrb.TimeSeriesView(
+            name=f"{label}, zoom {zoom[0]:g}-{zoom[1]:g} s", origin="/", contents=entities, overrides=zoom_overrides,
+            plot_legend=rrb.PlotLegend(visible=False),
+            axis_x=rrb.TimeAxis(link="Independent", view_range=_time_range(*zoom)),
+            axis_y=rrb.ScalarAxis(range=limits) if limits is not None else None)
+        rows.append(rrb.Horizontal(overview, zoomed, column_shares=[3, 2]))
+    return rrb.Vertical(*rows, name=figure.title)
+
+
+def _time_range(start: float, end: float) -> rrb.TimeRange:
+    return rrb.TimeRange(start=rrb.TimeRangeBoundary.absolute(seconds=start),
+                         end=rrb.TimeRangeBoundary.absolute(seconds=end))
+
+
+def _colour_key(layout: Layout, variants: Sequence[str], kind: str | None) -> str:
+    """'red: proposed · blue: nftsmc_tosmo · ...' for a figure's variants, and what its second lines are."""
+    key = " · ".join(f"{COLOR_NAMES.get(layout.style(v).color, layout.style(v).color)}: {v}" for v in variants)
+    companion = {"truth": "wide pale: truth", "reference": "grey: reference", "threshold": "second line: threshold",
+                 "injected": "second line: injected fault"}.get(kind or "")
+    return f"{key} · {companion}" if companion else key

@@ -9,7 +9,8 @@ Each section's schema and compile function live beside its concept; this module 
   :mod:`ftc_mj.effects.faults`; ``sensors``: :mod:`ftc_mj.effects.sensors`; ``profile``:
   :mod:`ftc_mj.effects.profiles`;
 * ``variants.*.observer`` / ``.controller`` / ``.monitors``: :mod:`ftc_mj.methods.registry`;
-* ``metrics``: :mod:`ftc_mj.analysis.metrics`; ``diagnosis``: :mod:`ftc_mj.analysis.diagnosis`.
+* ``metrics``: :mod:`ftc_mj.analysis.metrics`; ``diagnosis``: :mod:`ftc_mj.analysis.diagnosis`;
+* ``figures``: :mod:`ftc_mj.outputs.layout`.
 
 Reading a file (YAML, ``--set``) is :mod:`ftc_mj.spec.loading`.
 """
@@ -32,6 +33,7 @@ from ftc_mj.effects.sensors import Channel, SensorsSpec, compile_channel
 from ftc_mj.effects.terms import CompiledTerm, TermSpec, compile_terms
 from ftc_mj.methods.gains import GainConfig
 from ftc_mj.methods.registry import MethodSpec, compile_method, controller_types, observer_types
+from ftc_mj.outputs.layout import Figure, FigureSpec, check_figure_names, compile_figures
 from ftc_mj.robot.model import PlantSpec, RobotSpec, load_robot
 from ftc_mj.robot.nominal import NominalSpec
 from ftc_mj.spec import expressions
@@ -114,8 +116,15 @@ class ScenarioSpec(Strict):
     metrics: MetricsSpec
     diagnosis: DiagnosisSpec | None = None
     divergence: DivergenceSpec = DivergenceSpec()
+    #: The figures of ``python -m ftc_mj.figures`` and the recording's layout; default: the core quantities.
+    figures: list[FigureSpec] = []
     #: Recording path, relative to the working directory.
     output: str | None = None
+
+    @model_validator(mode="after")
+    def _figures(self) -> "ScenarioSpec":
+        check_figure_names(self)
+        return self
 
     @field_validator("parameters")
     @classmethod
@@ -189,6 +198,8 @@ class Scenario:
     position_sensor: Channel | None = None
     velocity_sensor: Channel | None = None
     diagnoser: Diagnoser | None = None
+    #: The figures (the ``figures`` section, or the defaults) for the variants that run.
+    figures: list[Figure] = field(default_factory=list)
     #: The file's content after ``--set`` (YAML types), from which members are built with overrides.
     raw: dict[str, Any] = field(default_factory=dict)
 
@@ -399,4 +410,6 @@ def compile_scenario(path: Path, spec: ScenarioSpec) -> Scenario:
     )
     if spec.diagnosis is not None:
         scenario.diagnoser = compile_diagnoser(spec.diagnosis, spec, file, n, scenario.fault_onsets)
+    names = [name for v in variants for name in (v.name, *(f"{v.name}.{m.name}" for m in v.monitors))]
+    scenario.figures = compile_figures(spec, model, names, file)
     return scenario

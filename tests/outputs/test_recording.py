@@ -1,4 +1,5 @@
-"""write_recording: entity layout, exact values and timeline, blueprint and geometry, atomic writes."""
+"""write_recording: entity layout (per joint, one column per variant), float32 values and exact timeline, the
+stored figure layout, blueprint and geometry, atomic writes; read_series back."""
 
 from __future__ import annotations
 
@@ -14,7 +15,9 @@ import rerun as rr
 from rerun.chunk import RrdReader
 
 from ftc_mj.engine.results import VariantResult
-from ftc_mj.outputs.recording import DIAGNOSIS_SERIES, OPTIONAL_SERIES, SERIES, write_recording
+from ftc_mj.outputs.layout import Figure, variant_styles
+from ftc_mj.outputs.recording import (DIAGNOSIS_SERIES, OPTIONAL_SERIES, SERIES, read_layout, read_series,
+                                     write_recording)
 
 N, NJ, STRIDE = 500, 2, 10
 VARIANTS = ("nftsmc_sosmo", "nftsmc_tosmo")
@@ -114,13 +117,15 @@ def test_file_written_atomically(rrd: Path) -> None:
     assert no_temp_files(rrd.parent)
 
 
-def test_entities_per_variant(chunks: list) -> None:
+def test_entities_per_joint(chunks: list) -> None:
     temporal = {c.entity_path for c in chunks if not c.is_static}
-    for variant in VARIANTS:
+    for joint in range(1, NJ + 1):
         for prefix, _, _ in SERIES:
-            assert f"/{prefix}/{variant}" in temporal
-        assert f"/extras/gain/{variant}" in temporal
-    assert "/events" in temporal
+            assert f"/{prefix}/joint{joint}" in temporal
+        assert f"/extras/gain/joint{joint}" in temporal
+        assert f"/q_ref/joint{joint}" in temporal
+    assert not any(e.endswith(VARIANTS) for e in temporal)  # no entity per variant: variants are columns
+    assert {"/events", "/fault_active"} <= temporal
     assert "/info" in static_entities(chunks)
 
 
@@ -133,27 +138,61 @@ def test_optional_series_only_when_present(chunks: list) -> None:
 
 @pytest.mark.parametrize("prefix", [p for p, _, _ in SERIES])
 def test_series_rows_and_timeline(chunks: list, results: list[VariantResult], prefix: str) -> None:
-    for result in results:
-        times, values = column(chunks, f"/{prefix}/{result.name}")
+    for joint in range(1, NJ + 1):
+        times, values = column(chunks, f"/{prefix}/joint{joint}")
         assert len(times) == N
-        assert np.array_equal(times, np.round(result.t * 1e9).astype(np.int64))
-        width = 1 if prefix == "fault_active" else NJ  # fault_active is (N,) here: one line per variant
-        assert all(len(v) == width for v in values)
+        assert np.array_equal(times, np.round(results[0].t * 1e9).astype(np.int64))
+        assert all(len(v) == len(VARIANTS) for v in values)
 
 
-def test_estimate_bit_exact(chunks: list, results: list[VariantResult]) -> None:
-    for result in results:
-        _, values = column(chunks, f"/luaf/estimate/{result.name}")
-        got = np.array(values, dtype=np.float64)
-        assert got.shape == (N, NJ)
-        assert np.array_equal(got.view(np.uint64), result.luaf_hat.view(np.uint64))
-        _, active = column(chunks, f"/fault_active/{result.name}")
-        assert np.array_equal(np.array(active)[:, 0], result.fault_active.astype(float))
+def test_values_are_float32_of_each_variant(rrd: Path, chunks: list, results: list[VariantResult]) -> None:
+    """Each variant's column holds its values rounded to float32, exactly; read_series gives them per variant."""
+    for v, result in enumerate(results):
+        _, values = column(chunks, "/luaf/estimate/joint2")
+        assert np.array_equal(np.array(values, dtype=np.float32)[:, v], result.luaf_hat[:, 1].astype(np.float32))
+        times, estimate = read_series(rrd, f"/luaf/estimate/{result.name}")
+        assert estimate.shape == (N, NJ)
+        assert np.array_equal(estimate, result.luaf_hat.astype(np.float32).astype(np.float64))
+        np.testing.assert_allclose(times, result.t, atol=1e-9)
+    _, active = read_series(rrd, "/fault_active")
+    assert np.array_equal(active[:, 0], results[0].fault_active.astype(float))
+    _, reference = read_series(rrd, "/q_ref/joint1")
+    assert np.array_equal(reference[:, 0], results[0].q_ref[:, 0].astype(np.float32))
 
 
-def test_line_names(chunks: list) -> None:
-    batch = next(c.to_record_batch() for c in chunks if c.entity_path == f"/q/{VARIANTS[0]}" and c.is_static)
-    assert batch.column("SeriesLines:names").to_pylist()[0] == [f"{VARIANTS[0]} joint{i + 1}" for i in range(NJ)]
+def test_line_names_and_colours(chunks: list) -> None:
+    """Every entity names its columns by variant (truth: '<variant> true') in the variant's one colour."""
+    def lines(entity: str) -> tuple[list, list]:
+        batch = next(c.to_record_batch() for c in chunks if c.entity_path == entity and c.is_static)
+        return batch.column("SeriesLines:names").to_pylist()[0], batch.column("SeriesLines:colors").to_pylist()[0]
+
+    names, colours = lines("/q/joint1")
+    assert names == list(VARIANTS)
+    assert len(set(colours)) == len(VARIANTS)
+    assert lines("/torque/joint2")[1] == colours
+    truth_names, truth_colours = lines("/luaf/true/joint1")
+    assert truth_names == [f"{v} true" for v in VARIANTS] and truth_colours != colours
+
+
+def test_layout_stored(rrd: Path) -> None:
+    layout = read_layout(rrd)
+    assert layout.scenario == "demo" and layout.fault_onsets == [1.25]
+    assert [s.name for s in layout.variants] == list(VARIANTS) == [s.name for s in variant_styles(VARIANTS)]
+    assert layout.joints == ["j1", "j2"] and layout.samples == {v: N for v in VARIANTS}
+    assert layout.duration == pytest.approx(1.0 + N * 1e-3)
+    assert [f.quantity for f in layout.figures] == ["tracking_error", "velocity_error", "luaf", "luaf_error", "torque"]
+
+
+def test_scenario_figures_kept_for_the_variants_that_ran(tmp_path: Path, model: mujoco.MjModel,
+                                                         results: list[VariantResult]) -> None:
+    figure = Figure(name="e", title="E", quantity="tracking_error", unit="rad", variants=("gone", VARIANTS[1]),
+                    joints=(1,), zoom=(1.2, None))
+    empty = Figure(name="none", title="None", quantity="torque", unit="N m", variants=("gone",), joints=(0,))
+    path = tmp_path / "figures.rrd"
+    write_recording(path, scenario="demo", model=model, results=results, figures=[figure, empty])
+    layout = read_layout(path)
+    assert [f.name for f in layout.figures] == ["e"] and layout.figures[0].variants == (VARIANTS[1],)
+    assert layout.figures[0].zoom == (1.2, None) and layout.figures[0].joints == (1,)
 
 
 def test_events_and_info(chunks: list) -> None:
@@ -209,9 +248,9 @@ def test_non_finite_and_diverged_variant(tmp_path: Path, model: mujoco.MjModel, 
     path = tmp_path / "nan.rrd"
     write_recording(path, scenario="nan", model=model, results=[bad], seed=None)
     chunks = RrdReader(path).stream().to_chunks()
-    times, values = column(chunks, f"/luaf/estimate/{bad.name}")
+    times, values = read_series(path, f"/luaf/estimate/{bad.name}")
     assert len(times) == 123
-    assert np.array_equal(np.array(values, dtype=np.float64), bad.luaf_hat, equal_nan=True)
+    assert np.array_equal(values, bad.luaf_hat.astype(np.float32), equal_nan=True)
     assert not any(c.entity_path.startswith("/world") for c in chunks)  # no variant has poses: no 3-D
     _, texts = column(chunks, "/events", "TextLog:text")
     assert "diverged" in texts[0][0]
@@ -220,9 +259,22 @@ def test_non_finite_and_diverged_variant(tmp_path: Path, model: mujoco.MjModel, 
 def test_separate_calls_do_not_mix(tmp_path: Path, model: mujoco.MjModel, results: list[VariantResult]) -> None:
     for result in results:
         write_recording(tmp_path / f"{result.name}.rrd", scenario="one", model=model, results=[result])
-    for result, other in zip(results, results[::-1]):
-        entities = {c.entity_path for c in RrdReader(tmp_path / f"{result.name}.rrd").stream().to_chunks()}
-        assert f"/q/{result.name}" in entities and f"/q/{other.name}" not in entities
+    for result in results:
+        assert [s.name for s in read_layout(tmp_path / f"{result.name}.rrd").variants] == [result.name]
+
+
+def test_diverged_variant_is_padded(tmp_path: Path, model: mujoco.MjModel, results: list[VariantResult]) -> None:
+    """A variant that stopped early has NaN after its last sample in the shared columns; read_series cuts there."""
+    short = results[1].truncated(200)
+    path = tmp_path / "padded.rrd"
+    write_recording(path, scenario="padded", model=model, results=[results[0], short])
+    _, values = read_series(path, "/torque/joint1")
+    assert values.shape == (N, 2) and np.isnan(values[200:, 1]).all() and np.isfinite(values[:, 0]).all()
+    assert read_series(path, f"/torque/{short.name}")[1].shape == (200, NJ)
+    other = results[0].truncated(N)
+    other.t = other.t + 0.5
+    with pytest.raises(ValueError, match="time axis"):
+        write_recording(tmp_path / "bad.rrd", scenario="bad", model=model, results=[results[0], other])
 
 
 def test_shape_mismatch_leaves_nothing(tmp_path: Path, model: mujoco.MjModel, results: list[VariantResult]) -> None:

@@ -1,0 +1,185 @@
+"""Static figures (matplotlib, Agg) of a run, drawn from its recording: one file per figure of its
+:class:`~ftc_mj.outputs.layout.Layout`, a row of axes per joint, every variant overlaid in its one colour and
+dash, the zoom panel beside, the fault onsets marked, one legend above the axes (it hides no data).
+
+Long series are reduced to their per-pixel envelope (minimum and maximum of each of :data:`ENVELOPE_BINS` time
+bins, in time order) before drawing: the same picture, chattering included, at a fraction of the points, which
+keeps PDF and SVG files small.
+"""
+
+from __future__ import annotations
+
+import io
+from collections.abc import Sequence
+from pathlib import Path
+
+import matplotlib
+
+matplotlib.use("Agg")  # no display: figures go to files
+
+import matplotlib.pyplot as plt  # noqa: E402
+import numpy as np  # noqa: E402
+from matplotlib.lines import Line2D  # noqa: E402
+from matplotlib.ticker import ScalarFormatter  # noqa: E402
+
+from ftc_mj.outputs.layout import Figure, Layout, data_range, zoom_span  # noqa: E402
+
+FORMATS = ("png", "svg", "pdf")
+#: Time bins of a drawn line's envelope: above twice this many samples a line is drawn as its envelope.
+ENVELOPE_BINS = 1500
+#: Width of a figure [in] and height of one joint's row [in].
+WIDTH, ROW_HEIGHT = 8.0, 1.55
+TRUTH_ALPHA, TRUTH_WIDTH, LINE_WIDTH = 0.35, 3.0, 0.9
+DASHES = {"solid": "-", "dashed": "--"}
+
+#: Series of one recording: entity -> (times [s], values (N, V)).
+Series = dict[str, tuple[np.ndarray, np.ndarray]]
+
+
+def entities_of(figure: Figure, layout: Layout) -> list[str]:
+    """The recording entities a figure draws."""
+    companion, _ = figure.companion
+    prefixes = [figure.entity] + ([companion] if companion else [])
+    return [f"/{prefix}/joint{joint + 1}" for prefix in prefixes for joint in figure.joints]
+
+
+def envelope(t: np.ndarray, y: np.ndarray, bins: int = ENVELOPE_BINS) -> tuple[np.ndarray, np.ndarray]:
+    """``(t, y)`` reduced to the minimum and maximum of each of ``bins`` equal time bins, in the order they occur
+    (a bin with a NaN keeps one, so gaps stay gaps); unchanged when short."""
+    n = len(t)
+    if n <= 2 * bins:
+        return t, y
+    size = -(-n // bins)
+    padded = np.concatenate([y, np.full(bins * size - n, np.nan)]).reshape(bins, size)
+    gaps = np.isnan(padded)
+    start = np.arange(bins) * size
+    rows = np.concatenate([start + np.argmin(np.where(gaps, np.inf, padded), axis=1),
+                           start + np.argmax(np.where(gaps, -np.inf, padded), axis=1),
+                           (start + np.argmax(gaps, axis=1))[gaps.any(axis=1)]])
+    rows = np.unique(rows[rows < n])
+    return t[rows], y[rows]
+
+
+def _tex(unit: str) -> str:
+    """Plain units (rad/s^2, M^-1) in matplotlib's math text."""
+    return unit.replace("^2", "$^2$").replace("^-1", "$^{-1}$")
+
+
+def draw(figure: Figure, layout: Layout, series: Series) -> plt.Figure:
+    """One figure: a row per joint (overview, and the zoom panel when there is one), a legend above."""
+    zoom = zoom_span(figure, layout.duration)
+    columns = 2 if zoom else 1
+    rows = len(figure.joints)
+    fig, axes = plt.subplots(rows, columns, figsize=(WIDTH, ROW_HEIGHT * rows + 1.0), squeeze=False,
+                             sharex="col", width_ratios=[3, 2][:columns], layout="constrained")
+    companion, kind = figure.companion
+    window = figure.window or (0.0, layout.duration)
+    for row, joint in enumerate(figure.joints):
+        main = series.get(f"/{figure.entity}/joint{joint + 1}")
+        extra = series.get(f"/{companion}/joint{joint + 1}") if companion else None
+        for column in range(columns):
+            ax = axes[row, column]
+            span = window if column == 0 else zoom
+            variants = figure.variants if column == 0 else figure.shown_in_zoom()
+            _panel(ax, variants, layout, main, extra, kind, span)
+            if column == 1:
+                limits = figure.zoom_range or (_visible_range(main, variants, layout, span) if main else None)
+                if limits is not None:
+                    ax.set_ylim(*limits)
+            for onset in layout.fault_onsets:
+                if span[0] <= onset <= span[1]:
+                    ax.axvline(onset, color="0.45", linestyle=":", linewidth=1.0, zorder=0)
+            ax.set_xlim(*span)
+            ax.grid(True, linewidth=0.3, alpha=0.6)
+            ax.tick_params(labelsize=7)
+            formatter = ScalarFormatter(useMathText=True)
+            formatter.set_powerlimits((-3, 3))
+            ax.yaxis.set_major_formatter(formatter)
+            ax.yaxis.get_offset_text().set_fontsize(7)
+        label = layout.joints[joint] + (f" [{_tex(figure.unit)}]" if figure.unit else "")
+        axes[row, 0].set_ylabel(label, fontsize=8)
+    for column in range(columns):
+        axes[-1, column].set_xlabel("time [s]", fontsize=8)
+    if zoom:
+        which = "" if figure.zoom_variants is None else f", {', '.join(figure.shown_in_zoom())}"
+        axes[0, 1].set_title(f"zoom: {zoom[0]:g}-{zoom[1]:g} s{which}", fontsize=8)
+    fig.suptitle(f"{figure.title}  ({layout.scenario})", fontsize=10)
+    handles = _legend(figure, layout, kind)
+    fig.legend(handles=handles, loc="outside lower center", ncol=min(5, len(handles)), fontsize=7.5, frameon=False)
+    fig.get_layout_engine().set(h_pad=0.02, w_pad=0.04, hspace=0.02)
+    return fig
+
+
+def _panel(ax: plt.Axes, variants: Sequence[str], layout: Layout, main: tuple | None, extra: tuple | None,
+           kind: str | None, span: tuple[float, float]) -> None:
+    """One axes: each variant's companion line (truth wide and pale, or threshold dotted) and its own line; the
+    legend's first variant drawn last, on top."""
+    for variant in reversed(variants):
+        style = layout.style(variant)
+        column = layout.column(variant)
+        if extra is not None:
+            t, values = extra
+            if kind == "reference":
+                continue  # drawn once below
+            y = values[:, column] if values.shape[1] > column else values[:, 0]
+            if kind == "truth":
+                ax.plot(*_cut(t, y, span), color=style.color, alpha=TRUTH_ALPHA, linewidth=TRUTH_WIDTH, zorder=1)
+            else:  # threshold, injected fault: thin dotted, same colour
+                ax.plot(*_cut(t, y, span), color=style.color, linestyle=":", linewidth=LINE_WIDTH, zorder=2)
+        if main is not None:
+            t, values = main
+            ax.plot(*_cut(t, values[:, column], span), color=style.color, linestyle=DASHES[style.dash],
+                    linewidth=LINE_WIDTH, zorder=3)
+    if extra is not None and kind == "reference":
+        ax.plot(*_cut(extra[0], extra[1][:, 0], span), color="0.2", linestyle="--", linewidth=LINE_WIDTH, zorder=4)
+
+
+def _cut(t: np.ndarray, y: np.ndarray, span: tuple[float, float]) -> tuple[np.ndarray, np.ndarray]:
+    """The samples within ``span`` (one beyond each end, so the line reaches the axes), as their envelope."""
+    first, last = np.searchsorted(t, span[0]), np.searchsorted(t, span[1], side="right")
+    first, last = max(first - 1, 0), min(last + 1, len(t))
+    return envelope(t[first:last], y[first:last])
+
+
+def _visible_range(main: tuple, variants: Sequence[str], layout: Layout,
+                   span: tuple[float, float]) -> tuple[float, float] | None:
+    t, values = main
+    inside = (t >= span[0]) & (t <= span[1])
+    return data_range(values[inside][:, [layout.column(v) for v in variants]])
+
+
+def _legend(figure: Figure, layout: Layout, kind: str | None) -> list[Line2D]:
+    handles = [Line2D([], [], color=layout.style(v).color, linestyle=DASHES[layout.style(v).dash], label=v)
+               for v in figure.variants]
+    if kind == "truth":
+        handles.append(Line2D([], [], color="0.3", alpha=TRUTH_ALPHA, linewidth=TRUTH_WIDTH, label="truth (wide, pale)"))
+    elif kind == "reference":
+        handles.append(Line2D([], [], color="0.2", linestyle="--", label="reference $q_d$"))
+    elif kind in ("threshold", "injected"):
+        handles.append(Line2D([], [], color="0.3", linestyle=":", label="threshold" if kind == "threshold"
+                              else "injected fault"))
+    if layout.fault_onsets:
+        handles.append(Line2D([], [], color="0.45", linestyle=":", label="fault onset"))
+    return handles
+
+
+def save(fig: plt.Figure, stem: Path, formats: Sequence[str], dpi: int) -> list[Path]:
+    """Write ``fig`` as ``stem.<format>`` for each format, without time stamps (a regenerated figure is the same
+    file). PNGs are stored with a 64-colour palette: line plots look the same at a third of the size."""
+    from PIL import Image
+
+    written = []
+    for fmt in formats:
+        path = stem.with_suffix(f".{fmt}")
+        if fmt == "png":
+            buffer = io.BytesIO()
+            fig.savefig(buffer, format="png", dpi=dpi, metadata={"Software": None})
+            buffer.seek(0)
+            image = Image.open(buffer).convert("RGB").quantize(colors=64, method=Image.Quantize.MEDIANCUT, dither=Image.Dither.NONE)
+            image.save(path, optimize=True)
+        else:
+            metadata = {"Date": None} if fmt == "svg" else {"CreationDate": None, "ModDate": None}
+            fig.savefig(path, format=fmt, metadata=metadata)
+        written.append(path)
+    plt.close(fig)
+    return written
