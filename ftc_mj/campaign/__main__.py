@@ -19,6 +19,7 @@ import argparse
 import json
 import sys
 import time
+from concurrent.futures.process import BrokenProcessPool
 from pathlib import Path
 
 from rich.console import Console
@@ -117,6 +118,10 @@ def main(argv: list[str] | None = None) -> int:
     except KeyboardInterrupt:
         print("interrupted: what finished is saved; run the same command again to go on", file=sys.stderr)
         return 130
+    except BrokenProcessPool:  # a worker killed (out of memory, a signal): not the campaign's fault
+        print("error: a worker process died (out of memory or killed); what finished is saved: run the same "
+              "command again to go on, with fewer --workers or a smaller --batch-size", file=sys.stderr)
+        return 1
 
 
 if __name__ == "__main__":
