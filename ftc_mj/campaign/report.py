@@ -161,6 +161,12 @@ def _numeric_fields(results: Results) -> list[str]:
     return out
 
 
+def _flips(one: st.Estimate, other: st.Estimate) -> bool:
+    """A win rate clearly on one side of 1/2 in one third of a field's values (its interval) and on the other
+    side in the other third (its estimate): the claim's direction depends on the field."""
+    return (one.low > 0.5 and other.value < 0.5) or (one.high < 0.5 and other.value > 0.5)
+
+
 def _claims(results: Results) -> list[str]:
     claims = results.spec.report.claims
     if not claims:
@@ -168,8 +174,8 @@ def _claims(results: Results) -> list[str]:
     resamples = results.spec.report.bootstrap
     lines = ["## Claims", "", "Each claim: `better` has the lower metric on the same runs. Verdict as for the paired "
              "differences. Then, per varied field, how the difference depends on it: Spearman's rho (p-value) and the "
-             "win rate in the lowest and the highest third of the field's values; **depends** where the claim holds "
-             "in one third and not in the other.", ""]
+             "win rate in the lowest and the highest third of the field's values; **depends** where the win rate is "
+             "clearly on one side of 1/2 in one third (its interval) and on the other side in the other third.", ""]
     rows, dependence_rows = [], []
     fields = _numeric_fields(results)
     for claim in claims:
@@ -178,17 +184,22 @@ def _claims(results: Results) -> list[str]:
             column = f"{claim.metric}.{j}"
             a, b = results.of(claim.better, column), results.of(claim.worse, column)
             p = st.paired(a, b, resamples)
-            rows.append([claim.name, f"{claim.better} < {claim.worse}", f"{claim.metric}.{j}", str(p.count),
-                         p.mean_difference.text(), p.win_rate.text(".3f"), f"**{p.verdict}**"])
+            depends = []
             for name in fields:
                 field = results.of(claim.better, name).astype(float)
                 rho, pvalue, low, high = st.dependence(a - b, field)
                 if not np.isfinite(rho):
                     continue
-                flips = (low.low > 0.5) != (high.low > 0.5) or (low.high < 0.5) != (high.high < 0.5)
+                flips = _flips(low, high) or _flips(high, low)
+                if flips:
+                    depends.append(f"`{name}`")
                 dependence_rows.append([claim.name, str(j), name, f"{rho:+.2f} ({pvalue:.2g})", low.text(".2f"),
                                         high.text(".2f"), "**depends**" if flips else ""])
-    lines += _table(["claim", "ordering", "metric", "n", "mean difference", "win rate", "verdict"], rows) + [""]
+            rows.append([claim.name, f"{claim.better} < {claim.worse}", f"{claim.metric}.{j}", str(p.count),
+                         p.mean_difference.text(), p.win_rate.text(".3f"), f"**{p.verdict}**",
+                         ", ".join(depends) or "-"])
+    lines += _table(["claim", "ordering", "metric", "n", "mean difference", "win rate", "verdict", "depends on"],
+                    rows) + [""]
     if dependence_rows:
         lines += ["### Dependence on the varied fields", "",
                   *_table(["claim", "joint", "field", "rho (p)", "win rate, lowest third", "win rate, highest third",
