@@ -118,7 +118,7 @@ def load(path: str | Path, runs: int | None = None, variants: list[str] | None =
     all_runs = population(spec, base_seed)
     campaign = Campaign(path=path, spec=spec, scenario_path=scenario_path, runs=all_runs, variants=variants,
                         n_joints=base.n_joints, member_bytes=int(series_bytes(base.spec, base.n_joints)),
-                        fingerprint=fingerprint(spec, scenario_path), scenario=base)
+                        fingerprint=fingerprint(spec, base), scenario=base)
     ids = [run.run_id for run in all_runs]
     if len(set(ids)) != len(ids):
         raise InputError(file, "samples", "two runs have the same values and seed (a choice with too few values "
@@ -468,7 +468,8 @@ def find_run(directory: Path, run_id: str) -> tuple[dict[str, Any], Run]:
     summary = json.loads(info.read_text())
     spec = CampaignSpec.model_validate(summary["resolved"])
     scenario_path = Path(summary["scenario"])
-    if not scenario_path.is_file() or fingerprint(spec, scenario_path) != summary["fingerprint"]:
+    if not scenario_path.is_file() or fingerprint(spec, _scenario(str(scenario_path), tuple(spec.variants or ()),
+                                                                  spec.duration, _frozen(spec.set))) != summary["fingerprint"]:
         raise InputError(str(directory), "scenario", f"{scenario_path} has changed since the campaign ran: the run "
                          "cannot be replayed as it was")
     seed = spec.seed if spec.seed is not None else load_scenario(scenario_path).spec.seed

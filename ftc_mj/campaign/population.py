@@ -26,6 +26,7 @@ from scipy.stats import qmc
 
 from ftc_mj.campaign.spec import CampaignSpec, CaseSpec
 from ftc_mj.engine.members import BATCHABLE
+from ftc_mj.spec.scenario import Scenario
 
 
 @dataclass(frozen=True)
@@ -125,13 +126,16 @@ def population(spec: CampaignSpec, base_seed: int) -> list[Run]:
     return runs
 
 
-def fingerprint(spec: CampaignSpec, scenario_path: Path) -> str:
+def fingerprint(spec: CampaignSpec, scenario: Scenario) -> str:
     """What a results directory was made from: the campaign as resolved (but its number of sampled runs, which
-    may grow) and the base scenario's text. A directory with another fingerprint holds another campaign."""
+    may grow, its description and report settings) and the base scenario as validated (with the campaign's
+    ``set``; but its name, description, figures and output path, which change no run) with its robot file's
+    content. A directory with another fingerprint holds another campaign."""
     content = spec.model_dump(mode="json")
     if content.get("samples"):
         content["samples"].pop("runs")
-    content.pop("report")  # neither the report's settings nor the description change a run
+    content.pop("report")
     content.pop("description")
-    content["scenario_text"] = scenario_path.read_text(encoding="utf-8")
+    content["scenario"] = scenario.spec.model_dump(mode="json", exclude={"name", "description", "figures", "output"})
+    content["robot_file"] = hashlib.sha256(Path(scenario.model_path).read_bytes()).hexdigest()
     return _digest(content, 24)
