@@ -73,6 +73,8 @@ class Campaign:
     n_joints: int
     member_bytes: int
     fingerprint: str
+    #: The base scenario (the campaign's ``set`` applied), compiled.
+    scenario: Scenario
     groups: dict[str, list[Run]] = field(default_factory=dict)
 
     @property
@@ -86,8 +88,6 @@ class Campaign:
     def control_periods(self) -> int:
         """Control periods of one run of one variant."""
         return len(self.scenario.times)
-
-    scenario: Scenario | None = None
 
 
 def load(path: str | Path, runs: int | None = None, variants: list[str] | None = None,
