@@ -271,9 +271,11 @@ def tasks_for(campaign: Campaign, pending: list[Run], batch_size: int | None, wo
 def member_tasks(campaign: Campaign, members: list[tuple[int, str, Run, dict[str, Any]]], batch_size: int | None,
                  workers: int) -> list[Task]:
     """Members ``(index, id, run, member values)`` (a run's, or a run's with other gains, as a tuning asks) as
-    batches of one group each; see :func:`tasks_for`."""
-    if batch_size is None:
-        batch_size = max(1, min(MAX_BATCH, math.ceil(len(members) / (4 * workers))))
+    batches of one group each; see :func:`tasks_for`. By default a batch holds no more members than a worker
+    steps at once (:data:`WORKER_MEMORY`), at most :data:`MAX_BATCH`, and there are at least four per worker."""
+    if batch_size is None:  # no larger than what a worker steps at once: more batches balance the workers
+        fits = max(1, WORKER_MEMORY // max(campaign.member_bytes, 1))
+        batch_size = max(1, min(MAX_BATCH, fits, math.ceil(len(members) / (4 * workers))))
     nthread = max(1, default_workers() // workers)
     spec = campaign.spec
     by_group: dict[str, list] = {}
