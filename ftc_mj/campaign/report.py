@@ -161,10 +161,15 @@ def _numeric_fields(results: Results) -> list[str]:
     return out
 
 
-def _flips(one: st.Estimate, other: st.Estimate) -> bool:
-    """A win rate clearly on one side of 1/2 in one third of a field's values (its interval) and on the other
-    side in the other third (its estimate): the claim's direction depends on the field."""
-    return (one.low > 0.5 and other.value < 0.5) or (one.high < 0.5 and other.value > 0.5)
+def _depends(low: st.Estimate, high: st.Estimate) -> bool:
+    """The claim's verdict differs between the lowest and the highest third of a field's values (holds:
+    the win rate's interval above 1/2; reversed: below; open otherwise), and the two win rates differ (their
+    intervals do not overlap): it holds for some values of the field and not for others."""
+    def verdict(e: st.Estimate) -> str:
+        return "holds" if e.low > 0.5 else "reversed" if e.high < 0.5 else "open"
+
+    apart = low.high < high.low or high.high < low.low
+    return apart and verdict(low) != verdict(high)
 
 
 def _claims(results: Results) -> list[str]:
@@ -174,8 +179,9 @@ def _claims(results: Results) -> list[str]:
     resamples = results.spec.report.bootstrap
     lines = ["## Claims", "", "Each claim: `better` has the lower metric on the same runs. Verdict as for the paired "
              "differences. Then, per varied field, how the difference depends on it: Spearman's rho (p-value) and the "
-             "win rate in the lowest and the highest third of the field's values; **depends** where the win rate is "
-             "clearly on one side of 1/2 in one third (its interval) and on the other side in the other third.", ""]
+             "win rate in the lowest and the highest third of the field's values; **depends** where the claim's verdict "
+             "differs between the two thirds (holds: the win rate's interval above 1/2; reversed: below; open "
+             "otherwise) and their win rates differ (the intervals do not overlap).", ""]
     rows, dependence_rows = [], []
     fields = _numeric_fields(results)
     for claim in claims:
@@ -190,7 +196,7 @@ def _claims(results: Results) -> list[str]:
                 rho, pvalue, low, high = st.dependence(a - b, field)
                 if not np.isfinite(rho):
                     continue
-                flips = _flips(low, high) or _flips(high, low)
+                flips = _depends(low, high)
                 if flips:
                     depends.append(f"`{name}`")
                 dependence_rows.append([claim.name, str(j), name, f"{rho:+.2f} ({pvalue:.2g})", low.text(".2f"),
