@@ -260,9 +260,11 @@ def _diagnosis(results: Results, figures: Path, written: list[Path]) -> list[str
         curves[variant] = (p_fa, p_d)
         fa1 = st.proportion(float(np.sum(basis > 1.0)), int(np.isfinite(basis).sum()))
         d1 = st.proportion(float(np.sum(peak_fault[faulty] > 1.0)), int(faulty.sum()))
-        alarms = sum(np.nansum(results.of(variant, f"false_alarms_x1.{j}").astype(float))
+        # False alarms per hour on the same runs as P_fa: joint-hours of armed fault-free operation.
+        runs = ~faulty if (~faulty).sum() else np.ones_like(faulty)
+        alarms = sum(np.nansum(results.of(variant, f"false_alarms_x1.{j}").astype(float)[runs])
                      for j in range(1, results.joints() + 1))
-        hours = sum(np.nansum(results.of(variant, f"healthy_time.{j}").astype(float))
+        hours = sum(np.nansum(results.of(variant, f"healthy_time.{j}").astype(float)[runs])
                     for j in range(1, results.joints() + 1)) / 3600 / max(results.joints(), 1)
         delays = _delays(results, variant, 1.0)
         op = _operating_scale(p_fa, target)
@@ -457,8 +459,13 @@ def _pd_size_figure(results: Results, variants: list[str], curves: dict, size: s
             panels.append((kind, lines))
     if not panels:
         return None
-    fig, axes = plt.subplots(1, len(panels), figsize=(3.4 * len(panels) + 2.4, 3.8), squeeze=False, sharey=True)
-    for ax, (kind, lines) in zip(axes[0], panels):
+    columns = min(3, len(panels))
+    rows = math.ceil(len(panels) / columns)
+    fig, axes = plt.subplots(rows, columns, figsize=(3.6 * columns + 1.6, 3.0 * rows + 0.8), squeeze=False,
+                             sharey=True)
+    for ax in axes.flat[len(panels):]:
+        ax.set_visible(False)
+    for ax, (kind, lines) in zip(axes.flat, panels):
         for variant, centres, estimates in lines:
             y = np.array([e.value for e in estimates])
             err = np.array([[e.value - e.low for e in estimates], [e.high - e.value for e in estimates]])
@@ -469,8 +476,9 @@ def _pd_size_figure(results: Results, variants: list[str], curves: dict, size: s
         ax.grid(alpha=0.3)
         if kind is not None:
             ax.set_title(str(kind), fontsize=9)
-    axes[0][0].set_ylabel("detection probability")
-    axes[0][-1].legend(fontsize=7, loc="lower right")
+    for row in axes:
+        row[0].set_ylabel("detection probability")
+    axes.flat[len(panels) - 1].legend(fontsize=7, loc="lower right")
     fig.suptitle(f"P_d at P_fa <= {target:g} (c: the threshold multiple; 95% Wilson intervals)", fontsize=10)
     fig.tight_layout()
     return _save(fig, path)
