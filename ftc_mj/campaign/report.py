@@ -493,7 +493,7 @@ def _heatmap(results: Results, figures: Path, written: list[Path]) -> list[str]:
     column = f"{metric}.{joint}"
     xs, ys = (sorted(set(results.columns[p].tolist())) for p in axes_fields)
     variants = results.variants
-    fig, axes = plt.subplots(1, len(variants), figsize=(3.6 * len(variants) + 0.8, 3.4), squeeze=False)
+    fig, axes = plt.subplots(1, len(variants), figsize=(4.6 * len(variants) + 1.2, 3.8), squeeze=False)
     grids = []
     for variant in variants:
         x, y = results.of(variant, axes_fields[0]), results.of(variant, axes_fields[1])
@@ -517,14 +517,19 @@ def _heatmap(results: Results, figures: Path, written: list[Path]) -> list[str]:
         ax.set_yticks(range(len(ys)), [f"{v:g}" for v in ys], fontsize=8)
         ax.set_xlabel(axes_fields[0].rsplit(".", 1)[-1])
         ax.set_title(variant, fontsize=9)
+        for (i, k), value in np.ndenumerate(grid):
+            if np.isfinite(value):  # dark text on the bright end of viridis
+                ax.text(k, i, f"{value:.2e}", ha="center", va="center", fontsize=7,
+                        color="black" if norm(value) > 0.6 else "white")
         best = np.unravel_index(np.nanargmin(grid), grid.shape) if np.isfinite(grid).any() else None
-        if best is not None:
-            ax.plot(best[1], best[0], "w*", markersize=10)
+        if best is not None:  # a frame around the lowest cell
+            ax.add_patch(plt.Rectangle((best[1] - 0.5, best[0] - 0.5), 1, 1, fill=False, edgecolor="white",
+                                       linewidth=2.5))
     axes[0][0].set_ylabel(axes_fields[1].rsplit(".", 1)[-1])
     fig.colorbar(image, ax=axes[0].tolist(), label=f"mean {column} [{unit(metric)}]")
-    fig.suptitle(f"mean {column} over the grid (star: lowest)", fontsize=10)
+    fig.suptitle(f"mean {column} [{unit(metric)}] (framed: the lowest)", fontsize=10)
     written.append(_save(fig, figures / "heatmap.png"))
-    return ["## Grid", "", f"Mean `{column}` over `{axes_fields[0]}` (x) and `{axes_fields[1]}` (y); the star marks "
+    return ["## Grid", "", f"Mean `{column}` over `{axes_fields[0]}` (x) and `{axes_fields[1]}` (y); the framed cell is "
             "the lowest.", "", "![Heat map](figures/heatmap.png)", ""]
 
 
