@@ -110,7 +110,7 @@ def load(path: str | Path, runs: int | None = None, variants: list[str] | None =
     scenario_path = (path.parent / spec.scenario).resolve()
     if not scenario_path.is_file():
         raise InputError(file, "scenario", f"no such file: {spec.scenario}")
-    base = _scenario(str(scenario_path), tuple(spec.variants or ()), spec.duration, _frozen(spec.set))
+    base = compiled_scenario(str(scenario_path), tuple(spec.variants or ()), spec.duration, frozen(spec.set))
     _check_paths(spec, base, file)
     variants = [v.name for v in base.variants]
     base_seed = spec.seed if spec.seed is not None else base.spec.seed
@@ -130,12 +130,13 @@ def load(path: str | Path, runs: int | None = None, variants: list[str] | None =
     return campaign
 
 
-def _frozen(values: dict[str, Any]) -> str:
+def frozen(values: dict[str, Any]) -> str:
+    """Values as the hashable text a cached scenario is keyed by."""
     return json.dumps(values, sort_keys=True)
 
 
 @lru_cache(maxsize=8)
-def _scenario(path: str, variants: tuple[str, ...], duration: float | None, structure: str) -> Scenario:
+def compiled_scenario(path: str, variants: tuple[str, ...], duration: float | None, structure: str) -> Scenario:
     """A group's compiled scenario (cached: a worker runs many batches of few groups)."""
     return load_scenario(path, variants=list(variants), duration=duration, assignments=json.loads(structure))
 
@@ -188,8 +189,8 @@ def _check_group(campaign: Campaign, runs: list[Run], file: str) -> None:
     """The group's scenario compiles and every run's member values are accepted; a refusal names the run."""
     spec = campaign.spec
     try:
-        scenario = _scenario(str(campaign.scenario_path), tuple(campaign.variants), spec.duration,
-                             _frozen(runs[0].structure))
+        scenario = compiled_scenario(str(campaign.scenario_path), tuple(campaign.variants), spec.duration,
+                             frozen(runs[0].structure))
     except InputError as exc:
         raise InputError(file, _describe(runs[0]), f"{exc.field}: {exc.problem}") from None
     try:
@@ -217,7 +218,7 @@ def _describe(run: Run) -> str:
 def run_task(task: Task) -> list[dict[str, Any]]:
     """Simulate one batch; one row per run and variant (and monitor): status, metrics per joint, detection
     statistics. What a worker runs."""
-    scenario = _scenario(task.scenario, task.variants, task.duration, _frozen(task.structure))
+    scenario = compiled_scenario(task.scenario, task.variants, task.duration, frozen(task.structure))
     members = members_from_overrides(scenario, [member for _, _, member in task.runs])
     diagnoser = scenario.diagnoser
     detection: dict[tuple[int, str], dict[str, np.ndarray]] = {}
@@ -310,7 +311,7 @@ def prepare_directory(campaign: Campaign, out: Path) -> set[str]:
                              "changed); choose another --out or remove it")
     (out / "parts").mkdir(parents=True, exist_ok=True)
     if not marker.is_file():
-        _write_atomic(marker, (campaign.fingerprint + "\n").encode())
+        write_atomic(marker, (campaign.fingerprint + "\n").encode())
     done: set[str] = set()
     for part in sorted((out / "parts").glob("*.parquet")):
         try:
@@ -337,9 +338,9 @@ def execute(campaign: Campaign, out: Path, *, batch_size: int | None = None, wor
         progress.update(finished, total)
     simulated = time.perf_counter() - start
     table = collect(campaign, out)
-    _write_atomic(out / "runs.parquet", _parquet_bytes(table))
+    write_atomic(out / "runs.parquet", parquet_bytes(table))
     summary = _summary(campaign, table, simulated, len(pending), scheduler, workers)
-    _write_atomic(out / "campaign.json", (json.dumps(summary, indent=2, default=_json_default) + "\n").encode())
+    write_atomic(out / "campaign.json", (json.dumps(summary, indent=2, default=_json_default) + "\n").encode())
     return summary
 
 
@@ -369,16 +370,16 @@ def results(tasks: list[Task], workers: int, scheduler: str | None) -> Iterator[
 
 def _write_part(out: Path, task: Task, rows: list[dict]) -> None:
     name = task.runs[0][1] + "-" + task.runs[-1][1] + f"-{len(task.runs)}"
-    _write_atomic(out / "parts" / f"{name}.parquet", _parquet_bytes(pa.Table.from_pylist(rows)))
+    write_atomic(out / "parts" / f"{name}.parquet", parquet_bytes(pa.Table.from_pylist(rows)))
 
 
-def _parquet_bytes(table: pa.Table) -> bytes:
+def parquet_bytes(table: pa.Table) -> bytes:
     sink = pa.BufferOutputStream()
     pq.write_table(table, sink)
     return sink.getvalue().to_pybytes()
 
 
-def _write_atomic(path: Path, content: bytes) -> None:
+def write_atomic(path: Path, content: bytes) -> None:
     """Write a file so that it is whole or absent: a temporary beside it, flushed, then renamed."""
     temporary = path.with_name(f".{path.name}.{os.getpid()}.tmp")
     with open(temporary, "wb") as handle:
@@ -470,8 +471,8 @@ def find_run(directory: Path, run_id: str) -> tuple[dict[str, Any], Run]:
     summary = json.loads(info.read_text())
     spec = CampaignSpec.model_validate(summary["resolved"])
     scenario_path = Path(summary["scenario"])
-    if not scenario_path.is_file() or fingerprint(spec, _scenario(str(scenario_path), tuple(spec.variants or ()),
-                                                                  spec.duration, _frozen(spec.set))) != summary["fingerprint"]:
+    if not scenario_path.is_file() or fingerprint(spec, compiled_scenario(str(scenario_path), tuple(spec.variants or ()),
+                                                                  spec.duration, frozen(spec.set))) != summary["fingerprint"]:
         raise InputError(str(directory), "scenario", f"{scenario_path} has changed since the campaign ran: the run "
                          "cannot be replayed as it was")
     seed = spec.seed if spec.seed is not None else load_scenario(scenario_path).spec.seed

@@ -49,7 +49,7 @@ class Run:
     @property
     def group(self) -> str:
         """The key of the runs that share its structure (one scenario, one batch)."""
-        return _digest(self.structure)
+        return digest(self.structure)
 
     def columns(self) -> dict[str, Any]:
         """Its columns in ``runs.parquet``: the case, its values and every varied field (non-numbers as JSON)."""
@@ -67,7 +67,7 @@ class Run:
         return {**self.structure, **self.member}
 
 
-def _digest(content: Any, length: int = 12) -> str:
+def digest(content: Any, length: int = 12) -> str:
     text = json.dumps(content, sort_keys=True, separators=(",", ":"), default=float)
     return hashlib.sha256(text.encode()).hexdigest()[:length]
 
@@ -120,7 +120,7 @@ def population(spec: CampaignSpec, base_seed: int) -> list[Run]:
                             (member if BATCHABLE.fullmatch(target) else structure)[target] = value
                     label = case.label if spec.cases else None
                     content = {"set": spec.set, "case": case.set, "values": values, "seed": seed}
-                    runs.append(Run(index=((s * C + c) * G + g) * R + r, run_id=_digest(content), seed=seed,
+                    runs.append(Run(index=((s * C + c) * G + g) * R + r, run_id=digest(content), seed=seed,
                                     case=label, case_values=dict(case.values), values=values,
                                     structure=structure, member=member))
     return runs
@@ -138,4 +138,4 @@ def fingerprint(spec: CampaignSpec, scenario: Scenario) -> str:
     content.pop("description")
     content["scenario"] = scenario.spec.model_dump(mode="json", exclude={"name", "description", "figures", "output"})
     content["robot_file"] = hashlib.sha256(Path(scenario.model_path).read_bytes()).hexdigest()
-    return _digest(content, 24)
+    return digest(content, 24)

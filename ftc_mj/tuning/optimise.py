@@ -30,7 +30,7 @@ import pyarrow.parquet as pq
 from cmaes import CMA
 
 from ftc_mj.campaign import execute
-from ftc_mj.campaign.population import Run, _digest
+from ftc_mj.campaign.population import Run, digest
 from ftc_mj.campaign.spec import load_campaign
 from ftc_mj.campaign.population import population_size
 from ftc_mj.engine.members import members_from_overrides
@@ -63,7 +63,7 @@ class Tuning:
 
     @property
     def fingerprint(self) -> str:
-        return _digest({"tuning": self.spec.model_dump(mode="json", exclude={"description"}) | {
+        return digest({"tuning": self.spec.model_dump(mode="json", exclude={"description"}) | {
             "optimizer": self.spec.optimizer.model_dump(exclude={"generations"})},
             "campaign": self.campaign.fingerprint}, 24)
 
@@ -105,8 +105,8 @@ def prepare(path: Path, generations: int | None = None) -> Tuning:
         baseline[gain] = float(value)
     tuning = Tuning(path, spec, campaign, campaign.runs[:spec.conditions], campaign.runs[spec.conditions:need],
                     paths, baseline)
-    scenario = execute._scenario(str(campaign.scenario_path), (spec.variant,), campaign.spec.duration,
-                                 execute._frozen(tuning.training[0].structure))
+    scenario = execute.compiled_scenario(str(campaign.scenario_path), (spec.variant,), campaign.spec.duration,
+                                 execute.frozen(tuning.training[0].structure))
     for corner in (0.0, 1.0):
         gains = tuning.gains(np.full(tuning.dimension, corner))
         try:
@@ -202,7 +202,7 @@ def violations(tuning: Tuning, evaluation: Evaluation) -> np.ndarray:
 
 
 def _save_parquet(path: Path, rows: list[dict]) -> None:
-    execute._write_atomic(path, execute._parquet_bytes(pa.Table.from_pylist(rows)))
+    execute.write_atomic(path, execute.parquet_bytes(pa.Table.from_pylist(rows)))
 
 
 def _load_rows(path: Path) -> list[dict]:
@@ -219,7 +219,7 @@ def _prepare_directory(tuning: Tuning, out: Path) -> None:
                              "changed); choose another --out or remove it")
     out.mkdir(parents=True, exist_ok=True)
     if not marker.is_file():
-        execute._write_atomic(marker, (tuning.fingerprint + "\n").encode())
+        execute.write_atomic(marker, (tuning.fingerprint + "\n").encode())
 
 
 def _evaluation_rows(tuning: Tuning, evaluation: Evaluation) -> list[dict]:
@@ -296,7 +296,7 @@ def optimise(tuning: Tuning, out: Path, *, workers: int | None = None, scheduler
                                for m, v in evaluation.metrics.items()}})
         _save_parquet(out / "history.parquet", history)
         state = {"optimizer": optimizer, "rng": optimizer._rng.get_state(), "generation": generation}
-        execute._write_atomic(out / "state.pkl", pickle.dumps(state))
+        execute.write_atomic(out / "state.pkl", pickle.dumps(state))
         best = min(row["penalised"] for row in history)
         progress(generation + 1, spec.optimizer.generations, best)
     tuning_seconds = time.perf_counter() - start
@@ -304,7 +304,7 @@ def optimise(tuning: Tuning, out: Path, *, workers: int | None = None, scheduler
     best_row = min(history, key=lambda row: (row["violations"] > 0, row["penalised"]))
     best_gains = {p: best_row[p] for p in tuning.paths}
     held_start = time.perf_counter()
-    held = _cached_evaluation(tuning, out / f"held_out-{_digest(best_gains)}.parquet", [tuning.baseline, best_gains],
+    held = _cached_evaluation(tuning, out / f"held_out-{digest(best_gains)}.parquet", [tuning.baseline, best_gains],
                               tuning.held_out, workers, scheduler)
     held_seconds = time.perf_counter() - held_start
     return {"best_row": best_row, "best_gains": best_gains, "held": held, "history": history,

@@ -17,7 +17,7 @@ import yaml  # noqa: E402
 
 from ftc_mj.analysis.metrics import unit  # noqa: E402
 from ftc_mj.campaign import statistics as st  # noqa: E402
-from ftc_mj.campaign.execute import _write_atomic  # noqa: E402
+from ftc_mj.campaign.execute import write_atomic  # noqa: E402
 from ftc_mj.tuning.optimise import Tuning, aggregate, condition_costs, violations  # noqa: E402
 
 
@@ -82,11 +82,11 @@ def write(tuning: Tuning, out: Path, result: dict[str, Any]) -> dict[str, Any]:
         "workers": result["workers"], "scheduler": result["scheduler"],
     }
     document = _clean(document)
-    _write_atomic(out / "report.json", (json.dumps(document, indent=2) + "\n").encode())
+    write_atomic(out / "report.json", (json.dumps(document, indent=2) + "\n").encode())
     best = {"# tuned by": f"python -m ftc_mj.tune {tuning.path}", **_nested(result["best_gains"])}
-    _write_atomic(out / "best.yaml", yaml.safe_dump(best, sort_keys=False).encode())
+    write_atomic(out / "best.yaml", yaml.safe_dump(best, sort_keys=False).encode())
     _convergence_figure(tuning, result["history"], out / "convergence.png")
-    _write_atomic(out / "report.md", _markdown(tuning, document, paired).encode())
+    write_atomic(out / "report.md", _markdown(tuning, document, paired).encode())
     return document
 
 
