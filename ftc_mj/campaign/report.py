@@ -546,7 +546,7 @@ def write_report(directory: Path) -> list[Path]:
     per_period = summary["wall_time"] / summary["control_steps"] * 1e6 if summary.get("control_steps") else math.nan
     lines = [f"# Campaign `{summary['name']}`", "", results.spec.description.strip(), "",
              f"- base scenario: `{Path(summary['scenario']).name}`; variants: {', '.join(summary['variants'])}",
-             f"- runs: {summary['runs']} ({summary['groups']} structure groups), rows: {summary['rows']} ({counts})",
+             f"- runs: {summary['runs']} ({summary['groups']} structure group{'s' if summary['groups'] != 1 else ''}), rows: {summary['rows']} ({counts})",
              f"- last `run`: {summary['simulated_runs']} runs simulated in {summary['wall_time']:.1f} s "
              f"({summary['runs_per_second'] or 0:.3g} runs/s, {per_period:.3g} us per member and control period "
              f"with {summary['physics_substeps']} physics steps; {summary['scheduler']}, {summary['workers']} "
