@@ -16,7 +16,6 @@ file, the field and the problem; nothing is written).
 from __future__ import annotations
 
 import argparse
-import json
 import sys
 import time
 from concurrent.futures.process import BrokenProcessPool
@@ -92,13 +91,6 @@ def _run(args: argparse.Namespace, console: Console) -> int:
     return 0
 
 
-def _replay(args: argparse.Namespace, console: Console) -> int:
-    from ftc_mj.campaign.execute import replay
-
-    code = replay(args.directory, args.run_id, variants=args.variant, out=args.out, json_path=args.json)
-    return code
-
-
 def main(argv: list[str] | None = None) -> int:
     args = build_parser().parse_args(argv)
     console = Console(stderr=False)
@@ -111,7 +103,9 @@ def main(argv: list[str] | None = None) -> int:
             written = write_report(args.directory)
             print(f"wrote {written[0]} and {len(written) - 1} figures")
             return 0
-        return _replay(args, console)
+        from ftc_mj.campaign.execute import replay
+
+        return replay(args.directory, args.run_id, variants=args.variant, out=args.out, json_path=args.json)
     except InputError as exc:
         print(f"error: {exc}", file=sys.stderr)
         return 2

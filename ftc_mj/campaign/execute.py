@@ -78,13 +78,6 @@ class Campaign:
     groups: dict[str, list[Run]] = field(default_factory=dict)
 
     @property
-    def varied_fields(self) -> list[str]:
-        fields = list(self.spec.grid)
-        if self.spec.samples is not None:
-            fields += list(self.spec.samples.fields)
-        return fields
-
-    @property
     def control_periods(self) -> int:
         """Control periods of one run of one variant."""
         return len(self.scenario.times)

@@ -145,6 +145,8 @@ class PlantTerms:
         #: Per term with a rate parameter, each row's rate, ``(rows, 1)`` (the same for every joint).
         self._rates = {index: self._parameters[:, names.index(term.rate_parameter)][:, None].copy()
                        for index, term in enumerate(terms) if term.rate_parameter is not None}
+        #: Their weights 1 - exp(-rate (t - onset)), written in place each period.
+        self._rate_weights = {index: np.empty_like(rates) for index, rates in self._rates.items()}
         self._function = expressions.StateFunction([e for term in terms for e in term.function.exprs], n_joints,
                                                    list(parameter_names))
         self._values = np.zeros((rows, len(terms) * n_joints))
@@ -163,7 +165,10 @@ class PlantTerms:
             weight = term.profile(t)
             if weight is not None:
                 if index in self._rates:  # each row's incipient profile, as Profile.weight computes it
-                    weight = 1.0 - np.exp(-self._rates[index] * (t - term.onset))
+                    weight = self._rate_weights[index]  # (-rate) * elapsed == rate * (-elapsed), bit for bit
+                    np.multiply(self._rates[index], -(t - term.onset), out=weight)
+                    np.exp(weight, out=weight)
+                    np.subtract(1.0, weight, out=weight)
                 active.append((term, index, term.sign * weight))
         self.fault_active = any(term.kind == "fault" for term, _, _ in active)
         if active:

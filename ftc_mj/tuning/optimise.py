@@ -16,7 +16,6 @@ values), so a resumed tuning is the tuning that was not interrupted.
 
 from __future__ import annotations
 
-import json
 import math
 import pickle
 import time
@@ -222,7 +221,7 @@ def _prepare_directory(tuning: Tuning, out: Path) -> None:
         execute.write_atomic(marker, (tuning.fingerprint + "\n").encode())
 
 
-def _evaluation_rows(tuning: Tuning, evaluation: Evaluation) -> list[dict]:
+def _evaluation_rows(evaluation: Evaluation) -> list[dict]:
     """An evaluation as rows (candidate, condition), to save and to rebuild it on resuming."""
     rows = []
     for (i, j), diverged in np.ndenumerate(evaluation.diverged):
@@ -253,7 +252,7 @@ def _cached_evaluation(tuning: Tuning, path: Path, candidates: list[dict[str, fl
     if path.is_file():
         return _evaluation_from_rows(_load_rows(path), metrics)
     evaluation = evaluate(tuning, candidates, conditions, workers, scheduler)
-    _save_parquet(path, _evaluation_rows(tuning, evaluation))
+    _save_parquet(path, _evaluation_rows(evaluation))
     return evaluation
 
 
