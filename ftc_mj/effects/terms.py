@@ -23,8 +23,8 @@ from typing import Literal
 import numpy as np
 
 from ftc_mj.effects.profiles import Profile, ProfileSpec, compile_profile
+from ftc_mj.robot.nominal import matvec
 from ftc_mj.spec import expressions
-from ftc_mj.spec.expressions import SCALAR_ROWS
 from ftc_mj.spec.errors import InputError
 from ftc_mj.spec.schema import (ExpressionText, NonNegativeFloat, ParameterName, PositiveFloat, Strict,
                                 parse_expression, per_joint)
@@ -125,14 +125,15 @@ class PlantTerms:
     """Friction, disturbance and fault terms of every row, evaluated on the true states.
 
     Every term's expressions are compiled into one function (:class:`~ftc_mj.spec.expressions.StateFunction`),
-    called once per period for all rows. Attributes after :meth:`apply`, ``(rows, n)``: ``fault`` (the fault
-    terms' sum, each in its own space), ``fault_force`` (their generalized force, acceleration-space ones through
-    the true M(q)); ``fault_active``: whether a fault term is on (profiles depend on time only, so for every row
-    alike).
+    called once per period for all rows. The profiles depend on time only, so which terms are on at each
+    sample of the run's grid, and their weights, are worked out before the run: each period then follows the
+    plan of its set of active terms. Attributes after :meth:`apply`, ``(rows, n)``: ``fault`` (the fault terms'
+    sum, each in its own space), ``fault_force`` (their generalized force, acceleration-space ones through the
+    true M(q)); ``fault_active``: whether a fault term is on (for every row alike).
     """
 
-    def __init__(self, terms: list[CompiledTerm], rows: int, n_joints: int, parameters: np.ndarray,
-                 parameter_names: Sequence[str] = ()):
+    def __init__(self, terms: list[CompiledTerm], times: np.ndarray, rows: int, n_joints: int,
+                 parameters: np.ndarray, parameter_names: Sequence[str] = ()):
         self.terms = terms
         shape = (rows, n_joints)
         #: torque, acceleration, fault, fault force and fault acceleration sums, zeroed at once each period.
@@ -142,93 +143,114 @@ class PlantTerms:
         self._mapped = np.zeros(shape)
         self._parameters = np.asarray(parameters, dtype=float).reshape(rows, -1)
         names = list(parameter_names)
-        #: Per term with a rate parameter, each row's rate, ``(rows, 1)`` (the same for every joint).
+        #: Per term with a rate parameter, each row's rate, ``(rows, 1)`` (the same for every joint), and its
+        #: weight 1 - exp(-rate (t - onset)), written in place each period.
         self._rates = {index: self._parameters[:, names.index(term.rate_parameter)][:, None].copy()
                        for index, term in enumerate(terms) if term.rate_parameter is not None}
-        #: Their weights 1 - exp(-rate (t - onset)), written in place each period.
         self._rate_weights = {index: np.empty_like(rates) for index, rates in self._rates.items()}
         self._function = expressions.StateFunction([e for term in terms for e in term.function.exprs], n_joints,
                                                    list(parameter_names))
         self._values = np.zeros((rows, len(terms) * n_joints))
         self._blocks = [self._values[:, i * n_joints:(i + 1) * n_joints] for i in range(len(terms))]
         self.needs_mass = any(term.space == "acceleration" for term in terms)
-        self._has_acceleration_fault = any(term.space == "acceleration" and term.kind == "fault" for term in terms)
 
-    def apply(self, t: float, qpos: np.ndarray, qvel: np.ndarray, mass: np.ndarray | None, out: np.ndarray) -> None:
-        """Write the sum of all terms at time ``t`` and the true states into ``out`` (``qfrc_applied``).
+        # sign x weight of every term at every sample (NaN where off), and the plan of each set of active terms.
+        times = np.asarray(times, dtype=float)
+        self._factors = [_factor_table(term, times, n_joints) for term in terms]
+        on = np.array([np.isfinite(table).all(axis=1) if table.ndim == 2 else np.isfinite(table)
+                       for table in self._factors], dtype=bool).reshape(len(terms), len(times))
+        active_sets, self._plan_of_sample = np.unique(on.T, axis=0, return_inverse=True)
+        self._plan_of_sample = self._plan_of_sample.reshape(-1).tolist()
+        self._plans = [self._plan(np.flatnonzero(active)) for active in active_sets]
+
+    def _plan(self, active: np.ndarray) -> "_Plan":
+        """What a period with the terms ``active`` (indices, file order) does: each term's block, the sums it
+        goes to, and where its factor comes from."""
+        steps = []
+        for index in active.tolist():
+            term = self.terms[index]
+            acceleration = term.space == "acceleration"
+            targets = [self.acceleration if acceleration else self.torque]
+            if term.kind == "fault":
+                targets += [self.fault, self._fault_acceleration if acceleration else self.fault_force]
+            steps.append((index, self._blocks[index], targets))
+        kinds = [(self.terms[i].kind, self.terms[i].space) for i in active.tolist()]
+        acceleration_terms = [i for i in active.tolist() if self.terms[i].space == "acceleration"]
+        acceleration_faults = [i for i in acceleration_terms if self.terms[i].kind == "fault"]
+        return _Plan(
+            steps=steps,
+            fault_active=any(kind == "fault" for kind, _ in kinds),
+            maps_acceleration=bool(acceleration_terms),
+            maps_fault_acceleration=bool(acceleration_faults),
+            # The same terms in the same order: the two sums are the same numbers, and so are their M(q) images.
+            same_acceleration_sums=acceleration_terms == acceleration_faults,
+        )
+
+    def apply(self, k: int, t: float, qpos: np.ndarray, qvel: np.ndarray, mass: np.ndarray | None,
+              out: np.ndarray) -> None:
+        """Write the sum of all terms at sample ``k`` (time ``t``) and the true states into ``out``
+        (``qfrc_applied``).
 
         ``t`` is the loop's k * control_dt: MuJoCo's ``data.time`` accumulates rounding (after 40000 steps
         of 0.25 ms it is 9.99999999999937), which would start a fault due at 10 s one period late. ``mass``
         is the true M(q) of each row at the sample instant, needed with acceleration-space terms."""
-        active = []  # (term, its index, sign times the profile's weight) of the terms on at t
-        for index, term in enumerate(self.terms):
-            weight = term.profile(t)
-            if weight is not None:
-                if index in self._rates:  # each row's incipient profile, as Profile.weight computes it
-                    weight = self._rate_weights[index]  # (-rate) * elapsed == rate * (-elapsed), bit for bit
-                    np.multiply(self._rates[index], -(t - term.onset), out=weight)
-                    np.exp(weight, out=weight)
-                    np.subtract(1.0, weight, out=weight)
-                active.append((term, index, term.sign * weight))
-        self.fault_active = any(term.kind == "fault" for term, _, _ in active)
-        if active:
-            self._function.evaluate(t, qpos, qvel, self._parameters, self._values)
-        if len(self._values) <= SCALAR_ROWS:
-            self._sum_rows(active)
-        else:
-            self._sum_columns(active)
-        np.copyto(out, self.torque)
-        if self.needs_mass:
-            out += _times(mass, self.acceleration, self._mapped)
-        if self._has_acceleration_fault and self.fault_active:
-            self.fault_force += _times(mass, self._fault_acceleration, self._mapped)
-
-    def _sum_columns(self, active: list) -> None:
-        """The sums of the terms on, from zero, term by term in the file's order."""
+        plan = self._plans[self._plan_of_sample[k]]
+        self.fault_active = plan.fault_active
         self._sums[:] = 0.0
-        for term, index, factor in active:
-            value = self._blocks[index]
+        if plan.steps:
+            self._function.evaluate(t, qpos, qvel, self._parameters, self._values)
+        # Term by term in the file's order, each sum from zero: the same operations whatever the batch size.
+        for index, value, targets in plan.steps:
+            if index in self._rates:  # each row's incipient profile, as Profile.weight computes it
+                factor = self._rate_weights[index]  # (-rate) * elapsed == rate * (-elapsed), bit for bit
+                np.multiply(self._rates[index], -(t - self.terms[index].onset), out=factor)
+                np.exp(factor, out=factor)
+                # sign (1 - e): e - 1 for sign -1, the same bits (rounding is symmetric under negation).
+                if self.terms[index].sign > 0:
+                    np.subtract(1.0, factor, out=factor)
+                else:
+                    np.subtract(factor, 1.0, out=factor)
+            else:
+                factor = self._factors[index][k]
             value *= factor
-            acceleration = term.space == "acceleration"
-            (self.acceleration if acceleration else self.torque)[:] += value
-            if term.kind == "fault":
-                self.fault += value
-                (self._fault_acceleration if acceleration else self.fault_force)[:] += value
-
-    def _sum_rows(self, active: list) -> None:
-        """:meth:`_sum_columns` on Python floats, row by row: the same operations in the same order (the same
-        bits), without NumPy's per-call cost on a few rows."""
-        n = self._sums.shape[-1]
-        plan = []
-        for term, index, factor in active:
-            acceleration = term.space == "acceleration"
-            targets = [_ACCELERATION if acceleration else _TORQUE]
-            if term.kind == "fault":
-                targets += [_FAULT, _FAULT_ACCELERATION if acceleration else _FAULT_FORCE]
-            if not isinstance(factor, np.ndarray):  # one for every joint and row
-                factors = [[factor] * n] * len(self._values)
-            elif factor.ndim == 1:  # per joint
-                factors = [factor.tolist()] * len(self._values)
-            else:  # per row, (rows, 1)
-                factors = [[f] * n for f in factor[:, 0].tolist()]
-            plan.append((index * n, factors, targets))
-        joints = range(n)
-        for row, values in enumerate(self._values.tolist()):
-            sums = [[0.0] * n for _ in range(5)]
-            for offset, factors, targets in plan:
-                factor = factors[row]
-                scaled = [values[offset + j] * factor[j] for j in joints]
-                for target in targets:
-                    total = sums[target]
-                    for j in joints:
-                        total[j] += scaled[j]
-            self._sums[:, row] = sums
+            for target in targets:
+                target += value
+        if not plan.maps_acceleration:
+            np.copyto(out, self.torque)
+            return
+        mapped = matvec(mass, self.acceleration, self._mapped)
+        np.add(self.torque, mapped, out=out)
+        if plan.maps_fault_acceleration:
+            if not plan.same_acceleration_sums:
+                mapped = matvec(mass, self._fault_acceleration, self._mapped)
+            self.fault_force += mapped
 
 
-#: Rows of PlantTerms._sums.
-_TORQUE, _ACCELERATION, _FAULT, _FAULT_FORCE, _FAULT_ACCELERATION = range(5)
+@dataclass
+class _Plan:
+    """A period's work for one set of active terms (:meth:`PlantTerms._plan`)."""
+
+    #: (term index, its block of values, the sums it is added to), in the file's order.
+    steps: list[tuple[int, np.ndarray, list[np.ndarray]]]
+    fault_active: bool
+    maps_acceleration: bool
+    maps_fault_acceleration: bool
+    same_acceleration_sums: bool
 
 
-def _times(matrices: np.ndarray, vectors: np.ndarray, out: np.ndarray) -> np.ndarray:
-    """Row by row, ``matrices[r] @ vectors[r]``."""
-    return np.einsum("rij,rj->ri", matrices, vectors, out=out)
+def _factor_table(term: CompiledTerm, times: np.ndarray, n: int) -> np.ndarray:
+    """sign x weight of ``term`` at every sample, ``(samples,)`` or ``(samples, n)`` (incipient), NaN where
+    the term is off; each value exactly what ``term.sign * term.profile(t)`` gives at that sample."""
+    profile = term.time_profile
+    if profile is None:
+        return np.full(len(times), term.sign)
+    on = profile.active(times)
+    elapsed = times - profile.onset
+    if profile.shape == "incipient":
+        weight = 1.0 - np.exp(-profile.rate * elapsed[:, None])
+        on = on[:, None]
+    elif profile.shape == "ramp":
+        weight = np.minimum(1.0, elapsed / profile.ramp_time)
+    else:
+        weight = np.ones(len(times))
+    return np.where(on, term.sign * weight, np.nan)

@@ -222,7 +222,8 @@ class _Run:
             blocks.append(VariantBlock(variant.name, block_rows, observer, controller, host_model, monitors,
                                        config.q_hat0, config.qd_hat0))
 
-        self.terms = PlantTerms(scenario.terms, rows, n, per_row(members.parameters), list(spec.parameters))
+        self.terms = PlantTerms(scenario.terms, self.times, rows, n, per_row(members.parameters),
+                                list(spec.parameters))
         self.actuators = (ActuatorFaults(scenario.actuator_faults, self.times, (rows, n))
                           if scenario.actuator_faults else None)
         self.has_faults = self.actuators is not None or any(term.kind == "fault" for term in scenario.terms)
@@ -277,16 +278,16 @@ class _Run:
     def sense(self, k: int) -> None:
         """1. The readings of sample k, corrupted by the sensor effects."""
         plant = self.plant
-        plant.read_positions(self.q_read)
-        if self.position_sensor is None:
-            np.copyto(self.q_meas, self.q_read)
+        if self.position_sensor is None:  # the encoders read exactly
+            plant.read_positions(self.q_meas)
         else:
+            plant.read_positions(self.q_read)
             self.position_sensor.read(k, self.q_read, self.q_meas)
         if self.qd_meas is not None:
-            plant.read_velocities(self.qd_read)
             if self.velocity_sensor is None:
-                np.copyto(self.qd_meas, self.qd_read)
+                plant.read_velocities(self.qd_meas)
             else:
+                plant.read_velocities(self.qd_read)
                 self.velocity_sensor.read(k, self.qd_read, self.qd_meas)
 
     def evaluate_nominal(self, k: int) -> None:
@@ -368,7 +369,7 @@ class _Run:
         if self.plant_is_nominal:  # M(q)^-1 tau + Psi(q, qd) = M^-1 (tau - C qd - G) at the true state
             np.subtract(tau, self.plant_bias, out=self.truth_force)
             solver.solve(plant.factor, plant.diagonal_inverse, self.truth_force, self.truth_acceleration)
-        terms.apply(t, plant.qpos, plant.qvel, true_mass, plant.applied)
+        terms.apply(k, t, plant.qpos, plant.qvel, true_mass, plant.applied)
         series["fault"][k] = terms.fault
         any_fault = terms.fault_active  # profiles depend on time only: the same for every row
         delivered = tau
@@ -404,10 +405,10 @@ class _Run:
             block.observer.advance(tau_b, block.model)
             for _, observer, model in block.monitors:
                 observer.advance(tau_b, model)
-        self.stop(plant.step(), k)
-        series["qdd_true"][k] = plant.acceleration
+        acceleration = series["qdd_true"][k]
+        self.stop(plant.step(acceleration), k)
         if self.plant_is_nominal:
-            np.subtract(plant.acceleration, self.truth_acceleration, out=series["luaf_true"][k])
+            np.subtract(acceleration, self.truth_acceleration, out=series["luaf_true"][k])
 
     def last_truth(self) -> None:
         """The last recorded sample's truth, where it comes from the truth points."""

@@ -32,7 +32,6 @@ class Plant:
     Attributes (live ``(rows, ...)`` arrays of the batch):
         qpos, qvel: the true state at the current sample instant.
         ctrl, applied: the command and the generalized force (terms, actuator faults) of this period.
-        acceleration: after :meth:`step`, the true acceleration of the period's first substep.
         alive: rows still running.
     """
 
@@ -47,7 +46,6 @@ class Plant:
         self.qpos, self.qvel = self.batch.bind("qpos"), self.batch.bind("qvel")
         self.ctrl, self.applied = self.batch.bind("ctrl"), self.batch.bind("qfrc_applied")
         self.qacc = self.batch.bind("qacc")
-        self.acceleration = np.zeros_like(self.qacc)
         self._sensordata = self.batch.bind("sensordata")
         self._sparse_M = self.batch.bind("M")
         #: MuJoCo's factorisation of M(q) at the sample instant (``qLD``, ``qLDiagInv``).
@@ -100,18 +98,19 @@ class Plant:
         within = (self._position <= self.max_position).all(axis=1) & (self._velocity <= self.max_velocity).all(axis=1)
         return self._stop(~within & self.alive)
 
-    def step(self) -> np.ndarray | None:
+    def step(self, acceleration: np.ndarray) -> np.ndarray | None:
         """Advance one control period; returns the rows stopped by MuJoCo (a mask), or None.
 
-        The first substep alone, so that ``acceleration`` is the true qdd at the sampled state under this
-        period's inputs; then the others, ending with the position and velocity stages at the new state
-        (what ``mj_step1`` computes), so that sensors and M(q) are current for the next period."""
+        The first substep alone, whose acceleration goes into ``acceleration`` ``(rows, n)``: the true qdd at
+        the sampled state under this period's inputs; then the others, ending with the position and velocity
+        stages at the new state (what ``mj_step1`` computes), so that sensors and M(q) are current for the
+        next period."""
         rest = self.substeps - 1
         failed = self._call(1, 0 if rest else _POSITION_VELOCITY_STAGE, None)
-        np.copyto(self.acceleration, self.qacc)
+        np.copyto(acceleration, self.qacc)
         if rest:
             failed = self._call(rest, _POSITION_VELOCITY_STAGE, failed)
-        if self._reset_counts.any():  # counts since the start: a warned row stops
+        if np.count_nonzero(self._reset_counts):  # counts since the start: a warned row stops
             failed = self._reset_counts.any(axis=1) | (False if failed is None else failed)
         return None if failed is None else self._stop(failed)
 

@@ -43,6 +43,9 @@ class Method(ABC):
         #: without it, a standalone ``(n,)``, as unit tests of one law use).
         self.shape = (n_joints,) if members is None else (members, n_joints)
         self.dt = dt
+        #: ``dt`` as a ``self.shape`` array: the same products, at less cost than with a Python float (NumPy
+        #: converts a float operand on every call).
+        self.dt_array = np.full(self.shape, float(dt))
         #: Internal per-joint signals worth plotting (e.g. an adaptive gain, Fig. 2.8): name -> array that the
         #: method updates in place. The loop records each one every period beside the estimates.
         self.signals: dict[str, np.ndarray] = {}

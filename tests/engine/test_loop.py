@@ -483,7 +483,7 @@ def test_plugins_never_receive_the_simulation(tmp_path: Path, spies, monkeypatch
     assert (result.observer, result.controller) == ("spy_observer", "spy_controller")
     assert len(plants) == 1
     plant = plants[0]
-    plant_buffers = [plant.qpos, plant.qvel, plant.qacc, plant.ctrl, plant.applied, plant.acceleration,
+    plant_buffers = [plant.qpos, plant.qvel, plant.qacc, plant.ctrl, plant.applied,
                      plant.batch.bind("sensordata"), plant.batch.bind("M")]
 
     calls = spies.calls
