@@ -127,9 +127,9 @@ class PlantTerms:
     Every term's expressions are compiled into one function (:class:`~ftc_mj.spec.expressions.StateFunction`),
     called once per period for all rows. The profiles depend on time only, so which terms are on at each
     sample of the run's grid, and their weights, are worked out before the run: each period then follows the
-    plan of its set of active terms. Attributes after :meth:`apply`, ``(rows, n)``: ``fault`` (the fault terms'
-    sum, each in its own space), ``fault_force`` (their generalized force, acceleration-space ones through the
-    true M(q)); ``fault_active``: whether a fault term is on (for every row alike).
+    plan of its set of active terms (``fault_on``: whether a fault term is on, per sample, for every row alike).
+    Attributes after :meth:`apply`, ``(rows, n)``: ``fault`` (the fault terms' sum, each in its own space),
+    ``fault_force`` (their generalized force, acceleration-space ones through the true M(q)).
     """
 
     def __init__(self, terms: list[CompiledTerm], times: np.ndarray, rows: int, n_joints: int,
@@ -139,7 +139,6 @@ class PlantTerms:
         #: torque, acceleration, fault, fault force and fault acceleration sums, zeroed at once each period.
         self._sums = np.zeros((5,) + shape)
         self.torque, self.acceleration, self.fault, self.fault_force, self._fault_acceleration = self._sums
-        self.fault_active = False
         self._mapped = np.zeros(shape)
         self._parameters = np.asarray(parameters, dtype=float).reshape(rows, -1)
         names = list(parameter_names)
@@ -162,6 +161,8 @@ class PlantTerms:
         active_sets, self._plan_of_sample = np.unique(on.T, axis=0, return_inverse=True)
         self._plan_of_sample = self._plan_of_sample.reshape(-1).tolist()
         self._plans = [self._plan(np.flatnonzero(active)) for active in active_sets]
+        #: Whether a fault term is on at each sample, ``(samples,)``.
+        self.fault_on = np.array([self._plans[plan].fault_active for plan in self._plan_of_sample], dtype=bool)
 
     def _plan(self, active: np.ndarray) -> "_Plan":
         """What a period with the terms ``active`` (indices, file order) does: each term's block, the sums it
@@ -195,7 +196,6 @@ class PlantTerms:
         of 0.25 ms it is 9.99999999999937), which would start a fault due at 10 s one period late. ``mass``
         is the true M(q) of each row at the sample instant, needed with acceleration-space terms."""
         plan = self._plans[self._plan_of_sample[k]]
-        self.fault_active = plan.fault_active
         self._sums[:] = 0.0
         if plan.steps:
             self._function.evaluate(t, qpos, qvel, self._parameters, self._values)

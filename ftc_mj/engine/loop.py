@@ -227,6 +227,9 @@ class _Run:
         self.actuators = (ActuatorFaults(scenario.actuator_faults, self.times, (rows, n))
                           if scenario.actuator_faults else None)
         self.has_faults = self.actuators is not None or any(term.kind == "fault" for term in scenario.terms)
+        # Whether a fault is on: profiles depend on time only, so the same for every row, known before the run.
+        fault_on = self.terms.fault_on | (False if self.actuators is None else self.actuators.active)
+        self.fault_on = fault_on.tolist()
         self.position_sensor = self.velocity_sensor = None
         if scenario.position_sensor is not None:
             self.position_sensor = Measurement(scenario.position_sensor, self.times,
@@ -240,7 +243,8 @@ class _Run:
         self.reference = scenario.reference.evaluate(self.times, members.parameters[:, used] if used else None)
         steps = self.steps
         self.series = {name: np.full((steps, rows, n), np.nan) for name in SERIES}
-        self.fault_active = np.zeros((steps, rows), dtype=bool)
+        self.series["fault_acceleration"][:] = 0.0  # written only while a fault is on
+        self.fault_active = np.repeat(fault_on[:, None], rows, axis=1)
         self.q_meas, self.q_read, self.qd_read = np.zeros((rows, n)), np.zeros((rows, n)), np.zeros((rows, n))
         self.qd_measured = np.full((steps, rows, n), np.nan) if self.measures_velocity else None
         self.torque_space = scenario.diagnoser is not None and scenario.diagnoser.space == "torque"
@@ -261,7 +265,6 @@ class _Run:
             self.body_xquat = np.zeros((steps,) + self.xquat.shape)
         self.tau = np.zeros((rows, n))
         self.truth_tau = nominal.applied[self.truth_points]
-        self.fault_acceleration = np.zeros((rows, n))
         self.plant_bias = plant.batch.bind("qfrc_bias")  # C(q, qd) qd + G(q) at the sample instant
         self.truth_force, self.truth_acceleration = np.zeros((rows, n)), np.zeros((rows, n))
         self.done = np.full(rows, steps)
@@ -371,8 +374,6 @@ class _Run:
             solver.solve(plant.factor, plant.diagonal_inverse, self.truth_force, self.truth_acceleration)
         terms.apply(k, t, plant.qpos, plant.qvel, true_mass, plant.applied)
         series["fault"][k] = terms.fault
-        any_fault = terms.fault_active  # profiles depend on time only: the same for every row
-        delivered = tau
         actuators = self.actuators
         if actuators is not None:
             # The actuators deliver something else than the command: the difference acts through
@@ -380,17 +381,11 @@ class _Run:
             actuators.apply(k, tau)
             plant.applied += actuators.torque
             terms.fault_force += actuators.torque
-            any_fault = any_fault or actuators.active[k]
-            delivered = actuators.delivered
-        self.fault_active[k] = any_fault
-        series["tau_delivered"][k] = delivered
+            series["tau_delivered"][k] = actuators.delivered
         if self.has_faults:
             series["fault_torque"][k] = terms.fault_force
-            if any_fault:  # M(q)^-1 of the fault force, with the true M of the sample instant
-                solver.solve(plant.factor, plant.diagonal_inverse, terms.fault_force, self.fault_acceleration)
-            else:
-                self.fault_acceleration[:] = 0.0
-            series["fault_acceleration"][k] = self.fault_acceleration
+            if self.fault_on[k]:  # M(q)^-1 of the fault force, with the true M of the sample instant (else 0)
+                solver.solve(plant.factor, plant.diagonal_inverse, terms.fault_force, series["fault_acceleration"][k])
         if not self.plant_is_nominal:  # the truth point of this row, evaluated with the next period's nominal call
             self.nominal.qpos[self.truth_points] = plant.qpos
             self.nominal.qvel[self.truth_points] = plant.qvel
@@ -419,9 +414,10 @@ class _Run:
     def result(self) -> BatchRun:
         """The series, cut where each row stopped."""
         series, done = self.series, self.done
+        if self.actuators is None:  # the actuators delivered the command
+            np.copyto(series["tau_delivered"], series["tau"])
         if not self.has_faults:
             series["fault_torque"][:] = 0.0
-            series["fault_acceleration"][:] = 0.0
         for rows_series in (*series.values(), self.qd_measured, self.luaf_torque):
             if rows_series is not None:
                 _cut(rows_series, done)

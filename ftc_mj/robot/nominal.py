@@ -209,6 +209,7 @@ class SparseSolver:
         self._rows = [(i, off_diagonal(i)) for i in range(model.nv)]
         self._rows = [(i, entries) for i, entries in self._rows if entries]
         self._model, self._data = model, mujoco.MjData(model)  # the scratch MjData of small batches
+        self._factor, self._diagonal_inverse = self._data.qLD, self._data.qLDiagInv  # views, made once
         self._rhs, self._solution = np.zeros((1, model.nv)), np.zeros((1, model.nv))
 
     def solve(self, factor: np.ndarray, diagonal_inverse: np.ndarray, vector: np.ndarray, out: np.ndarray) -> np.ndarray:
@@ -217,13 +218,13 @@ class SparseSolver:
         A few rows are solved by ``mj_solveM`` itself (NumPy's per-call cost would dominate), many on columns
         with its operations in its order: the same bits either way (tested)."""
         if len(out) <= SCALAR_ROWS:  # mj_solveM itself, row by row, on a scratch MjData holding the row's factor
-            data = self._data
+            model, data, rhs, solution = self._model, self._data, self._rhs, self._solution
             for row in range(len(out)):
-                data.qLD[:] = factor[row]
-                data.qLDiagInv[:] = diagonal_inverse[row]
-                self._rhs[0] = vector[row] if vector.ndim == 2 else vector
-                mujoco.mj_solveM(self._model, data, self._solution, self._rhs)
-                out[row] = self._solution[0]
+                self._factor[:] = factor[row]
+                self._diagonal_inverse[:] = diagonal_inverse[row]
+                rhs[0] = vector[row] if vector.ndim == 2 else vector
+                mujoco.mj_solveM(model, data, solution, rhs)
+                out[row] = solution[0]
             return out
         np.copyto(out, vector)
         for i, entries in reversed(self._rows):  # x <- L'^-1 x
