@@ -44,6 +44,8 @@ from ftc_mj.spec.scenario import Scenario
 
 ProgressCallback = Callable[[int], None]
 PROGRESS_EVERY = 500
+#: Samples whose truths are solved together after the run (bounds the temporary arrays).
+TRUTH_CHUNK = 2048
 
 #: The per-row series a run keeps, each ``(steps, rows, n)``.
 SERIES = ("q_meas", "q_true", "qd_true", "qdd_true", "qd_hat", "luaf_hat", "luaf_true", "tau", "sliding",
@@ -62,6 +64,14 @@ class VariantBlock:
     monitors: list[tuple[str, Observer, StepModel]]
     q_hat0: np.ndarray | None
     qd_hat0: np.ndarray
+    #: Views of the block's rows of the loop's buffers, made once: readings and the commanded torque.
+    q_meas: np.ndarray
+    qd_meas: np.ndarray | None
+    tau: np.ndarray
+    #: Where each estimator's (observer, monitors) estimate goes in the nominal batch: (observer, qpos, qvel).
+    points: list[tuple[Observer, np.ndarray, np.ndarray]]
+    #: The nominal points at the readings (a controller on measured velocity), or None.
+    reading_points: tuple[np.ndarray, np.ndarray] | None
 
     @cached_property
     def estimators(self) -> list[Observer]:
@@ -133,7 +143,7 @@ def _simulate(scenario: Scenario, members: Members, record_poses: bool, progress
             run.advance(k)
             if progress is not None and (k + 1) % PROGRESS_EVERY == 0:
                 progress(PROGRESS_EVERY)
-        run.last_truth()
+        run.finish_truth()
     if progress is not None:
         progress(run.steps % PROGRESS_EVERY)
     return run.result()
@@ -194,6 +204,12 @@ class _Run:
 
         self.measures_velocity = scenario.measures_velocity
         qd_meas = self.qd_meas = np.zeros((rows, n)) if self.measures_velocity else None  # the tachometers'
+        self.q_meas, self.q_read, self.qd_read = np.zeros((rows, n)), np.zeros((rows, n)), np.zeros((rows, n))
+        self.tau = np.zeros((rows, n))
+
+        def points(first: int) -> tuple[np.ndarray, np.ndarray]:  # the nominal batch's qpos, qvel of a point's rows
+            return nominal.qpos[first:first + count], nominal.qvel[first:first + count]
+
         self.blocks = blocks = []
         point = 0
         for v, variant in enumerate(variants):
@@ -218,9 +234,15 @@ class _Run:
                                  step_model(point)))
                 point += count
             host_model = step_model(host, point if measured[v] else None)
+            reading_points = points(point) if measured[v] else None
             point += count * measured[v]
-            blocks.append(VariantBlock(variant.name, block_rows, observer, controller, host_model, monitors,
-                                       config.q_hat0, config.qd_hat0))
+            estimators = [observer] + [monitor for _, monitor, _ in monitors]
+            blocks.append(VariantBlock(
+                variant.name, block_rows, observer, controller, host_model, monitors, config.q_hat0,
+                config.qd_hat0, q_meas=self.q_meas[block_rows],
+                qd_meas=None if qd_meas is None else qd_meas[block_rows], tau=self.tau[block_rows],
+                points=[(estimator, *points(host + i * count)) for i, estimator in enumerate(estimators)],
+                reading_points=reading_points))
 
         self.terms = PlantTerms(scenario.terms, self.times, rows, n, per_row(members.parameters),
                                 list(spec.parameters))
@@ -245,7 +267,6 @@ class _Run:
         self.series = {name: np.full((steps, rows, n), np.nan) for name in SERIES}
         self.series["fault_acceleration"][:] = 0.0  # written only while a fault is on
         self.fault_active = np.repeat(fault_on[:, None], rows, axis=1)
-        self.q_meas, self.q_read, self.qd_read = np.zeros((rows, n)), np.zeros((rows, n)), np.zeros((rows, n))
         self.qd_measured = np.full((steps, rows, n), np.nan) if self.measures_velocity else None
         self.torque_space = scenario.diagnoser is not None and scenario.diagnoser.space == "torque"
         self.luaf_torque = np.full((steps, rows, n), np.nan) if self.torque_space else None
@@ -263,10 +284,17 @@ class _Run:
             self.xpos, self.xquat = plant.batch.bind("xpos"), plant.batch.bind("xquat")
             self.body_xpos = np.zeros((steps,) + self.xpos.shape)
             self.body_xquat = np.zeros((steps,) + self.xquat.shape)
-        self.tau = np.zeros((rows, n))
         self.truth_tau = nominal.applied[self.truth_points]
         self.plant_bias = plant.batch.bind("qfrc_bias")  # C(q, qd) qd + G(q) at the sample instant
-        self.truth_force, self.truth_acceleration = np.zeros((rows, n)), np.zeros((rows, n))
+        # The truths that need M(q)^-1 at the sample instant (M^-1 tau + Psi of a nominal plant, M^-1 of the fault
+        # force) are solved after the run over every sample at once (:meth:`finish_truth`): each period keeps the
+        # factorisation of M(q) and the right-hand side instead of solving.
+        self.keeps_factors = self.plant_is_nominal or self.has_faults
+        factor_shape = (steps, rows) + plant.factor.shape[1:] if self.keeps_factors else (0, rows, 0)
+        self.sample_factor = np.zeros(factor_shape)
+        self.sample_diagonal_inverse = np.zeros(factor_shape[:2] + ((n,) if self.keeps_factors else (0,)))
+        #: tau - C qd - G at each sample of a nominal plant: M^-1 of it is M^-1 tau + Psi.
+        self.truth_force = np.zeros((steps if self.plant_is_nominal else 0, rows, n))
         self.done = np.full(rows, steps)
         self.diverged_at = np.full(rows, np.nan)
         #: The sample whose true lumped uncertainty the next nominal evaluation gives (truth points only).
@@ -295,32 +323,30 @@ class _Run:
 
     def evaluate_nominal(self, k: int) -> None:
         """2. The observers take the readings; the nominal model at every point (and last period's truth)."""
-        nominal, count, q_meas, qd_meas = self.nominal, self.count, self.q_meas, self.qd_meas
-        point = 0
+        nominal, count = self.nominal, self.count
         for block in self.blocks:
-            q_b = q_meas[block.rows]
-            qd_b = None if qd_meas is None else qd_meas[block.rows]
+            q_b, qd_b = block.q_meas, block.qd_meas
             if k == 0:  # from the first reading unless the scenario says otherwise
                 q_hat0 = q_b if block.q_hat0 is None else block.q_hat0
                 for observer in block.estimators:
                     observer.reset(q_hat0, block.qd_hat0)
-            for observer in block.estimators:
+            for observer, qpos, qvel in block.points:
                 observer.measure(q_b, qd_b)
-                nominal.qpos[point:point + count] = observer.q_hat
-                nominal.qvel[point:point + count] = observer.qd_hat
-                point += count
-            if block.model.qd_measured is not None:  # the controller's Psi at the readings
-                nominal.qpos[point:point + count] = q_b
-                nominal.qvel[point:point + count] = qd_b
-                point += count
+                qpos[...] = observer.q_hat
+                qvel[...] = observer.qd_hat
+            if block.reading_points is not None:  # the controller's Psi at the readings
+                qpos, qvel = block.reading_points
+                qpos[...] = q_b
+                qvel[...] = qd_b
         if not self.mass_from_plant:
-            nominal.qpos[self.mass_points] = q_meas
+            nominal.qpos[self.mass_points] = self.q_meas
         if self.plant.running < self.rows:  # stopped rows may hold NaN or inf: evaluate them at rest instead
             _rest(nominal, self.plant.alive, self.done < k, count, self.estimators, self.mass_points,
                   self.truth_points)
         nominal.evaluate()
         (self.plant if self.mass_from_plant else nominal).mass_matrices()  # refreshes ``mass``
-        self._pending_truth()
+        if self.pending is not None:
+            self._pending_truth()
         self.pending = None if self.plant_is_nominal else k
 
     def _pending_truth(self) -> None:
@@ -335,8 +361,7 @@ class _Run:
         series, q_meas, tau = self.series, self.q_meas, self.tau
         q_ref, qd_ref, qdd_ref = self.reference[0][k], self.reference[1][k], self.reference[2][k]
         for b, block in enumerate(self.blocks):
-            rows_b = block.rows
-            q_b = q_meas[rows_b]
+            rows_b, q_b = block.rows, block.q_meas
             block.observer.update(t, q_b, block.model)
             for name, observer, model in block.monitors:
                 observer.update(t, q_b, model)
@@ -345,14 +370,15 @@ class _Run:
                 recorded["luaf_hat"][k] = observer.luaf_hat
                 if self.torque_space:
                     model.apply_M(observer.luaf_hat, out=recorded["luaf_torque"][k])
-            tau[rows_b] = block.controller.compute(t, q_ref, qd_ref, qdd_ref, q_b, block.observer, block.model)
+            block.tau[...] = block.controller.compute(t, q_ref, qd_ref, qdd_ref, q_b, block.observer, block.model)
             series["qd_hat"][k, rows_b] = block.observer.qd_hat
             series["luaf_hat"][k, rows_b] = block.observer.luaf_hat
             series["sliding"][k, rows_b] = block.controller.sliding
             if self.luaf_torque is not None:
                 block.model.apply_M(block.observer.luaf_hat, out=self.luaf_torque[k, rows_b])
-            for name, signal in self.signals[b].items():
-                self.extras[block.name][name][k] = signal
+            if self.signals[b]:
+                for name, signal in self.signals[b].items():
+                    self.extras[block.name][name][k] = signal
         plant = self.plant
         plant.ctrl[:] = tau
         series["q_meas"][k] = q_meas
@@ -367,11 +393,13 @@ class _Run:
 
     def actuate(self, k: int, t: float) -> None:
         """4. Terms on the true state and what the actuators deliver go to ``qfrc_applied``; the fault truth."""
-        plant, terms, series, tau, solver = self.plant, self.terms, self.series, self.tau, self.solver
+        plant, terms, series, tau = self.plant, self.terms, self.series, self.tau
         true_mass = (self.mass if self.mass_from_plant else plant.mass_matrices()) if terms.needs_mass else None
+        if self.keeps_factors:  # M(q) of the sample instant, for the truths solved after the run
+            self.sample_factor[k] = plant.factor
+            self.sample_diagonal_inverse[k] = plant.diagonal_inverse
         if self.plant_is_nominal:  # M(q)^-1 tau + Psi(q, qd) = M^-1 (tau - C qd - G) at the true state
-            np.subtract(tau, self.plant_bias, out=self.truth_force)
-            solver.solve(plant.factor, plant.diagonal_inverse, self.truth_force, self.truth_acceleration)
+            np.subtract(tau, self.plant_bias, out=self.truth_force[k])
         terms.apply(k, t, plant.qpos, plant.qvel, true_mass, plant.applied)
         series["fault"][k] = terms.fault
         actuators = self.actuators
@@ -384,8 +412,6 @@ class _Run:
             series["tau_delivered"][k] = actuators.delivered
         if self.has_faults:
             series["fault_torque"][k] = terms.fault_force
-            if self.fault_on[k]:  # M(q)^-1 of the fault force, with the true M of the sample instant (else 0)
-                solver.solve(plant.factor, plant.diagonal_inverse, terms.fault_force, series["fault_acceleration"][k])
         if not self.plant_is_nominal:  # the truth point of this row, evaluated with the next period's nominal call
             self.nominal.qpos[self.truth_points] = plant.qpos
             self.nominal.qvel[self.truth_points] = plant.qvel
@@ -396,20 +422,36 @@ class _Run:
         on); the plant steps; the period's true acceleration."""
         tau, plant, series = self.tau, self.plant, self.series
         for block in self.blocks:
-            tau_b = tau[block.rows]
+            tau_b = block.tau
             block.observer.advance(tau_b, block.model)
             for _, observer, model in block.monitors:
                 observer.advance(tau_b, model)
-        acceleration = series["qdd_true"][k]
-        self.stop(plant.step(acceleration), k)
-        if self.plant_is_nominal:
-            np.subtract(acceleration, self.truth_acceleration, out=series["luaf_true"][k])
+        self.stop(plant.step(series["qdd_true"][k]), k)
 
-    def last_truth(self) -> None:
-        """The last recorded sample's truth, where it comes from the truth points."""
+    def finish_truth(self) -> None:
+        """The last recorded sample's truth, where it comes from the truth points; the truths solved with the
+        samples' factorisations of M(q): the true LUaF of a nominal plant, qdd - M^-1 (tau - C qd - G), and
+        the fault's acceleration M^-1 fault force while a fault is on (0 otherwise). The same operations as
+        ``mj_solveM`` per sample (:class:`~ftc_mj.robot.nominal.SparseSolver`), in chunks of samples."""
         if self.pending is not None:
             self.nominal.evaluate()
             self._pending_truth()
+        if not self.keeps_factors:
+            return
+        series, solver = self.series, self.solver
+        fault_samples = np.flatnonzero(self.fault_on) if self.has_faults else np.zeros(0, dtype=int)
+        for start in range(0, self.steps, TRUTH_CHUNK):
+            samples = slice(start, min(start + TRUTH_CHUNK, self.steps))
+            if self.plant_is_nominal:
+                force = self.truth_force[samples]
+                acceleration = _solve_samples(solver, self.sample_factor[samples],
+                                              self.sample_diagonal_inverse[samples], force)
+                np.subtract(series["qdd_true"][samples], acceleration, out=series["luaf_true"][samples])
+        for start in range(0, len(fault_samples), TRUTH_CHUNK):
+            samples = fault_samples[start:start + TRUTH_CHUNK]
+            series["fault_acceleration"][samples] = _solve_samples(
+                solver, self.sample_factor[samples], self.sample_diagonal_inverse[samples],
+                series["fault_torque"][samples])
 
     def result(self) -> BatchRun:
         """The series, cut where each row stopped."""
@@ -431,6 +473,14 @@ class _Run:
                         extras=self.extras, fault_active=self.fault_active, qd_measured=self.qd_measured,
                         luaf_torque=self.luaf_torque, body_xpos=self.body_xpos, body_xquat=self.body_xquat,
                         done=done, diverged_at=self.diverged_at)
+
+
+def _solve_samples(solver: SparseSolver, factor: np.ndarray, diagonal_inverse: np.ndarray,
+                   vector: np.ndarray) -> np.ndarray:
+    """M^-1 vector for ``(samples, rows, ...)`` factorisations and vectors, every (sample, row) at once."""
+    rows = factor.shape[0] * factor.shape[1]
+    return solver.solve(factor.reshape(rows, -1), diagonal_inverse.reshape(rows, -1), vector.reshape(rows, -1),
+                        np.empty((rows, vector.shape[-1]))).reshape(vector.shape)
 
 
 def _rest(nominal: NominalBatch, alive: np.ndarray, stopped_before: np.ndarray, count: int, estimators: list[int],

@@ -12,6 +12,8 @@ divergence, never a silent restart). The other rows go on.
 
 from __future__ import annotations
 
+from collections.abc import Callable
+
 import mujoco
 import numpy as np
 from mujoco.batch import Batch, SimulationError
@@ -51,8 +53,8 @@ class Plant:
         #: MuJoCo's factorisation of M(q) at the sample instant (``qLD``, ``qLDiagInv``).
         self.factor, self.diagonal_inverse = self.batch.bind("qLD"), self.batch.bind("qLDiagInv")
         self._dense = DenseMass(model, rows)
-        self._position_addresses = position_sensor_addresses(model)
-        self._velocity_addresses = velocity_sensor_addresses(model)
+        self._position_readings = _columns(self._sensordata, position_sensor_addresses(model))
+        self._velocity_readings = _columns(self._sensordata, velocity_sensor_addresses(model))
         #: Whether the encoders read the joint positions exactly (no sensor cutoff clips them).
         self.reads_state_exactly = bool(np.all(model.sensor_cutoff[self._sensor_ids(model)] == 0))
         self.max_position, self.max_velocity = max_position, max_velocity
@@ -73,11 +75,11 @@ class Plant:
 
     def read_positions(self, out: np.ndarray) -> None:
         """The encoders' true readings (``jointpos`` sensors) into ``out``, ``(rows, n)``."""
-        np.take(self._sensordata, self._position_addresses, axis=1, out=out)
+        self._position_readings(out)
 
     def read_velocities(self, out: np.ndarray) -> None:
         """The tachometers' true readings (``jointvel`` sensors) into ``out``."""
-        np.take(self._sensordata, self._velocity_addresses, axis=1, out=out)
+        self._velocity_readings(out)
 
     def mass_matrices(self) -> np.ndarray:
         """The true M(q) of every row at the current sample instant, ``(rows, n, n)`` (an internal buffer)."""
@@ -132,3 +134,12 @@ class Plant:
         self._ids = np.flatnonzero(self.alive)
         self.running = len(self._ids)
         return new
+
+
+def _columns(values: np.ndarray, addresses: np.ndarray) -> Callable[[np.ndarray], None]:
+    """A function that copies ``values[:, addresses]`` into its argument: a view's copy where the addresses
+    are consecutive (the usual sensor layout), else ``take``."""
+    if len(addresses) and np.array_equal(addresses, np.arange(addresses[0], addresses[0] + len(addresses))):
+        view = values[:, addresses[0]:addresses[0] + len(addresses)]
+        return lambda out: np.copyto(out, view)
+    return lambda out: values.take(addresses, axis=1, out=out)

@@ -231,13 +231,29 @@ class SparseSolver:
             for address, column in entries:
                 out[:, column] -= factor[:, address] * out[:, i]
         out *= diagonal_inverse  # x <- D^-1 x
-        for i, entries in self._rows:  # x <- L^-1 x, each row's sparse dot product summed from the left
-            (address, column), *rest = entries
-            dot = factor[:, address] * out[:, column]
-            for address, column in rest:
-                dot += factor[:, address] * out[:, column]
-            out[:, i] -= dot
+        for i, entries in self._rows:  # x <- L^-1 x: each row's sparse dot product as mju_dotSparse sums it
+            out[:, i] -= _sparse_dot([factor[:, address] * out[:, column] for address, column in entries])
         return out
+
+
+def _sparse_dot(products: list[np.ndarray]) -> np.ndarray:
+    """The sum of a row's products in MuJoCo's order (``mju_dotSparse``): from the left below four terms; from
+    four, four running sums over the products in steps of four, joined as (s0 + s2) + (s1 + s3), then the
+    remaining products from the left."""
+    if len(products) < 4:
+        total = products[0]
+        for product in products[1:]:
+            total = total + product
+        return total
+    lanes = products[:4]
+    start = 4
+    while start <= len(products) - 4:
+        lanes = [lane + product for lane, product in zip(lanes, products[start:start + 4])]
+        start += 4
+    total = (lanes[0] + lanes[2]) + (lanes[1] + lanes[3])
+    for product in products[start:]:
+        total = total + product
+    return total
 
 
 class NominalBatch:

@@ -178,14 +178,18 @@ def test_nominal_batch_is_the_single_state_model_at_every_point(model):
             np.testing.assert_allclose(batch.qacc[point], expected, rtol=1e-12, atol=1e-12)
 
 
-def test_sparse_solver_is_mj_solveM_bit_for_bit(model):
+@pytest.mark.parametrize("robot", ["puma560.xml", "ur5e.xml", "panda.xml"])
+def test_sparse_solver_is_mj_solveM_bit_for_bit(robot):
     """The engine's batched M^-1 v repeats mj_solveM's operations on MuJoCo's own factorisation: each row's
-    answer is exactly what one MjData gives (so observers solve as they did on one MjData)."""
+    answer is exactly what one MjData gives (so observers solve as they did on one MjData). The 6- and 7-joint
+    arms have rows of four and more entries, which MuJoCo sums with four running sums."""
     from ftc_mj.robot.nominal import SparseSolver
 
+    model = mujoco.MjModel.from_xml_path(str(PUMA.parent / robot))
+    n = model.nv
     rng = np.random.default_rng(12)
     rows = 7
-    q, v = rng.uniform(-np.pi, np.pi, (rows, 3)), rng.normal(size=(rows, 3)) * 10
+    q, v = rng.uniform(-np.pi, np.pi, (rows, model.nq)), rng.normal(size=(rows, n)) * 10
     data = mujoco.MjData(model)
     factors, diagonals, expected = [], [], []
     for row in range(rows):
@@ -193,14 +197,14 @@ def test_sparse_solver_is_mj_solveM_bit_for_bit(model):
         mujoco.mj_fwdPosition(model, data)
         factors.append(data.qLD.copy())
         diagonals.append(data.qLDiagInv.copy())
-        solution = np.zeros((1, 3))
+        solution = np.zeros((1, n))
         mujoco.mj_solveM(model, data, solution, v[row:row + 1].copy())
         expected.append(solution[0])
-    out = np.zeros((rows, 3))
+    out = np.zeros((rows, n))
     SparseSolver(model).solve(np.array(factors), np.array(diagonals), v, out)  # row by row on floats
     np.testing.assert_array_equal(out, np.array(expected))
     many = 40  # on columns: the same bits
-    out = np.zeros((many * rows, 3))
+    out = np.zeros((many * rows, n))
     SparseSolver(model).solve(np.tile(factors, (many, 1)), np.tile(diagonals, (many, 1)), np.tile(v, (many, 1)), out)
     np.testing.assert_array_equal(out, np.tile(expected, (many, 1)))
 
