@@ -184,14 +184,19 @@ class DenseMass:
                 column = model.M_colind[start + j]
                 index[i, column] = index[column, i] = start + j
         self._index = index.reshape(-1)
+        #: Whether some dense entry is a structural zero (a branched tree): then the values are gathered from a
+        #: copy with a zero appended; a chain's M is dense, gathered straight from the sparse values.
+        self._has_zeros = bool((self._index == model.nM).any())
         self._padded = np.zeros((rows, model.nM + 1))
         self.out = np.zeros((rows, n, n))
         self._flat = self.out.reshape(rows, n * n)
 
     def update(self, sparse: np.ndarray) -> np.ndarray:
         """Fill from the sparse values ``(rows, nM)`` and return the dense matrices."""
-        self._padded[:, :-1] = sparse
-        np.take(self._padded, self._index, axis=1, out=self._flat)
+        if self._has_zeros:
+            self._padded[:, :-1] = sparse
+            sparse = self._padded
+        sparse.take(self._index, axis=1, out=self._flat)
         return self.out
 
 

@@ -112,12 +112,13 @@ class SlidingModeController(Controller):
     def switching(self) -> np.ndarray:
         return self.switching_gain() * np.sign(self.sliding)
 
-    def observer_compensation(self, observer: Observer) -> np.ndarray | float:
+    def observer_compensation(self, observer: Observer) -> np.ndarray | None:
+        """u_c: the observer's injection, its LUaF estimate, or None (no compensation)."""
         if self.compensation == "injection":
             return observer.injection
         if self.compensation == "estimate":
             return observer.luaf_hat
-        return 0.0
+        return None
 
     def compute(self, t, q_ref, qd_ref, qdd_ref, q_meas, observer, model):
         e = q_meas - q_ref
@@ -125,8 +126,11 @@ class SlidingModeController(Controller):
         # else the observer's x2_hat; Psi at the same state (StepModel.psi_control).
         e_dot = model.control_velocity(observer.qd_hat) - qd_ref
         surface_terms = self.surface(t, e, e_dot)
-        u_eq = model.psi_control + surface_terms - qdd_ref
-        u = u_eq + self.observer_compensation(observer) + self.switching()
-        model.apply_M(u, out=self.tau)
-        np.negative(self.tau, out=self.tau)
-        return self.tau
+        # -u = -(u_eq + u_c + u_sw), formed directly: b - a is -(a - b) exactly and M (-u) is -(M u) bit for bit,
+        # so tau = M (-u) is the law's -M u without a separate negation.
+        negative_u = qdd_ref - (model.psi_control + surface_terms)  # -u_eq
+        compensation = self.observer_compensation(observer)
+        if compensation is not None:
+            negative_u -= compensation
+        negative_u -= self.switching()
+        return model.apply_M(negative_u, out=self.tau)

@@ -70,6 +70,7 @@ class TOSMO(Observer):
         self._two_thirds, self._one_third = np.full(self.shape, 2 / 3), np.full(self.shape, 1 / 3)
         self._luaf_step = self.dt_array * self.k3  # dt k3: the LUaF estimate's change per period, times sign(x1~)
         self._error = np.zeros(self.shape)
+        self._magnitude = np.zeros(self.shape)
         self._sign = np.zeros(self.shape)
         self._q_hat_rate = np.zeros(self.shape)
         self._qdd_hat = np.zeros(self.shape)
@@ -77,18 +78,18 @@ class TOSMO(Observer):
     def update(self, t: float, q_meas: np.ndarray, model: StepModel) -> None:
         error = np.subtract(q_meas, self.q_hat, out=self._error)
         np.sign(error, out=self._sign)
-        # dx1_hat/dt - x2_hat: the first line's correction, reused in the second line of (5.6).
-        position_correction = self._position_correction(error)
+        magnitude = np.abs(error, out=self._magnitude)  # |x1~|, for both fractional powers (signed_power's steps)
+        # dx1_hat/dt - x2_hat: k1 |x1~|^(2/3) sign(x1~) (+ Gamma x1~), reused in the second line of (5.6).
+        position_correction = self._linear(self.k1 * np.copysign(magnitude ** self._two_thirds, error), error)
         np.add(self.qd_hat, position_correction, out=self._q_hat_rate)
-        np.add(self._velocity_correction(error, position_correction), self.luaf_hat, out=self.injection)
+        # The injection: k2 |x1~|^(1/3) sign(x1~) (+ Gamma (dx1_hat/dt - x2_hat)) + the LUaF estimate.
+        velocity_correction = self._linear(self.k2 * np.copysign(magnitude ** self._one_third, error),
+                                           position_correction)
+        np.add(velocity_correction, self.luaf_hat, out=self.injection)
 
-    def _position_correction(self, error: np.ndarray) -> np.ndarray:
-        """k1 |x1~|^(2/3) sign(x1~) of (3.11)."""
-        return self.k1 * signed_power(error, self._two_thirds)
-
-    def _velocity_correction(self, error: np.ndarray, position_correction: np.ndarray) -> np.ndarray:
-        """k2 |x1~|^(1/3) sign(x1~) of (3.11): the injection without the LUaF estimate."""
-        return self.k2 * signed_power(error, self._one_third)
+    def _linear(self, correction: np.ndarray, signal: np.ndarray) -> np.ndarray:
+        """A correction with its linear term: none in the TOSMO (3.11)."""
+        return correction
 
     def advance(self, tau: np.ndarray, model: StepModel) -> None:
         qdd_hat = np.add(model.psi_hat, model.solve_M(tau), out=self._qdd_hat)
@@ -108,10 +109,7 @@ class HighSpeedTOSMO(TOSMO):
         super().__init__(config, n_joints, dt, members)
         self.linear_gain = config.gamma  # Gamma of (5.6), (members, n)
 
-    def _position_correction(self, error: np.ndarray) -> np.ndarray:
-        """k1 |x1~|^(2/3) sign(x1~) + Gamma x1~ of (5.6)."""
-        return self.k1 * signed_power(error, self._two_thirds) + self.linear_gain * error
-
-    def _velocity_correction(self, error: np.ndarray, position_correction: np.ndarray) -> np.ndarray:
-        """k2 |x1~|^(1/3) sign(x1~) + Gamma (dx1_hat/dt - x2_hat) of (5.6)."""
-        return self.k2 * signed_power(error, self._one_third) + self.linear_gain * position_correction
+    def _linear(self, correction: np.ndarray, signal: np.ndarray) -> np.ndarray:
+        """The correction plus Gamma times ``signal``: Gamma x1~ in the first line of (5.6), Gamma (dx1_hat/dt -
+        x2_hat) in the second."""
+        return correction + self.linear_gain * signal
