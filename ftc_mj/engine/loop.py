@@ -252,6 +252,10 @@ class _Run:
         # Whether a fault is on: profiles depend on time only, so the same for every row, known before the run.
         fault_on = self.terms.fault_on | (False if self.actuators is None else self.actuators.active)
         self.fault_on = fault_on.tolist()
+        # Where no fault term is on, the fault sums are zero (the series start at zero and are written only
+        # where they may not be); actuator faults add to the fault force whenever there are any.
+        self.fault_terms_on = self.terms.fault_on.tolist()
+        self.fault_force_written = [on or self.actuators is not None for on in self.fault_terms_on]
         self.position_sensor = self.velocity_sensor = None
         if scenario.position_sensor is not None:
             self.position_sensor = Measurement(scenario.position_sensor, self.times,
@@ -265,7 +269,8 @@ class _Run:
         self.reference = scenario.reference.evaluate(self.times, members.parameters[:, used] if used else None)
         steps = self.steps
         self.series = {name: np.full((steps, rows, n), np.nan) for name in SERIES}
-        self.series["fault_acceleration"][:] = 0.0  # written only while a fault is on
+        for name in ("fault", "fault_torque", "fault_acceleration"):  # written only while a fault may be on
+            self.series[name][:] = 0.0
         self.fault_active = np.repeat(fault_on[:, None], rows, axis=1)
         self.qd_measured = np.full((steps, rows, n), np.nan) if self.measures_velocity else None
         self.torque_space = scenario.diagnoser is not None and scenario.diagnoser.space == "torque"
@@ -401,7 +406,8 @@ class _Run:
         if self.plant_is_nominal:  # M(q)^-1 tau + Psi(q, qd) = M^-1 (tau - C qd - G) at the true state
             np.subtract(tau, self.plant_bias, out=self.truth_force[k])
         terms.apply(k, t, plant.qpos, plant.qvel, true_mass, plant.applied)
-        series["fault"][k] = terms.fault
+        if self.fault_terms_on[k]:
+            series["fault"][k] = terms.fault
         actuators = self.actuators
         if actuators is not None:
             # The actuators deliver something else than the command: the difference acts through
@@ -410,7 +416,7 @@ class _Run:
             plant.applied += actuators.torque
             terms.fault_force += actuators.torque
             series["tau_delivered"][k] = actuators.delivered
-        if self.has_faults:
+        if self.fault_force_written[k]:
             series["fault_torque"][k] = terms.fault_force
         if not self.plant_is_nominal:  # the truth point of this row, evaluated with the next period's nominal call
             self.nominal.qpos[self.truth_points] = plant.qpos
@@ -458,8 +464,6 @@ class _Run:
         series, done = self.series, self.done
         if self.actuators is None:  # the actuators delivered the command
             np.copyto(series["tau_delivered"], series["tau"])
-        if not self.has_faults:
-            series["fault_torque"][:] = 0.0
         for rows_series in (*series.values(), self.qd_measured, self.luaf_torque):
             if rows_series is not None:
                 _cut(rows_series, done)
