@@ -273,26 +273,67 @@ def low_pass(x: np.ndarray, dt: float, time_constant: float) -> np.ndarray:
     return lfilter([1.0 - a], [1.0, -a], x, axis=0, zi=a * x[:1])[0]
 
 
-def persistent(exceeded: np.ndarray, samples: int) -> np.ndarray:
-    """Debounce per column: on from the ``samples``-th consecutive True, off from the ``samples``-th
-    consecutive False; starts off."""
-    alarm = np.zeros_like(exceeded, dtype=bool)
-    for j in range(exceeded.shape[1]):
-        column = exceeded[:, j]
-        if not column.any():
-            continue
-        edges = np.flatnonzero(column[1:] != column[:-1]) + 1
-        starts = np.concatenate(([0], edges))
-        ends = np.concatenate((edges, [len(column)]))
-        state, since = False, 0
-        for start, end in zip(starts.tolist(), ends.tolist()):
-            value = bool(column[start])
-            if value != state and end - start >= samples:
-                switch = start + samples - 1
-                alarm[since:switch, j] = state
-                state, since = value, switch
-        alarm[since:, j] = state
+def persistent(exceeded: np.ndarray, samples: int, axis: int = 0) -> np.ndarray:
+    """Debounce along ``axis`` (time), every other column at once: on from the ``samples``-th consecutive True,
+    off from the ``samples``-th consecutive False; starts off."""
+    exceeded = np.asarray(exceeded, dtype=bool)
+    if samples <= 1 or exceeded.size == 0:
+        return exceeded.copy()
+    # Time last and contiguous: the windows, codes and running maximum of _debounce work along rows.
+    series = np.ascontiguousarray(np.moveaxis(exceeded, axis, -1))
+    alarm = _debounce(series.reshape(-1, series.shape[-1]), samples).reshape(series.shape)
+    return np.ascontiguousarray(np.moveaxis(alarm, -1, axis))
+
+
+def _debounce(series: np.ndarray, samples: int) -> np.ndarray:
+    """:func:`persistent` of each row of ``(rows, N)``. The alarm at sample i is the value of the last window of
+    ``samples`` equal samples that ends at or before i (off if none): a window where a run long enough to
+    switch the alarm does so, or keeps it; shorter runs switch nothing."""
+    alarm = np.zeros_like(series)
+    hits = np.flatnonzero(series.any(axis=0))
+    if hits.size == 0:
+        return alarm
+    first = int(hits[0])  # the alarm is off up to the first True: start there (a False prefix switches nothing)
+    tail = series[:, first:]
+    if tail.shape[1] < samples:
+        return alarm
+    on = _window(tail, samples, np.logical_and, axis=1)  # the window ending at each sample is all True
+    off = _window(~tail, samples, np.logical_and, axis=1)  # all False
+    # The last constant window so far, coded 2 k + 1 (all True) or 2 k (all False), -2 before any, so that one
+    # running maximum carries it forward; its low bit is the alarm.
+    code = np.arange(0, 2 * on.shape[1], 2, dtype=np.int32) + on
+    code[~(on | off)] = -2
+    np.maximum.accumulate(code, axis=1, out=code)
+    np.bitwise_and(code, 1, out=code)
+    alarm[:, first + samples - 1:] = code
     return alarm
+
+
+def _window(x: np.ndarray, p: int, combine: np.ufunc, axis: int = 0) -> np.ndarray:
+    """``combine`` (minimum, logical and: associative, commutative, idempotent) over every window of ``p``
+    consecutive samples along ``axis``, dated by the window's last sample (``N - p + 1`` of them), by windows
+    of doubling length: the result does not depend on the order in which a window is reduced (a minimum also
+    propagates NaN in any order)."""
+    count = x.shape[axis] - p + 1
+
+    def part(values: np.ndarray, start: int, length: int) -> np.ndarray:
+        index = [slice(None)] * values.ndim
+        index[axis] = slice(start, start + length)
+        return values[tuple(index)]
+
+    result, done = None, 0  # ``result`` combines the first ``done`` samples of each window
+    power, span, remaining = x, 1, p  # ``power`` combines windows of ``span`` samples
+    while remaining:
+        if remaining & 1:
+            piece = part(power, done, count)
+            result = piece.copy() if result is None else combine(result, piece, out=result)
+            done += span
+        remaining >>= 1
+        if remaining:
+            length = power.shape[axis] - span
+            power = combine(part(power, 0, length), part(power, span, length))
+            span *= 2
+    return result
 
 
 def diagnosis_metrics(
@@ -361,29 +402,35 @@ def detection_statistics(
         level = np.where(diagnosis.armed[:, None], diagnosis.residual / diagnosis.threshold, np.nan)
     p = max(1, persistence)
     if len(t) >= p:  # the level held over every window of p samples, dated by the window's last sample
-        held = np.lib.stride_tricks.sliding_window_view(level, p, axis=0).min(axis=-1)
+        held = _window(level, p, np.minimum)
         held_t = t[p - 1:]
     else:
         held, held_t = np.zeros((0, n)), t[:0]
     faulty = np.isfinite(joint_onsets)
+    onsets = np.where(faulty, joint_onsets, np.inf)
     first_fault = np.nanmin(joint_onsets) if faulty.any() else np.inf
     out["isolated"] = diagnosis.isolated(first_fault).astype(float)
     for j in range(n):
-        onset = joint_onsets[j] if faulty[j] else np.inf
-        before, after = held[held_t < onset, j], held[held_t >= onset, j]
+        before, after = held[held_t < onsets[j], j], held[held_t >= onsets[j], j]
         out["residual_peak_healthy"][j] = np.nanmax(before) if np.isfinite(before).any() else np.nan
         if faulty[j]:
             out["residual_peak_fault"][j] = np.nanmax(after) if np.isfinite(after).any() else np.nan
-        out["healthy_time"][j] = (diagnosis.armed & (t < onset)).sum() * dt
-    for c in scales:
+        out["healthy_time"][j] = (diagnosis.armed & (t < onsets[j])).sum() * dt
+    if not scales:
+        return out
+    # Every scale at once, time last: scales x joints x samples (c times the threshold: the products as one by one).
+    residual, threshold = np.ascontiguousarray(diagnosis.residual.T), np.ascontiguousarray(diagnosis.threshold.T)
+    with np.errstate(invalid="ignore"):
+        exceeded = residual[None] > np.asarray(scales, dtype=float)[:, None, None] * threshold[None]
+    alarm = _debounce(exceeded.reshape(-1, len(t)), p).reshape(exceeded.shape)
+    raised = alarm.copy()
+    raised[..., 1:] &= ~alarm[..., :-1]
+    fault_free = diagnosis.armed[None, :] & (t[None, :] < onsets[:, None])  # joints x samples
+    false_alarms = np.count_nonzero(raised & fault_free, axis=-1)  # scales x joints
+    after = alarm & (t[None, :] >= onsets[:, None])
+    delay = np.where(after.any(axis=-1) & faulty, t[np.argmax(after, axis=-1)] - onsets, np.nan)
+    for s, c in enumerate(scales):
         tag = scale_tag(c)
-        with np.errstate(invalid="ignore"):
-            alarm = persistent(diagnosis.residual > c * diagnosis.threshold, persistence)
-        raised = alarm & ~np.vstack([np.zeros((1, n), dtype=bool), alarm[:-1]])
-        for j in range(n):
-            onset = joint_onsets[j] if faulty[j] else np.inf
-            out[f"false_alarms_{tag}"][j] = raised[diagnosis.armed & (t < onset), j].sum()
-            if faulty[j]:
-                detected = np.flatnonzero(alarm[:, j] & (t >= onset))
-                out[f"detection_delay_{tag}"][j] = t[detected[0]] - onset if detected.size else np.nan
+        out[f"false_alarms_{tag}"] = false_alarms[s].astype(float)
+        out[f"detection_delay_{tag}"] = delay[s]
     return out

@@ -263,6 +263,8 @@ def compute_metrics(
         chattering = np.where(window_seconds > 0, variation / np.where(window_seconds > 0, window_seconds, 1.0),
                               np.nan)
     transient = t < spec.estimation_window_start
+    # Each error series once (the result's properties compute them anew at every access).
+    velocity_error, luaf_error = result.velocity_error, result.luaf_error
 
     return {
         "rms_error": _rms(error, everything),
@@ -270,13 +272,13 @@ def compute_metrics(
         "rms_error_converged": _rms(error, window),
         "max_error_converged": _max_abs(error, window),
         "convergence_time": convergence,
-        "rms_velocity_error": _rms(result.velocity_error, estimation),
-        "rms_luaf_error": _rms(result.luaf_error, estimation),
-        "observer_convergence_time": settling_time(t, result.velocity_error, spec.velocity_tolerance, first_fault),
-        "luaf_convergence_time": settling_time(t, result.luaf_error, spec.luaf_tolerance, first_fault),
-        "peak_luaf_error_transient": _max_abs(result.luaf_error, transient),
-        "luaf_overshoot": overshoot(result.luaf_error, transient),
-        "rms_luaf_error_fault": _rms(result.luaf_error, estimation & (t >= first_fault)),
+        "rms_velocity_error": _rms(velocity_error, estimation),
+        "rms_luaf_error": _rms(luaf_error, estimation),
+        "observer_convergence_time": settling_time(t, velocity_error, spec.velocity_tolerance, first_fault),
+        "luaf_convergence_time": settling_time(t, luaf_error, spec.luaf_tolerance, first_fault),
+        "peak_luaf_error_transient": _max_abs(luaf_error, transient),
+        "luaf_overshoot": overshoot(luaf_error, transient),
+        "rms_luaf_error_fault": _rms(luaf_error, estimation & (t >= first_fault)),
         "first_reaching_time": first_entry_time(t, result.sliding, spec.sliding_tolerance, first_fault),
         "reaching_time": settling_time(t, result.sliding, spec.sliding_tolerance, first_fault),
         "fault_peak_error": fault_peak,

@@ -14,7 +14,6 @@ import mujoco
 import numpy as np
 from mujoco.batch import Batch
 
-from ftc_mj.spec.expressions import SCALAR_ROWS
 from ftc_mj.spec.schema import PositiveFloat, Strict
 
 
@@ -184,20 +183,23 @@ class DenseMass:
                 column = model.M_colind[start + j]
                 index[i, column] = index[column, i] = start + j
         self._index = index.reshape(-1)
-        #: Whether some dense entry is a structural zero (a branched tree): then the values are gathered from a
-        #: copy with a zero appended; a chain's M is dense, gathered straight from the sparse values.
-        self._has_zeros = bool((self._index == model.nM).any())
-        self._padded = np.zeros((rows, model.nM + 1))
+        # A chain's M has no structural zero: every dense entry is taken straight from the sparse values.
+        self._padded = np.zeros((rows, model.nM + 1)) if np.any(self._index == model.nM) else None
         self.out = np.zeros((rows, n, n))
         self._flat = self.out.reshape(rows, n * n)
 
     def update(self, sparse: np.ndarray) -> np.ndarray:
         """Fill from the sparse values ``(rows, nM)`` and return the dense matrices."""
-        if self._has_zeros:
+        if self._padded is not None:  # a tree: gather from the values with a zero appended
             self._padded[:, :-1] = sparse
             sparse = self._padded
-        sparse.take(self._index, axis=1, out=self._flat)
+        sparse.take(self._index, axis=1, out=self._flat)  # the method: np.take's wrapper costs a microsecond
         return self.out
+
+
+#: Up to this many rows :class:`SparseSolver` calls ``mj_solveM`` row by row (its column path's dozen array
+#: operations cost more; measured on the 3-joint PUMA). Either path gives the same bits.
+SOLVER_ROWS = 4
 
 
 class SparseSolver:
@@ -209,7 +211,7 @@ class SparseSolver:
     def __init__(self, model: mujoco.MjModel):
         def off_diagonal(i: int) -> list[tuple[int, int]]:  # (address, column) of row i's entries left of the diagonal
             start = model.M_rowadr[i]
-            return [(start + j, int(model.M_colind[start + j])) for j in range(model.M_rownnz[i] - 1)]
+            return [(int(start + j), int(model.M_colind[start + j])) for j in range(model.M_rownnz[i] - 1)]
 
         self._rows = [(i, off_diagonal(i)) for i in range(model.nv)]
         self._rows = [(i, entries) for i, entries in self._rows if entries]
@@ -220,9 +222,9 @@ class SparseSolver:
     def solve(self, factor: np.ndarray, diagonal_inverse: np.ndarray, vector: np.ndarray, out: np.ndarray) -> np.ndarray:
         """``out = M^-1 vector`` per row, from the rows' ``qLD`` ``(rows, nM)`` and ``qLDiagInv`` ``(rows, n)``.
 
-        A few rows are solved by ``mj_solveM`` itself (NumPy's per-call cost would dominate), many on columns
-        with its operations in its order: the same bits either way (tested)."""
-        if len(out) <= SCALAR_ROWS:  # mj_solveM itself, row by row, on a scratch MjData holding the row's factor
+        Up to :data:`SOLVER_ROWS` rows are solved by ``mj_solveM`` itself (NumPy's per-call cost would
+        dominate), more on columns with its operations in its order: the same bits either way (tested)."""
+        if len(out) <= SOLVER_ROWS:  # mj_solveM itself, row by row, on a scratch MjData holding the row's factor
             model, data, rhs, solution = self._model, self._data, self._rhs, self._solution
             for row in range(len(out)):
                 self._factor[:] = factor[row]
@@ -231,34 +233,27 @@ class SparseSolver:
                 mujoco.mj_solveM(model, data, solution, rhs)
                 out[row] = solution[0]
             return out
+        # One column at a time: NumPy's fastest operations here are on 1-D views with small temporaries (2-D
+        # slices, broadcasting and out= buffers cost more per call than they save on a few hundred rows).
         np.copyto(out, vector)
         for i, entries in reversed(self._rows):  # x <- L'^-1 x
             for address, column in entries:
                 out[:, column] -= factor[:, address] * out[:, i]
         out *= diagonal_inverse  # x <- D^-1 x
-        for i, entries in self._rows:  # x <- L^-1 x: each row's sparse dot product as mju_dotSparse sums it
-            out[:, i] -= _sparse_dot([factor[:, address] * out[:, column] for address, column in entries])
+        for i, entries in self._rows:  # x <- L^-1 x: x_i -= the row's sparse dot product, as mju_dotSparse sums it
+            products = [factor[:, address] * out[:, column] for address, column in entries]
+            whole = len(products) - len(products) % 4
+            if whole:  # four lanes over whole groups of four, summed as (0 + 2) + (1 + 3), then the rest
+                for j in range(4, whole):
+                    products[j % 4] += products[j]
+                dot = products[0] + products[2]
+                dot += products[1] + products[3]
+            else:  # fewer than four: from the left
+                dot, whole = products[0], 1
+            for product in products[whole:]:
+                dot += product
+            out[:, i] -= dot
         return out
-
-
-def _sparse_dot(products: list[np.ndarray]) -> np.ndarray:
-    """The sum of a row's products in MuJoCo's order (``mju_dotSparse``): from the left below four terms; from
-    four, four running sums over the products in steps of four, joined as (s0 + s2) + (s1 + s3), then the
-    remaining products from the left."""
-    if len(products) < 4:
-        total = products[0]
-        for product in products[1:]:
-            total = total + product
-        return total
-    lanes = products[:4]
-    start = 4
-    while start <= len(products) - 4:
-        lanes = [lane + product for lane, product in zip(lanes, products[start:start + 4])]
-        start += 4
-    total = (lanes[0] + lanes[2]) + (lanes[1] + lanes[3])
-    for product in products[start:]:
-        total = total + product
-    return total
 
 
 class NominalBatch:

@@ -362,3 +362,68 @@ def test_detection_statistics_at_every_threshold_multiple():
     assert np.isnan(stats["detection_delay_x5"][1])  # never above 5x: missed
     np.testing.assert_array_equal(stats["isolated"], [0, 1])
     assert stats["healthy_time"][0] == pytest.approx(1.8) and stats["healthy_time"][1] == pytest.approx(1.0)
+
+
+def _debounced(column: np.ndarray, samples: int) -> np.ndarray:
+    """The alarm as a per-sample state machine: it switches at the ``samples``-th consecutive sample that
+    differs from it."""
+    alarm, state, count = np.zeros(len(column), dtype=bool), False, 0
+    for k, value in enumerate(column.tolist()):
+        count = count + 1 if value != state else 0
+        if count == samples:
+            state, count = value, 0
+        alarm[k] = state
+    return alarm
+
+
+def test_persistence_equals_the_state_machine_on_every_column_at_once():
+    """persistent() debounces all columns (any trailing shape, along any axis) as the state machine does."""
+    rng = np.random.default_rng(3)
+    for trial in range(60):
+        samples = int(rng.integers(1, 9))
+        length = int(rng.integers(0, 120))
+        exceeded = rng.uniform(size=(length, 2, 3)) < rng.uniform(0.1, 0.9)
+        if trial % 2:  # long runs as well as chatter
+            exceeded = np.repeat(exceeded, 4, axis=0)[:length]
+        expected = np.zeros_like(exceeded)
+        for i in range(2):
+            for j in range(3):
+                expected[:, i, j] = _debounced(exceeded[:, i, j], samples)
+        np.testing.assert_array_equal(persistent(exceeded, samples), expected)
+        np.testing.assert_array_equal(persistent(np.moveaxis(exceeded, 0, 2), samples, axis=2),
+                                      np.moveaxis(expected, 0, 2))
+
+
+def test_detection_statistics_equal_the_scaled_diagnoser_one_scale_at_a_time():
+    """Every scale at once gives, bit for bit, the false alarms and delays of persistent() on the residual against
+    c times the threshold, scale by scale and joint by joint; the held peaks are the windows' minima."""
+    from ftc_mj.analysis.diagnosis import Diagnosis, detection_statistics, scale_tag
+
+    rng = np.random.default_rng(8)
+    scales = [0.25, 0.5, 1.0, 1.5, 3.0, 16.0]
+    for trial in range(40):
+        length, n, samples = int(rng.integers(1, 300)), 3, int(rng.integers(1, 12))
+        t = np.arange(length) * 0.01
+        residual = np.abs(rng.normal(size=(length, n))) * rng.uniform(0.2, 2.0)
+        residual[length // 2:, trial % n] += rng.uniform(0.0, 4.0)
+        threshold = np.ones((length, n)) * rng.uniform(0.3, 2.0, n)
+        armed = t >= rng.uniform(0.0, 1.0)
+        threshold[~armed] = np.nan
+        diagnosis = Diagnosis(space="torque", t=t, signal=residual, fault_estimate=residual, residual=residual,
+                              threshold=threshold, alarm=persistent(residual > threshold, samples), armed=armed,
+                              mean=np.zeros(n), std=np.ones(n), injected=np.zeros((length, n)))
+        onsets = np.array([np.nan, rng.uniform(0.0, 3.0), rng.uniform(0.0, 3.0)])
+        stats = detection_statistics(diagnosis, samples, onsets, scales, n)
+        level = np.where(armed[:, None], residual / threshold, np.nan)
+        for j in range(n):
+            onset = onsets[j] if np.isfinite(onsets[j]) else np.inf
+            windows = [level[k - samples + 1:k + 1, j].min() for k in range(samples - 1, length)
+                       if t[k] < onset and np.isfinite(level[k - samples + 1:k + 1, j]).all()]
+            np.testing.assert_array_equal(stats["residual_peak_healthy"][j], max(windows) if windows else np.nan)
+            for c in scales:
+                alarm = _debounced(residual[:, j] > c * threshold[:, j], samples)
+                raised = alarm & ~np.concatenate([[False], alarm[:-1]])
+                assert stats[f"false_alarms_{scale_tag(c)}"][j] == raised[armed & (t < onset)].sum()
+                detected = np.flatnonzero(alarm & (t >= onset))
+                delay = t[detected[0]] - onset if detected.size else np.nan
+                np.testing.assert_array_equal(stats[f"detection_delay_{scale_tag(c)}"][j], delay)

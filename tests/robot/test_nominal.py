@@ -178,18 +178,18 @@ def test_nominal_batch_is_the_single_state_model_at_every_point(model):
             np.testing.assert_allclose(batch.qacc[point], expected, rtol=1e-12, atol=1e-12)
 
 
-@pytest.mark.parametrize("robot", ["puma560.xml", "ur5e.xml", "panda.xml"])
-def test_sparse_solver_is_mj_solveM_bit_for_bit(robot):
+@pytest.mark.parametrize("name", ["puma560.xml", "ur5e.xml", "panda.xml", "two_link.xml"])
+def test_sparse_solver_is_mj_solveM_bit_for_bit(name):
     """The engine's batched M^-1 v repeats mj_solveM's operations on MuJoCo's own factorisation: each row's
-    answer is exactly what one MjData gives (so observers solve as they did on one MjData). The 6- and 7-joint
-    arms have rows of four and more entries, which MuJoCo sums with four running sums."""
-    from ftc_mj.robot.nominal import SparseSolver
+    answer is exactly what one MjData gives (so observers solve as they did on one MjData), on the row path
+    and on the column path, also for rows of four or more entries (mju_dotSparse sums those in four lanes)."""
+    from ftc_mj.robot.nominal import SOLVER_ROWS, SparseSolver
 
-    model = mujoco.MjModel.from_xml_path(str(PUMA.parent / robot))
-    n = model.nv
+    model = mujoco.MjModel.from_xml_path(str(PUMA.parent / name))
+    nv = model.nv
     rng = np.random.default_rng(12)
     rows = 7
-    q, v = rng.uniform(-np.pi, np.pi, (rows, model.nq)), rng.normal(size=(rows, n)) * 10
+    q, v = rng.uniform(-np.pi, np.pi, (rows, model.nq)), rng.normal(size=(rows, nv)) * 10
     data = mujoco.MjData(model)
     factors, diagonals, expected = [], [], []
     for row in range(rows):
@@ -197,16 +197,36 @@ def test_sparse_solver_is_mj_solveM_bit_for_bit(robot):
         mujoco.mj_fwdPosition(model, data)
         factors.append(data.qLD.copy())
         diagonals.append(data.qLDiagInv.copy())
-        solution = np.zeros((1, n))
+        solution = np.zeros((1, nv))
         mujoco.mj_solveM(model, data, solution, v[row:row + 1].copy())
         expected.append(solution[0])
-    out = np.zeros((rows, n))
-    SparseSolver(model).solve(np.array(factors), np.array(diagonals), v, out)  # row by row on floats
-    np.testing.assert_array_equal(out, np.array(expected))
-    many = 40  # on columns: the same bits
-    out = np.zeros((many * rows, n))
-    SparseSolver(model).solve(np.tile(factors, (many, 1)), np.tile(diagonals, (many, 1)), np.tile(v, (many, 1)), out)
-    np.testing.assert_array_equal(out, np.tile(expected, (many, 1)))
+    for many in (1, 2, 40):  # up to SOLVER_ROWS row by row on floats, beyond on columns: the same bits
+        for count in sorted({1, SOLVER_ROWS, SOLVER_ROWS + 1, many * rows}):
+            out = np.zeros((count, nv))
+            tiled = [np.tile(x, (many, 1))[:count] for x in (factors, diagonals, v, expected)]
+            SparseSolver(model).solve(*tiled[:3], out)
+            np.testing.assert_array_equal(out, tiled[3])
+
+
+def test_dense_mass_fills_every_entry_from_the_sparse_values():
+    """DenseMass gives mj_fullM's matrices, for a chain (every entry stored) and for a tree with structural
+    zeros (the panda's two fingers)."""
+    from ftc_mj.robot.nominal import DenseMass
+
+    for name in ("puma560.xml", "panda.xml"):
+        model = mujoco.MjModel.from_xml_path(str(PUMA.parent / name))
+        data = mujoco.MjData(model)
+        rng = np.random.default_rng(4)
+        sparse, expected = [], []
+        for _ in range(3):
+            data.qpos[:] = rng.uniform(-1.0, 1.0, model.nq)
+            mujoco.mj_fwdPosition(model, data)
+            full = np.zeros((model.nv, model.nv))
+            mujoco.mj_fullM(model, data, full)
+            sparse.append(data.M.copy())
+            expected.append(full)
+        dense = DenseMass(model, 3)
+        np.testing.assert_array_equal(dense.update(np.array(sparse)), np.array(expected))
 
 
 def test_step_model_on_measured_velocity_evaluates_the_controllers_psi_at_the_readings(model):
