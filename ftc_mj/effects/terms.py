@@ -17,10 +17,12 @@ objects; :class:`PlantTerms` evaluates them on the true state in the loop.
 from __future__ import annotations
 
 from dataclasses import dataclass
+from functools import cached_property
 from collections.abc import Sequence
 from typing import Literal
 
 import numpy as np
+import sympy as sp
 
 from ftc_mj.effects.profiles import Profile, ProfileSpec, compile_profile
 from ftc_mj.robot.nominal import matvec
@@ -54,13 +56,22 @@ class CompiledTerm:
     kind: str
     space: str
     sign: float
-    function: expressions.StateFunction
+    #: The value per joint, expressions of t, q1..qn, qd1..qn and the scenario's parameters.
+    exprs: list[sp.Expr]
+    #: The scenario's parameter names, in the order the expressions' functions take them.
+    parameters: tuple[str, ...]
     #: None: always on.
     time_profile: Profile | None
     #: Joints whose value is not identically zero (a fault "on joint 1" has zeros elsewhere).
     joints: np.ndarray
     #: The parameter that holds the evolution rate (per member), or None (the profile's own, if any).
     rate_parameter: str | None = None
+
+    @cached_property
+    def function(self) -> expressions.StateFunction:
+        """The term's value as a compiled function (on demand: the loop evaluates every term through one
+        function of all of them, :func:`terms_function`)."""
+        return expressions.StateFunction(self.exprs, len(self.exprs), list(self.parameters))
 
     @property
     def onset(self) -> float | None:
@@ -92,13 +103,20 @@ def compile_terms(specs: list[TermSpec], file: str, n: int, parameters: list[str
                 kind=term.kind,
                 space=term.space,
                 sign=float(term.sign),
-                function=expressions.StateFunction(exprs, n, parameters),
+                exprs=exprs,
+                parameters=tuple(parameters),
                 time_profile=_term_profile(term, file, field, n, parameters),
                 joints=np.array([expr.is_zero is not True for expr in exprs]),
                 rate_parameter=term.rate if isinstance(term.rate, str) else None,
             )
         )
     return terms
+
+
+def terms_function(terms: list[CompiledTerm], n: int, parameters: Sequence[str]) -> expressions.StateFunction:
+    """Every term's expressions compiled into one function (common subexpressions shared), evaluated once per
+    period for all rows: compiled when a scenario loads, not per run."""
+    return expressions.StateFunction([e for term in terms for e in term.exprs], n, list(parameters))
 
 
 def _term_profile(term: TermSpec, file: str, field: str, n: int, parameters: Sequence[str]) -> Profile | None:
@@ -133,7 +151,8 @@ class PlantTerms:
     """
 
     def __init__(self, terms: list[CompiledTerm], times: np.ndarray, rows: int, n_joints: int,
-                 parameters: np.ndarray, parameter_names: Sequence[str] = ()):
+                 parameters: np.ndarray, parameter_names: Sequence[str] = (),
+                 function: expressions.StateFunction | None = None):
         self.terms = terms
         shape = (rows, n_joints)
         #: torque, acceleration, fault, fault force and fault acceleration sums, zeroed at once each period.
@@ -147,8 +166,8 @@ class PlantTerms:
         self._rates = {index: self._parameters[:, names.index(term.rate_parameter)][:, None].copy()
                        for index, term in enumerate(terms) if term.rate_parameter is not None}
         self._rate_weights = {index: np.empty_like(rates) for index, rates in self._rates.items()}
-        self._function = expressions.StateFunction([e for term in terms for e in term.function.exprs], n_joints,
-                                                   list(parameter_names))
+        #: :func:`terms_function` of ``terms`` (the scenario's, compiled when it loaded), or compiled here.
+        self._function = function or terms_function(terms, n_joints, parameter_names)
         self._values = np.zeros((rows, len(terms) * n_joints))
         self._blocks = [self._values[:, i * n_joints:(i + 1) * n_joints] for i in range(len(terms))]
         self.needs_mass = any(term.space == "acceleration" for term in terms)

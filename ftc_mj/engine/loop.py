@@ -245,7 +245,7 @@ class _Run:
                 reading_points=reading_points))
 
         self.terms = PlantTerms(scenario.terms, self.times, rows, n, per_row(members.parameters),
-                                list(spec.parameters))
+                                list(spec.parameters), scenario.terms_function)
         self.actuators = (ActuatorFaults(scenario.actuator_faults, self.times, (rows, n))
                           if scenario.actuator_faults else None)
         self.has_faults = self.actuators is not None or any(term.kind == "fault" for term in scenario.terms)

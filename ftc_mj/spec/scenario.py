@@ -30,7 +30,7 @@ from ftc_mj.analysis.diagnosis import Diagnoser, DiagnosisSpec, compile_diagnose
 from ftc_mj.analysis.metrics import MetricsSpec
 from ftc_mj.effects.faults import ActuatorFault, ActuatorFaultSpec, compile_actuator_fault
 from ftc_mj.effects.sensors import Channel, SensorsSpec, compile_channel
-from ftc_mj.effects.terms import CompiledTerm, TermSpec, compile_terms
+from ftc_mj.effects.terms import CompiledTerm, TermSpec, compile_terms, terms_function
 from ftc_mj.methods.gains import GainConfig
 from ftc_mj.methods.registry import MethodSpec, compile_method, controller_types, observer_types
 from ftc_mj.outputs.layout import Figure, FigureSpec, check_figure_names, compile_figures
@@ -193,6 +193,8 @@ class Scenario:
     reference: expressions.TimeFunctions
     terms: list[CompiledTerm]
     variants: list[Variant]
+    #: Every term's value as one compiled function (:func:`ftc_mj.effects.terms.terms_function`).
+    terms_function: expressions.StateFunction | None = None
     actuator_faults: list[ActuatorFault] = field(default_factory=list)
     #: Sensor effects on the encoders and the tachometers; None: perfect.
     position_sensor: Channel | None = None
@@ -404,6 +406,7 @@ def compile_scenario(path: Path, spec: ScenarioSpec) -> Scenario:
         reference=reference,
         terms=terms,
         variants=variants,
+        terms_function=terms_function(terms, n, list(spec.parameters)),
         actuator_faults=actuator_faults,
         position_sensor=position_sensor,
         velocity_sensor=velocity_sensor,
