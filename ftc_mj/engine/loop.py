@@ -10,12 +10,16 @@ Per control period k (time t_k = k * control_dt, zero-order hold on the command)
    state after each step, as ``mj_step1`` does); the true readings are corrupted by the scenario's sensor
    effects, per member (:mod:`ftc_mj.effects.sensors`);
 2. each observer takes the measurement (``measure``); the nominal model is evaluated for all rows at once on
-   a second batch (:class:`~ftc_mj.robot.nominal.NominalBatch`): Psi at each observer's estimate, M at the
-   measured position, and, one period late, the true lumped uncertainty at the previous sample;
+   a second batch (:class:`~ftc_mj.robot.nominal.NominalBatch`): Psi at each observer's estimate and M at the
+   measured position;
 3. each observer forms its injection (``update``); each controller computes its torque; ``ctrl`` = torque;
 4. friction, disturbance and fault terms on the *true* state of all rows, and what the actuator faults
-   deliver beyond the command, go to ``qfrc_applied`` (:mod:`ftc_mj.effects.terms`, :mod:`~.faults`);
+   deliver beyond the command, go to ``qfrc_applied`` (:mod:`ftc_mj.effects.terms`, :mod:`~.faults`); the
+   plant's factorisation of M(q) is kept for the truths;
 5. the plant steps (:class:`~ftc_mj.engine.plant.Plant`); each observer integrates over the period.
+
+After the last period, the truths that need M(q)^-1 (the true LUaF, the fault's acceleration) are solved over
+every sample at once (:meth:`_Run.finish_truth`).
 
 A row that diverges stops with its own time; the others go on. Observers and controllers never see the
 simulation: only readings, time, the reference, their own commands and the nominal model.
@@ -170,12 +174,10 @@ class _Run:
             mass_scale=per_row(members.plant_mass_scale), max_position=spec.divergence.max_position,
             max_velocity=spec.divergence.max_velocity)
 
-        # Nominal evaluation points: Psi at each estimate (host observer and monitors of every variant), M at
-        # every row's measured position, and every row's true lumped uncertainty in the nominal terms (one period
-        # late). Where the controller's model is the plant's (no mass scale), the plant's own M(q), its
-        # factorisation and C qd + G at the sample instant are the same numbers: they give the truth, and, where
-        # the encoders read the state exactly (no sensor effects), M at the measured position, at no extra
-        # evaluation.
+        # Nominal evaluation points: Psi at each estimate (host observer and monitors of every variant) and M at
+        # every row's measured position. Where the controller's model is the plant's (no mass scale) and the
+        # encoders read the state exactly (no sensor effects), M at the measured position is the plant's own M(q)
+        # and its factorisation, at no extra evaluation.
         self.plant_is_nominal = bool(np.all(members.nominal_mass_scale == 1.0)
                                      and np.all(members.plant_mass_scale == 1.0))
         self.mass_from_plant = self.plant_is_nominal and scenario.position_sensor is None and plant.reads_state_exactly
@@ -185,16 +187,13 @@ class _Run:
         self.estimators = [1 + len(v.monitors) + on_readings for v, on_readings in zip(variants, measured)]
         psi_points = count * sum(self.estimators)
         mass_rows = 0 if self.mass_from_plant else rows
-        truth_rows = 0 if self.plant_is_nominal else rows
         nominal = self.nominal = NominalBatch(
             scenario.model,
             np.concatenate([np.concatenate([members.nominal_mass_scale] * sum(self.estimators)),
-                            per_row(members.nominal_mass_scale)[:mass_rows],
-                            per_row(members.nominal_mass_scale)[:truth_rows]]),
+                            per_row(members.nominal_mass_scale)[:mass_rows]]),
             threads,
         )
         self.mass_points = slice(psi_points, psi_points + mass_rows)
-        self.truth_points = slice(psi_points + mass_rows, psi_points + mass_rows + truth_rows)
         if self.mass_from_plant:  # buffers refreshed by every mass_matrices() call
             self.mass, factor, diagonal_inverse = plant.mass_matrices(), plant.factor, plant.diagonal_inverse
         else:
@@ -289,21 +288,21 @@ class _Run:
             self.xpos, self.xquat = plant.batch.bind("xpos"), plant.batch.bind("xquat")
             self.body_xpos = np.zeros((steps,) + self.xpos.shape)
             self.body_xquat = np.zeros((steps,) + self.xquat.shape)
-        self.truth_tau = nominal.applied[self.truth_points]
         self.plant_bias = plant.batch.bind("qfrc_bias")  # C(q, qd) qd + G(q) at the sample instant
-        # The truths that need M(q)^-1 at the sample instant (M^-1 tau + Psi of a nominal plant, M^-1 of the fault
-        # force) are solved after the run over every sample at once (:meth:`finish_truth`): each period keeps the
-        # factorisation of M(q) and the right-hand side instead of solving.
-        self.keeps_factors = self.plant_is_nominal or self.has_faults
-        factor_shape = (steps, rows) + plant.factor.shape[1:] if self.keeps_factors else (0, rows, 0)
-        self.sample_factor = np.zeros(factor_shape)
-        self.sample_diagonal_inverse = np.zeros(factor_shape[:2] + ((n,) if self.keeps_factors else (0,)))
-        #: tau - C qd - G at each sample of a nominal plant: M^-1 of it is M^-1 tau + Psi.
-        self.truth_force = np.zeros((steps if self.plant_is_nominal else 0, rows, n))
+        # The truths need M(q)^-1 at the sample instant: Psi + M^-1 tau of the nominal model at the true state, for
+        # the true LUaF, and M^-1 of the fault force. They are solved after the run over every sample at once
+        # (:meth:`finish_truth`): each period keeps the plant's factorisation of M(q) and the right-hand side.
+        # The nominal model is the plant's with its masses, inertias and armature scaled by c = nominal scale /
+        # plant scale, so its M and C qd + G are c times the plant's: Psi + M^-1 tau = M_plant^-1 (tau / c - C qd - G)
+        # (for c = 1 the plant's numbers themselves; otherwise equal up to rounding).
+        self.sample_factor = np.zeros((steps, rows) + plant.factor.shape[1:])
+        self.sample_diagonal_inverse = np.zeros((steps, rows, n))
+        #: tau / c - C qd - G of the plant at each sample.
+        self.truth_force = np.zeros((steps, rows, n))
+        scale = per_row(members.nominal_mass_scale) / per_row(members.plant_mass_scale)
+        self.truth_scale = None if np.all(scale == 1.0) else scale[:, None]
         self.done = np.full(rows, steps)
         self.diverged_at = np.full(rows, np.nan)
-        #: The sample whose true lumped uncertainty the next nominal evaluation gives (truth points only).
-        self.pending: int | None = None
 
     def stop(self, stopped: np.ndarray | None, k: int) -> None:
         """Rows stopped at sample k: their recording ends before it."""
@@ -327,7 +326,7 @@ class _Run:
                 self.velocity_sensor.read(k, self.qd_read, self.qd_meas)
 
     def evaluate_nominal(self, k: int) -> None:
-        """2. The observers take the readings; the nominal model at every point (and last period's truth)."""
+        """2. The observers take the readings; the nominal model at every point."""
         nominal, count = self.nominal, self.count
         for block in self.blocks:
             q_b, qd_b = block.q_meas, block.qd_meas
@@ -346,20 +345,9 @@ class _Run:
         if not self.mass_from_plant:
             nominal.qpos[self.mass_points] = self.q_meas
         if self.plant.running < self.rows:  # stopped rows may hold NaN or inf: evaluate them at rest instead
-            _rest(nominal, self.plant.alive, self.done < k, count, self.estimators, self.mass_points,
-                  self.truth_points)
+            _rest(nominal, self.plant.alive, count, self.estimators, self.mass_points)
         nominal.evaluate()
         (self.plant if self.mass_from_plant else nominal).mass_matrices()  # refreshes ``mass``
-        if self.pending is not None:
-            self._pending_truth()
-        self.pending = None if self.plant_is_nominal else k
-
-    def _pending_truth(self) -> None:
-        """qdd - (Psi(q, qd) + M(q)^-1 tau) of the pending sample, from the truth points just evaluated."""
-        if self.pending is not None:
-            series = self.series
-            np.subtract(series["qdd_true"][self.pending], self.nominal.qacc[self.truth_points],
-                        out=series["luaf_true"][self.pending])
 
     def control(self, k: int, t: float) -> None:
         """3. Each observer's injection, each controller's torque; the commands go to ``ctrl``."""
@@ -400,11 +388,14 @@ class _Run:
         """4. Terms on the true state and what the actuators deliver go to ``qfrc_applied``; the fault truth."""
         plant, terms, series, tau = self.plant, self.terms, self.series, self.tau
         true_mass = (self.mass if self.mass_from_plant else plant.mass_matrices()) if terms.needs_mass else None
-        if self.keeps_factors:  # M(q) of the sample instant, for the truths solved after the run
-            self.sample_factor[k] = plant.factor
-            self.sample_diagonal_inverse[k] = plant.diagonal_inverse
-        if self.plant_is_nominal:  # M(q)^-1 tau + Psi(q, qd) = M^-1 (tau - C qd - G) at the true state
+        # M(q) of the sample instant and tau / c - C qd - G, for the truths solved after the run.
+        self.sample_factor[k] = plant.factor
+        self.sample_diagonal_inverse[k] = plant.diagonal_inverse
+        if self.truth_scale is None:
             np.subtract(tau, self.plant_bias, out=self.truth_force[k])
+        else:
+            force = np.divide(tau, self.truth_scale, out=self.truth_force[k])
+            force -= self.plant_bias
         terms.apply(k, t, plant.qpos, plant.qvel, true_mass, plant.applied)
         if self.fault_terms_on[k]:
             series["fault"][k] = terms.fault
@@ -418,10 +409,6 @@ class _Run:
             series["tau_delivered"][k] = actuators.delivered
         if self.fault_force_written[k]:
             series["fault_torque"][k] = terms.fault_force
-        if not self.plant_is_nominal:  # the truth point of this row, evaluated with the next period's nominal call
-            self.nominal.qpos[self.truth_points] = plant.qpos
-            self.nominal.qvel[self.truth_points] = plant.qvel
-            self.truth_tau[:] = tau
 
     def advance(self, k: int) -> None:
         """5. The observers integrate over the period (with this period's model, before the plant's M moves
@@ -435,24 +422,17 @@ class _Run:
         self.stop(plant.step(series["qdd_true"][k]), k)
 
     def finish_truth(self) -> None:
-        """The last recorded sample's truth, where it comes from the truth points; the truths solved with the
-        samples' factorisations of M(q): the true LUaF of a nominal plant, qdd - M^-1 (tau - C qd - G), and
-        the fault's acceleration M^-1 fault force while a fault is on (0 otherwise). The same operations as
-        ``mj_solveM`` per sample (:class:`~ftc_mj.robot.nominal.SparseSolver`), in chunks of samples."""
-        if self.pending is not None:
-            self.nominal.evaluate()
-            self._pending_truth()
-        if not self.keeps_factors:
-            return
+        """The truths solved with the samples' factorisations of M(q): the true LUaF, qdd - (Psi + M^-1 tau) of
+        the nominal model at the true state, and the fault's acceleration M^-1 fault force while a fault is on
+        (0 otherwise). The same operations as ``mj_solveM`` per sample
+        (:class:`~ftc_mj.robot.nominal.SparseSolver`), in chunks of samples."""
         series, solver = self.series, self.solver
         fault_samples = np.flatnonzero(self.fault_on) if self.has_faults else np.zeros(0, dtype=int)
         for start in range(0, self.steps, TRUTH_CHUNK):
             samples = slice(start, min(start + TRUTH_CHUNK, self.steps))
-            if self.plant_is_nominal:
-                force = self.truth_force[samples]
-                acceleration = _solve_samples(solver, self.sample_factor[samples],
-                                              self.sample_diagonal_inverse[samples], force)
-                np.subtract(series["qdd_true"][samples], acceleration, out=series["luaf_true"][samples])
+            acceleration = _solve_samples(solver, self.sample_factor[samples], self.sample_diagonal_inverse[samples],
+                                          self.truth_force[samples])
+            np.subtract(series["qdd_true"][samples], acceleration, out=series["luaf_true"][samples])
         for start in range(0, len(fault_samples), TRUTH_CHUNK):
             samples = fault_samples[start:start + TRUTH_CHUNK]
             series["fault_acceleration"][samples] = _solve_samples(
@@ -487,15 +467,12 @@ def _solve_samples(solver: SparseSolver, factor: np.ndarray, diagonal_inverse: n
                         np.empty((rows, vector.shape[-1]))).reshape(vector.shape)
 
 
-def _rest(nominal: NominalBatch, alive: np.ndarray, stopped_before: np.ndarray, count: int, estimators: list[int],
-          mass_points: slice, truth_points: slice) -> None:
-    """Evaluate the stopped rows' points at rest: they may hold NaN or inf. The truth point of a row that stopped
-    this period still holds its last recorded sample's state, which is finite and still wanted."""
+def _rest(nominal: NominalBatch, alive: np.ndarray, count: int, estimators: list[int], mass_points: slice) -> None:
+    """Evaluate the stopped rows' points at rest: they may hold NaN or inf."""
     stopped = ~alive
     psi_stopped = np.concatenate([np.tile(stopped[v * count:(v + 1) * count], e) for v, e in enumerate(estimators)])
-    for points, mask in ((slice(0, len(psi_stopped)), psi_stopped), (mass_points, stopped),
-                         (truth_points, stopped_before)):
-        if points.stop == points.start:  # no such points (M and the truth from the plant)
+    for points, mask in ((slice(0, len(psi_stopped)), psi_stopped), (mass_points, stopped)):
+        if points.stop == points.start:  # no such points (M from the plant)
             continue
         nominal.qpos[points][mask] = 0.0
         nominal.qvel[points][mask] = 0.0
