@@ -161,22 +161,25 @@ class PlantTerms:
         self._mapped = np.zeros(shape)
         self._parameters = np.asarray(parameters, dtype=float).reshape(rows, -1)
         names = list(parameter_names)
-        #: Per term with a rate parameter, each row's rate, ``(rows, 1)`` (the same for every joint), and its
-        #: weight 1 - exp(-rate (t - onset)), written in place each period.
-        self._rates = {index: self._parameters[:, names.index(term.rate_parameter)][:, None].copy()
-                       for index, term in enumerate(terms) if term.rate_parameter is not None}
-        self._rate_weights = {index: np.empty_like(rates) for index, rates in self._rates.items()}
+        #: Per term with a rate parameter: each row's rate ``(rows, 1)`` (the same for every joint) and the buffer
+        #: its weight 1 - exp(-rate (t - onset)) is written into each period.
+        self._rates = {index: (self._parameters[:, names.index(term.rate_parameter)][:, None].copy(),
+                               np.empty((rows, 1))) for index, term in enumerate(terms) if term.rate_parameter}
         #: :func:`terms_function` of ``terms`` (the scenario's, compiled when it loaded), or compiled here.
         self._function = function or terms_function(terms, n_joints, parameter_names)
         self._values = np.zeros((rows, len(terms) * n_joints))
         self._blocks = [self._values[:, i * n_joints:(i + 1) * n_joints] for i in range(len(terms))]
         self.needs_mass = any(term.space == "acceleration" for term in terms)
 
-        # sign x weight of every term at every sample (NaN where off), and the plan of each set of active terms.
+        # sign x weight of every term at every sample (Profile.evaluate: what Profile.weight gives at each of
+        # them), which terms are on, and the plan of each set of active terms.
         times = np.asarray(times, dtype=float)
-        self._factors = [_factor_table(term, times, n_joints) for term in terms]
-        on = np.array([np.isfinite(table).all(axis=1) if table.ndim == 2 else np.isfinite(table)
-                       for table in self._factors], dtype=bool).reshape(len(terms), len(times))
+        profiles = [term.time_profile for term in terms]
+        always = np.ones((len(times), n_joints))
+        self._factors = [term.sign * (always if profile is None else profile.evaluate(times, n_joints))
+                         for term, profile in zip(terms, profiles)]
+        on = np.array([np.ones(len(times), dtype=bool) if profile is None else profile.active(times)
+                       for profile in profiles], dtype=bool).reshape(len(terms), len(times))
         active_sets, self._plan_of_sample = np.unique(on.T, axis=0, return_inverse=True)
         self._plan_of_sample = self._plan_of_sample.reshape(-1).tolist()
         self._plans = [self._plan(np.flatnonzero(active)) for active in active_sets]
@@ -184,8 +187,8 @@ class PlantTerms:
         self.fault_on = np.array([self._plans[plan].fault_active for plan in self._plan_of_sample], dtype=bool)
 
     def _plan(self, active: np.ndarray) -> "_Plan":
-        """What a period with the terms ``active`` (indices, file order) does: each term's block, the sums it
-        goes to, and where its factor comes from."""
+        """What a period with the terms ``active`` (indices, file order) does: each term's block, its factors
+        per sample, the sums it goes to, and its per-row rate (rates, weight buffer, onset, sign), if any."""
         steps = []
         for index in active.tolist():
             term = self.terms[index]
@@ -193,13 +196,13 @@ class PlantTerms:
             targets = [self.acceleration if acceleration else self.torque]
             if term.kind == "fault":
                 targets += [self.fault, self._fault_acceleration if acceleration else self.fault_force]
-            steps.append((index, self._blocks[index], targets))
-        kinds = [(self.terms[i].kind, self.terms[i].space) for i in active.tolist()]
+            rate = None if index not in self._rates else (*self._rates[index], term.onset, term.sign)
+            steps.append((self._blocks[index], self._factors[index], targets, rate))
         acceleration_terms = [i for i in active.tolist() if self.terms[i].space == "acceleration"]
         acceleration_faults = [i for i in acceleration_terms if self.terms[i].kind == "fault"]
         return _Plan(
             steps=steps,
-            fault_active=any(kind == "fault" for kind, _ in kinds),
+            fault_active=any(self.terms[i].kind == "fault" for i in active.tolist()),
             maps_acceleration=bool(acceleration_terms),
             maps_fault_acceleration=bool(acceleration_faults),
             # The same terms in the same order: the two sums are the same numbers, and so are their M(q) images.
@@ -219,18 +222,18 @@ class PlantTerms:
         if plan.steps:
             self._function.evaluate(t, qpos, qvel, self._parameters, self._values)
         # Term by term in the file's order, each sum from zero: the same operations whatever the batch size.
-        for index, value, targets in plan.steps:
-            if index in self._rates:  # each row's incipient profile, as Profile.weight computes it
-                factor = self._rate_weights[index]  # (-rate) * elapsed == rate * (-elapsed), bit for bit
-                np.multiply(self._rates[index], -(t - self.terms[index].onset), out=factor)
+        for value, factors, targets, rate in plan.steps:
+            if rate is None:
+                factor = factors[k]
+            else:  # each row's incipient profile, as Profile.weight computes it
+                rates, factor, onset, sign = rate
+                np.multiply(rates, -(t - onset), out=factor)  # (-rate) * elapsed == rate * (-elapsed), bit for bit
                 np.exp(factor, out=factor)
                 # sign (1 - e): e - 1 for sign -1, the same bits (rounding is symmetric under negation).
-                if self.terms[index].sign > 0:
+                if sign > 0:
                     np.subtract(1.0, factor, out=factor)
                 else:
                     np.subtract(factor, 1.0, out=factor)
-            else:
-                factor = self._factors[index][k]
             value *= factor
             for target in targets:
                 target += value
@@ -249,27 +252,10 @@ class PlantTerms:
 class _Plan:
     """A period's work for one set of active terms (:meth:`PlantTerms._plan`)."""
 
-    #: (term index, its block of values, the sums it is added to), in the file's order.
-    steps: list[tuple[int, np.ndarray, list[np.ndarray]]]
+    #: (its block of values, its factors per sample, the sums it is added to, its per-row rate or None), in the
+    #: file's order.
+    steps: list[tuple[np.ndarray, np.ndarray, list[np.ndarray], tuple | None]]
     fault_active: bool
     maps_acceleration: bool
     maps_fault_acceleration: bool
     same_acceleration_sums: bool
-
-
-def _factor_table(term: CompiledTerm, times: np.ndarray, n: int) -> np.ndarray:
-    """sign x weight of ``term`` at every sample, ``(samples,)`` or ``(samples, n)`` (incipient), NaN where
-    the term is off; each value exactly what ``term.sign * term.profile(t)`` gives at that sample."""
-    profile = term.time_profile
-    if profile is None:
-        return np.full(len(times), term.sign)
-    on = profile.active(times)
-    elapsed = times - profile.onset
-    if profile.shape == "incipient":
-        weight = 1.0 - np.exp(-profile.rate * elapsed[:, None])
-        on = on[:, None]
-    elif profile.shape == "ramp":
-        weight = np.minimum(1.0, elapsed / profile.ramp_time)
-    else:
-        weight = np.ones(len(times))
-    return np.where(on, term.sign * weight, np.nan)

@@ -247,14 +247,12 @@ class _Run:
                                 list(spec.parameters), scenario.terms_function)
         self.actuators = (ActuatorFaults(scenario.actuator_faults, self.times, (rows, n))
                           if scenario.actuator_faults else None)
-        self.has_faults = self.actuators is not None or any(term.kind == "fault" for term in scenario.terms)
         # Whether a fault is on: profiles depend on time only, so the same for every row, known before the run.
         fault_on = self.terms.fault_on | (False if self.actuators is None else self.actuators.active)
         self.fault_on = fault_on.tolist()
         # Where no fault term is on, the fault sums are zero (the series start at zero and are written only
         # where they may not be); actuator faults add to the fault force whenever there are any.
         self.fault_terms_on = self.terms.fault_on.tolist()
-        self.fault_force_written = [on or self.actuators is not None for on in self.fault_terms_on]
         self.position_sensor = self.velocity_sensor = None
         if scenario.position_sensor is not None:
             self.position_sensor = Measurement(scenario.position_sensor, self.times,
@@ -407,13 +405,13 @@ class _Run:
             plant.applied += actuators.torque
             terms.fault_force += actuators.torque
             series["tau_delivered"][k] = actuators.delivered
-        if self.fault_force_written[k]:
+        if actuators is not None or self.fault_terms_on[k]:
             series["fault_torque"][k] = terms.fault_force
 
     def advance(self, k: int) -> None:
         """5. The observers integrate over the period (with this period's model, before the plant's M moves
         on); the plant steps; the period's true acceleration."""
-        tau, plant, series = self.tau, self.plant, self.series
+        plant, series = self.plant, self.series
         for block in self.blocks:
             tau_b = block.tau
             block.observer.advance(tau_b, block.model)
@@ -427,7 +425,7 @@ class _Run:
         (0 otherwise). The same operations as ``mj_solveM`` per sample
         (:class:`~ftc_mj.robot.nominal.SparseSolver`), in chunks of samples."""
         series, solver = self.series, self.solver
-        fault_samples = np.flatnonzero(self.fault_on) if self.has_faults else np.zeros(0, dtype=int)
+        fault_samples = np.flatnonzero(self.fault_on)
         for start in range(0, self.steps, TRUTH_CHUNK):
             samples = slice(start, min(start + TRUTH_CHUNK, self.steps))
             acceleration = _solve_samples(solver, self.sample_factor[samples], self.sample_diagonal_inverse[samples],
