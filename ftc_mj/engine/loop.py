@@ -16,7 +16,8 @@ Per control period k (time t_k = k * control_dt, zero-order hold on the command)
 4. friction, disturbance and fault terms on the *true* state of all rows, and what the actuator faults
    deliver beyond the command, go to ``qfrc_applied`` (:mod:`ftc_mj.effects.terms`, :mod:`~.faults`); the
    plant's factorisation of M(q) is kept for the truths;
-5. the plant steps (:class:`~ftc_mj.engine.plant.Plant`); each observer integrates over the period.
+5. M(x1)^-1 tau of every row's command is solved at once; each observer integrates over the period; the
+   plant steps (:class:`~ftc_mj.engine.plant.Plant`).
 
 After the last period, the truths that need M(q)^-1 (the true LUaF, the fault's acceleration) are solved over
 every sample at once (:meth:`_Run.finish_truth`).
@@ -192,6 +193,7 @@ class _Run:
             np.concatenate([np.concatenate([members.nominal_mass_scale] * sum(self.estimators)),
                             per_row(members.nominal_mass_scale)[:mass_rows]]),
             threads,
+            mass_only=mass_rows,
         )
         self.mass_points = slice(psi_points, psi_points + mass_rows)
         if self.mass_from_plant:  # buffers refreshed by every mass_matrices() call
@@ -200,6 +202,9 @@ class _Run:
             self.mass = nominal.mass_matrices()[self.mass_points]
             factor, diagonal_inverse = nominal.factor[self.mass_points], nominal.diagonal_inverse[self.mass_points]
         self.solver = solver = SparseSolver(scenario.model)
+        self.factor, self.diagonal_inverse = factor, diagonal_inverse
+        #: M(x1)^-1 tau of every row's command, solved at once before the observers advance.
+        self.command_acceleration = np.zeros((rows, n))
 
         self.measures_velocity = scenario.measures_velocity
         qd_meas = self.qd_meas = np.zeros((rows, n)) if self.measures_velocity else None  # the tachometers'
@@ -220,7 +225,8 @@ class _Run:
                                  diagonal_inverse=diagonal_inverse[block_rows], solver=solver,
                                  psi_hat=nominal.qacc[first:first + count],
                                  psi_control=None if control is None else nominal.qacc[control:control + count],
-                                 qd_measured=None if control is None else qd_meas[block_rows])
+                                 qd_measured=None if control is None else qd_meas[block_rows],
+                                 command=self.command_acceleration[block_rows])
 
             observer = variant.observer_type(config.observer, n, dt, members=count)
             controller = variant.controller_type(config.controller, n, dt, members=count)
@@ -409,9 +415,10 @@ class _Run:
             series["fault_torque"][k] = terms.fault_force
 
     def advance(self, k: int) -> None:
-        """5. The observers integrate over the period (with this period's model, before the plant's M moves
-        on); the plant steps; the period's true acceleration."""
+        """5. M(x1)^-1 tau of every row's command in one solve; the observers integrate over the period (with
+        this period's model, before the plant's M moves on); the plant steps; the period's true acceleration."""
         plant, series = self.plant, self.series
+        self.solver.solve(self.factor, self.diagonal_inverse, self.tau, self.command_acceleration)
         for block in self.blocks:
             tau_b = block.tau
             block.observer.advance(tau_b, block.model)

@@ -110,12 +110,16 @@ class StepModel:
 
     def __init__(self, M: np.ndarray, factor: np.ndarray, diagonal_inverse: np.ndarray, psi_hat: np.ndarray,
                  solver: SparseSolver, psi_control: np.ndarray | None = None,
-                 qd_measured: np.ndarray | None = None):
+                 qd_measured: np.ndarray | None = None, command: np.ndarray | None = None):
+        """``command``: where the engine puts M(x1)^-1 tau of the period's command once the controllers have
+        run, solved for every row of its batch at once (see :meth:`command_acceleration`); None: solved on
+        demand."""
         self.M, self.psi_hat = M, psi_hat
         self.psi_control = psi_hat if psi_control is None else psi_control
         self.qd_measured = qd_measured
         self._factor, self._diagonal_inverse, self._solver = factor, diagonal_inverse, solver
         self._solution = np.zeros(psi_hat.shape)
+        self._command = command
 
     @classmethod
     def evaluate(cls, nominal: NominalModel, q_meas: np.ndarray, q_hat: np.ndarray, qd_hat: np.ndarray,
@@ -141,6 +145,13 @@ class StepModel:
         per step): valid until the next call."""
         return self._solver.solve(self._factor, self._diagonal_inverse, vector, self._solution)
 
+    def command_acceleration(self, tau: np.ndarray) -> np.ndarray:
+        """M(x1)^-1 tau for the command ``tau`` of this period (what an observer integrates in
+        :meth:`~ftc_mj.methods.observers.base.Observer.advance`, e.g. eq. (5.6)). In the engine it was solved
+        for every row at once after the controllers ran (the same bits as :meth:`solve_M`); elsewhere it is
+        solved here. Valid until the next call or period."""
+        return self.solve_M(tau) if self._command is None else self._command
+
     def apply_M(self, vector: np.ndarray, out: np.ndarray) -> np.ndarray:
         """M(x1) vector per member, into ``out``."""
         return matvec(self.M, vector, out)
@@ -158,6 +169,65 @@ _RIGID_BODY_ONLY = (
     | mujoco.mjtDisableBit.mjDSBL_SENSOR
 )
 _ACCELERATION_STAGE = int(mujoco.mjtStage.mjSTAGE_ACC)
+_POSITION_STAGE = int(mujoco.mjtStage.mjSTAGE_POS)
+#: Joints :func:`rigid_body_model` rebuilds (a robot arm's); a model with others keeps its plain copy.
+_REBUILT_JOINTS = (int(mujoco.mjtJoint.mjJNT_HINGE), int(mujoco.mjtJoint.mjJNT_SLIDE))
+#: Random states at which a rebuilt rigid-body model must give the plain copy's numbers bit for bit.
+_CHECK_STATES = 8
+
+
+def rigid_body_model(model: mujoco.MjModel) -> mujoco.MjModel:
+    """A private copy of ``model`` that computes the rigid-body model of eq. (5.2) alone: constraints, passive
+    forces, actuators and sensors disabled (:data:`_RIGID_BODY_ONLY`).
+
+    Where it can, the copy is rebuilt from the kinematic tree and inertias alone: bodies (frames, masses,
+    inertias, gravity compensation) and hinge or slide joints (axes, anchors, reference positions, armature),
+    without geoms, sites, cameras, lights, sensors or actuators, which the nominal model never uses but MuJoCo
+    would still place at every evaluation (a sixth of a forward pass on the PUMA560). The rebuilt copy must
+    give the plain copy's M, factorisation, C qd + G and acceleration under an applied force bit for bit at
+    random states; where it does not, or the model has what is not rebuilt (other joints, tendons, equality
+    constraints, flexes, mocap bodies), the plain copy is returned."""
+    full = copy.deepcopy(model)
+    full.opt.disableflags |= int(_RIGID_BODY_ONLY)
+    if (model.ntendon or model.neq or model.nflex or model.nmocap
+            or not np.isin(model.jnt_type, _REBUILT_JOINTS).all()):
+        return full
+    spec = mujoco.MjSpec()
+    spec.option.gravity = model.opt.gravity
+    bodies = [spec.worldbody]
+    for b in range(1, model.nbody):
+        body = bodies[model.body_parentid[b]].add_body(
+            pos=model.body_pos[b], quat=model.body_quat[b], mass=model.body_mass[b], ipos=model.body_ipos[b],
+            iquat=model.body_iquat[b], inertia=model.body_inertia[b], explicitinertial=True,
+            gravcomp=model.body_gravcomp[b])
+        bodies.append(body)
+        for joint in range(model.body_jntadr[b], model.body_jntadr[b] + model.body_jntnum[b]):
+            body.add_joint(type=mujoco.mjtJoint(model.jnt_type[joint]), axis=model.jnt_axis[joint],
+                           pos=model.jnt_pos[joint], ref=model.qpos0[model.jnt_qposadr[joint]],
+                           armature=model.dof_armature[model.jnt_dofadr[joint]])
+    try:
+        rigid = spec.compile()
+    except ValueError:
+        return full
+    rigid.opt.disableflags, rigid.opt.enableflags = full.opt.disableflags, full.opt.enableflags
+    return rigid if _same_dynamics(full, rigid) else full
+
+
+def _same_dynamics(model: mujoco.MjModel, other: mujoco.MjModel) -> bool:
+    """Whether two models give the same M, factorisation, bias and acceleration, bit for bit, at random states."""
+    if (other.nq, other.nv, other.nM) != (model.nq, model.nv, model.nM):
+        return False
+    data, other_data = mujoco.MjData(model), mujoco.MjData(other)
+    rng = np.random.default_rng(0)
+    for _ in range(_CHECK_STATES):
+        q, qd, force = rng.uniform(-np.pi, np.pi, model.nq), rng.normal(size=model.nv), rng.normal(size=model.nv)
+        for m, d in ((model, data), (other, other_data)):
+            d.qpos[:], d.qvel[:], d.qfrc_applied[:] = q, qd, force
+            mujoco.mj_forward(m, d)
+        if not all(np.array_equal(getattr(data, name), getattr(other_data, name))
+                   for name in ("M", "qLD", "qLDiagInv", "qfrc_bias", "qacc")):
+            return False
+    return True
 
 
 def scale_masses(fields: Callable[[str], np.ndarray], mass_scale: np.ndarray) -> None:
@@ -257,18 +327,20 @@ class SparseSolver:
 
 
 class NominalBatch:
-    """The controller side's model of many points at once, on a private :class:`mujoco.batch.Batch`.
+    """The controller side's model of many points at once, on a private :class:`mujoco.batch.Batch` of the
+    model's rigid-body model (:func:`rigid_body_model`).
 
     Each simulation of the batch is an evaluation point: set its ``qpos``, ``qvel`` and ``qfrc_applied``,
     call :meth:`evaluate`, and its ``qacc`` is M(q)^-1 (applied - C(q, qd) qd - G(q)) and ``M`` is M(q).
     With ``applied`` = 0 the acceleration is Psi(q, qd) of eq. (5.2), computed exactly as
     ``-mj_solveM(bias)`` on one MjData would (bit for bit). ``mass_scale`` (one per point) scales the copy's
-    masses, inertias and armature: the controlled model mismatch of ``nominal.mass_scale``.
+    masses, inertias and armature: the controlled model mismatch of ``nominal.mass_scale``. The last
+    ``mass_only`` points are where only M(q) is wanted: they are evaluated to the position stage (M and its
+    factorisation; no velocity terms, no ``qacc``), which costs about half a whole evaluation.
     """
 
-    def __init__(self, model: mujoco.MjModel, mass_scale: np.ndarray, nthread: int):
-        model = copy.deepcopy(model)
-        model.opt.disableflags |= int(_RIGID_BODY_ONLY)
+    def __init__(self, model: mujoco.MjModel, mass_scale: np.ndarray, nthread: int, mass_only: int = 0):
+        model = rigid_body_model(model)
         points = len(mass_scale)
         self.batch = Batch(model, points, nthread=nthread)
         if np.any(np.asarray(mass_scale) != 1.0):
@@ -282,14 +354,23 @@ class NominalBatch:
         #: MuJoCo's factorisation of M at each point (for :class:`SparseSolver`), from the last evaluate().
         self.factor, self.diagonal_inverse = self.batch.bind("qLD"), self.batch.bind("qLDiagInv")
         self._dense = DenseMass(model, points)
+        whole = points - mass_only
+        #: (ids, stage) of each forward call: the whole points to the acceleration, the mass-only ones to the
+        #: position stage (one call where there are none of either).
+        self._calls = [(None if not mass_only else np.arange(whole), _ACCELERATION_STAGE)] if whole else []
+        if mass_only:
+            self._calls.append((None if not whole else np.arange(whole, points), _POSITION_STAGE))
 
     def evaluate(self) -> None:
-        """Forward dynamics at every point (positions, velocities and applied forces as set)."""
-        self.batch.forward(stage=_ACCELERATION_STAGE)
+        """Forward dynamics at every point (positions, velocities and applied forces as set): the whole
+        evaluation, or M alone at the mass-only points."""
+        for ids, stage in self._calls:
+            self.batch.forward(ids=ids, stage=stage)
 
     @property
     def qacc(self) -> np.ndarray:
-        """``(points, n)``: M^-1 (applied - C qd - G) at each point, from the last :meth:`evaluate`."""
+        """``(points, n)``: M^-1 (applied - C qd - G) at each point but the mass-only ones, from the last
+        :meth:`evaluate`."""
         return self._qacc
 
     def mass_matrices(self) -> np.ndarray:

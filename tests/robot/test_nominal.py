@@ -246,3 +246,74 @@ def test_step_model_on_measured_velocity_evaluates_the_controllers_psi_at_the_re
     estimated = StepModel.evaluate(NominalModel(model), q_meas, q_hat, qd_hat)
     assert estimated.psi_control is estimated.psi_hat
     assert estimated.control_velocity(qd_hat) is qd_hat
+
+
+@pytest.mark.parametrize("name", ["puma560.xml", "ur5e.xml", "two_link.xml"])
+def test_rigid_body_model_keeps_the_tree_and_drops_what_the_nominal_model_never_uses(name):
+    """The nominal batch's model is rebuilt from bodies, joints and inertias alone (no geoms, sites, sensors,
+    actuators) and gives the full model's M, factorisation and Psi (constraints, passive forces and actuators
+    off) bit for bit at states other than those it was checked at when it was built."""
+    from ftc_mj.robot.nominal import _RIGID_BODY_ONLY, rigid_body_model
+
+    full = mujoco.MjModel.from_xml_path(str(PUMA.parent / name))
+    rigid = rigid_body_model(full)
+    assert (rigid.ngeom, rigid.nsite, rigid.nsensor, rigid.nu) == (0, 0, 0, 0)
+    assert (rigid.nbody, rigid.nv) == (full.nbody, full.nv)
+    assert rigid.opt.disableflags & int(_RIGID_BODY_ONLY) == int(_RIGID_BODY_ONLY)
+    assert full.ngeom > 0 and full.opt.disableflags & int(_RIGID_BODY_ONLY) != int(_RIGID_BODY_ONLY)  # untouched
+    plain = mujoco.MjModel.from_xml_path(str(PUMA.parent / name))
+    plain.opt.disableflags |= int(_RIGID_BODY_ONLY)
+    data, rigid_data = mujoco.MjData(plain), mujoco.MjData(rigid)
+    rng = np.random.default_rng(31)
+    for _ in range(20):
+        q, qd, force = rng.uniform(-3.0, 3.0, full.nq), rng.normal(size=full.nv) * 2, rng.normal(size=full.nv) * 5
+        for m, d in ((plain, data), (rigid, rigid_data)):
+            d.qpos[:], d.qvel[:], d.qfrc_applied[:] = q, qd, force
+            mujoco.mj_forward(m, d)
+        for field in ("M", "qLD", "qLDiagInv", "qfrc_bias", "qacc"):
+            np.testing.assert_array_equal(getattr(rigid_data, field), getattr(data, field), err_msg=field)
+        assert np.abs(data.qfrc_bias).max() > 0.1  # gravity and velocity terms really act
+
+
+def test_rigid_body_model_of_a_model_it_does_not_rebuild_is_a_plain_copy():
+    """A ball joint, or Menagerie's panda as it comes (its fingers coupled by a tendon and an equality), is not
+    rebuilt: the plain copy (geoms kept), with the rigid-body flags."""
+    from ftc_mj.robot.nominal import _RIGID_BODY_ONLY, rigid_body_model
+
+    xml = """<mujoco><worldbody><body><joint type="ball"/><geom size="0.1" mass="1"/>
+             <body pos="0 0 -0.5"><joint type="hinge"/><geom size="0.1" mass="1"/></body></body></worldbody></mujoco>"""
+    for model in (mujoco.MjModel.from_xml_string(xml), mujoco.MjModel.from_xml_path(str(PUMA.parent / "panda.xml"))):
+        copy_ = rigid_body_model(model)
+        assert copy_ is not model and copy_.ngeom == model.ngeom > 0
+        assert copy_.opt.disableflags & int(_RIGID_BODY_ONLY) == int(_RIGID_BODY_ONLY)
+
+
+def test_mass_only_points_give_M_and_its_factorisation_as_whole_points(model):
+    """The engine evaluates the points where only M is wanted (at the measured positions) to the position
+    stage: their M, qLD and qLDiagInv are those of a whole evaluation at the same position, bit for bit; the
+    whole points' accelerations are unchanged. Three whole points, two mass-only."""
+    rng = np.random.default_rng(3)
+    q, qd = rng.uniform(-np.pi, np.pi, (5, 3)), rng.uniform(-2.0, 2.0, (5, 3))
+    scales = np.array([1.0, 1.5, 0.8, 1.5, 0.8])
+    split, whole = NominalBatch(model, scales, nthread=1, mass_only=2), NominalBatch(model, scales, nthread=1)
+    for batch in (split, whole):
+        batch.qpos[:], batch.qvel[:] = q, qd
+        batch.evaluate()
+    np.testing.assert_array_equal(split.qacc[:3], whole.qacc[:3])
+    np.testing.assert_array_equal(split.mass_matrices(), whole.mass_matrices())
+    np.testing.assert_array_equal(split.factor, whole.factor)
+    np.testing.assert_array_equal(split.diagonal_inverse, whole.diagonal_inverse)
+    assert not np.any(split.qacc[3:] == whole.qacc[3:])  # no acceleration computed where only M is wanted
+
+
+def test_command_acceleration_is_solved_on_demand_or_read_from_the_engines_buffer(model):
+    """Outside the engine M(x1)^-1 tau is solved when asked (as solve_M); in the engine the StepModel reads
+    the buffer the loop filled for every row at once."""
+    nominal = NominalModel(model)
+    rng = np.random.default_rng(8)
+    q, qd, tau = rng.uniform(-1.0, 1.0, 3), rng.uniform(-1.0, 1.0, 3), rng.normal(size=(1, 3)) * 20
+    step = StepModel.evaluate(nominal, q, q, qd)
+    np.testing.assert_array_equal(step.command_acceleration(tau), step.solve_M(tau).copy())
+    buffer = np.full((1, 3), 7.0)
+    shared = StepModel(step.M, step._factor, step._diagonal_inverse, step.psi_hat, step._solver, command=buffer)
+    assert shared.command_acceleration(tau) is buffer

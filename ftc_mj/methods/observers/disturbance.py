@@ -67,5 +67,5 @@ class DisturbanceObserver(Observer):
 
     def advance(self, tau: np.ndarray, model: StepModel) -> None:
         c = self.config
-        self.velocity_state += self.dt * (model.psi_hat + model.solve_M(tau) + self.luaf_hat)
+        self.velocity_state += self.dt * (model.psi_hat + model.command_acceleration(tau) + self.luaf_hat)
         self._integral += self.dt * (c.k2 * np.sign(self._error) + c.p2 * self._error)

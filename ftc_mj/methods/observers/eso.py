@@ -47,7 +47,7 @@ class ESO(Observer):
         self.injection[:] = self.luaf_hat + self.l2 * self._error
 
     def advance(self, tau: np.ndarray, model: StepModel) -> None:
-        qdd_hat = model.psi_hat + model.solve_M(tau) + self.injection
+        qdd_hat = model.psi_hat + model.command_acceleration(tau) + self.injection
         self.q_hat += self.dt * (self.qd_hat + self.l1 * self._error)
         self.qd_hat += self.dt * qdd_hat
         self.luaf_hat += self.dt * self.l3 * self._error

@@ -70,7 +70,7 @@ class SOSMO(Observer):
         self.injection[:] = self.k2 * np.sign(error)
 
     def advance(self, tau: np.ndarray, model: StepModel) -> None:
-        qdd_hat = model.psi_hat + model.solve_M(tau) + self.injection
+        qdd_hat = model.psi_hat + model.command_acceleration(tau) + self.injection
         self.q_hat += self.dt * self._q_hat_rate
         self.qd_hat += self.dt * qdd_hat
         self.luaf_hat += self._filter_weight * (self.injection - self.luaf_hat)

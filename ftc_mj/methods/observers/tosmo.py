@@ -92,7 +92,7 @@ class TOSMO(Observer):
         return correction
 
     def advance(self, tau: np.ndarray, model: StepModel) -> None:
-        qdd_hat = np.add(model.psi_hat, model.solve_M(tau), out=self._qdd_hat)
+        qdd_hat = np.add(model.psi_hat, model.command_acceleration(tau), out=self._qdd_hat)
         qdd_hat += self.injection
         self.q_hat += self.dt_array * self._q_hat_rate
         self.qd_hat += self.dt_array * qdd_hat

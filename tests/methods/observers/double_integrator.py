@@ -15,7 +15,7 @@ MASS = 2.0
 
 
 class FakeStepModel:
-    """What the observers read from a StepModel: ``M``, ``psi_hat`` and ``solve_M``."""
+    """What the observers read from a StepModel: ``M``, ``psi_hat``, ``solve_M`` and ``command_acceleration``."""
 
     def __init__(self, M, psi_hat=None):
         self.M = np.asarray(M, dtype=float)
@@ -24,6 +24,9 @@ class FakeStepModel:
     def solve_M(self, v):
         # Works on (n,) and on (batch, n).
         return np.linalg.solve(self.M, np.asarray(v, dtype=float).T).T
+
+    def command_acceleration(self, tau):
+        return self.solve_M(tau)
 
     def apply_M(self, v, out):
         out[...] = (self.M @ np.asarray(v, dtype=float).T).T

@@ -200,6 +200,9 @@ class _RealStepModel:
     def solve_M(self, vector):
         return self._step.solve_M(np.atleast_2d(vector))[0]
 
+    def command_acceleration(self, tau):
+        return self._step.command_acceleration(np.atleast_2d(tau))[0]
+
 
 def test_converges_with_the_real_step_model():
     """The same run through NominalModel/StepModel of a one-hinge MJCF (M constant, Psi = 0)."""
