@@ -178,19 +178,27 @@ def overshoot(error: np.ndarray, mask: np.ndarray) -> np.ndarray:
 
 
 def _rms(x: np.ndarray, mask: np.ndarray) -> np.ndarray:
-    """Per joint RMS over the samples of ``mask``: ``(T,)`` for all joints alike or ``(T, n)`` per joint."""
+    """Per joint RMS over the samples of ``mask``: ``(T,)`` for all joints alike or ``(T, n)`` per joint.
+
+    The squares are summed sample by sample in time order (NumPy's sum over the first axis), so leaving the
+    samples outside a ``(T,)`` mask out gives the same bits as adding them as zeros, at less cost."""
     if mask.ndim == 1:
-        mask = np.broadcast_to(mask[:, None], x.shape)
-    count = mask.sum(axis=0)
-    total = np.where(mask, x, 0.0) ** 2
+        selected = x if mask.all() else x[mask]
+        count = np.full(x.shape[1], len(selected))
+        total = np.square(selected).sum(axis=0)
+    else:
+        count = mask.sum(axis=0)
+        total = np.square(np.where(mask, x, 0.0)).sum(axis=0)
     with np.errstate(invalid="ignore", divide="ignore"):
-        return np.where(count > 0, np.sqrt(total.sum(axis=0) / np.maximum(count, 1)), np.nan)
+        return np.where(count > 0, np.sqrt(total / np.maximum(count, 1)), np.nan)
 
 
 def _max_abs(x: np.ndarray, mask: np.ndarray) -> np.ndarray:
     """Per joint max |x| over the samples of ``mask`` (``(T,)`` or ``(T, n)``); NaN where none."""
     if mask.ndim == 1:
-        mask = np.broadcast_to(mask[:, None], x.shape)
+        if not mask.any():
+            return np.full(x.shape[1], np.nan)
+        return np.abs(x if mask.all() else x[mask]).max(axis=0)
     if x.shape[0] == 0:
         return np.full(x.shape[1], np.nan)
     peak = np.max(np.where(mask, np.abs(x), -np.inf), axis=0)

@@ -10,8 +10,8 @@ Per control period k (time t_k = k * control_dt, zero-order hold on the command)
    state after each step, as ``mj_step1`` does); the true readings are corrupted by the scenario's sensor
    effects, per member (:mod:`ftc_mj.effects.sensors`);
 2. each observer takes the measurement (``measure``); the nominal model is evaluated for all rows at once on
-   a second batch (:class:`~ftc_mj.robot.nominal.NominalBatch`): Psi at each observer's estimate and M at the
-   measured position;
+   batches of its own (:class:`~ftc_mj.robot.nominal.NominalBatch`): Psi at each observer's estimate, and M at
+   the measured position;
 3. each observer forms its injection (``update``); each controller computes its torque; ``ctrl`` = torque;
 4. friction, disturbance and fault terms on the *true* state of all rows, and what the actuator faults
    deliver beyond the command, go to ``qfrc_applied`` (:mod:`ftc_mj.effects.terms`, :mod:`~.faults`); the
@@ -175,8 +175,8 @@ class _Run:
             mass_scale=per_row(members.plant_mass_scale), max_position=spec.divergence.max_position,
             max_velocity=spec.divergence.max_velocity)
 
-        # Nominal evaluation points: Psi at each estimate (host observer and monitors of every variant) and M at
-        # every row's measured position. Where the controller's model is the plant's (no mass scale) and the
+        # Nominal evaluation points: Psi at each estimate (host observer and monitors of every variant) on one
+        # batch, and M at every row's measured position on a second, evaluated to the position stage only. Where the controller's model is the plant's (no mass scale) and the
         # encoders read the state exactly (no sensor effects), M at the measured position is the plant's own M(q)
         # and its factorisation, at no extra evaluation.
         self.plant_is_nominal = bool(np.all(members.nominal_mass_scale == 1.0)
@@ -186,21 +186,17 @@ class _Run:
         # velocity (``controller_velocity``), at the readings.
         measured = [variant.controller_velocity == "measured" for variant in variants]
         self.estimators = [1 + len(v.monitors) + on_readings for v, on_readings in zip(variants, measured)]
-        psi_points = count * sum(self.estimators)
-        mass_rows = 0 if self.mass_from_plant else rows
         nominal = self.nominal = NominalBatch(
-            scenario.model,
-            np.concatenate([np.concatenate([members.nominal_mass_scale] * sum(self.estimators)),
-                            per_row(members.nominal_mass_scale)[:mass_rows]]),
-            threads,
-            mass_only=mass_rows,
-        )
-        self.mass_points = slice(psi_points, psi_points + mass_rows)
+            scenario.model, np.concatenate([members.nominal_mass_scale] * sum(self.estimators)), threads)
+        #: M at the measured positions, one point per row, evaluated to the position stage only.
+        self.nominal_mass = None
         if self.mass_from_plant:  # buffers refreshed by every mass_matrices() call
             self.mass, factor, diagonal_inverse = plant.mass_matrices(), plant.factor, plant.diagonal_inverse
         else:
-            self.mass = nominal.mass_matrices()[self.mass_points]
-            factor, diagonal_inverse = nominal.factor[self.mass_points], nominal.diagonal_inverse[self.mass_points]
+            mass_batch = self.nominal_mass = NominalBatch(scenario.model, per_row(members.nominal_mass_scale),
+                                                          threads, mass_only=True)
+            self.mass, factor, diagonal_inverse = (mass_batch.mass_matrices(), mass_batch.factor,
+                                                   mass_batch.diagonal_inverse)
         self.solver = solver = SparseSolver(scenario.model)
         self.factor, self.diagonal_inverse = factor, diagonal_inverse
         #: M(x1)^-1 tau of every row's command, solved at once before the observers advance.
@@ -346,12 +342,17 @@ class _Run:
                 qpos, qvel = block.reading_points
                 qpos[...] = q_b
                 qvel[...] = qd_b
-        if not self.mass_from_plant:
-            nominal.qpos[self.mass_points] = self.q_meas
+        mass_batch = self.nominal_mass
+        if mass_batch is not None:
+            np.copyto(mass_batch.qpos, self.q_meas)
         if self.plant.running < self.rows:  # stopped rows may hold NaN or inf: evaluate them at rest instead
-            _rest(nominal, self.plant.alive, count, self.estimators, self.mass_points)
+            _rest(nominal, mass_batch, self.plant.alive, count, self.estimators)
         nominal.evaluate()
-        (self.plant if self.mass_from_plant else nominal).mass_matrices()  # refreshes ``mass``
+        if mass_batch is None:
+            self.plant.mass_matrices()  # refreshes ``mass``
+        else:
+            mass_batch.evaluate()
+            mass_batch.mass_matrices()
 
     def control(self, k: int, t: float) -> None:
         """3. Each observer's injection, each controller's torque; the commands go to ``ctrl``."""
@@ -472,16 +473,17 @@ def _solve_samples(solver: SparseSolver, factor: np.ndarray, diagonal_inverse: n
                         np.empty((rows, vector.shape[-1]))).reshape(vector.shape)
 
 
-def _rest(nominal: NominalBatch, alive: np.ndarray, count: int, estimators: list[int], mass_points: slice) -> None:
+def _rest(nominal: NominalBatch, mass_batch: NominalBatch | None, alive: np.ndarray, count: int,
+          estimators: list[int]) -> None:
     """Evaluate the stopped rows' points at rest: they may hold NaN or inf."""
     stopped = ~alive
     psi_stopped = np.concatenate([np.tile(stopped[v * count:(v + 1) * count], e) for v, e in enumerate(estimators)])
-    for points, mask in ((slice(0, len(psi_stopped)), psi_stopped), (mass_points, stopped)):
-        if points.stop == points.start:  # no such points (M from the plant)
+    for batch, mask in ((nominal, psi_stopped), (mass_batch, stopped)):
+        if batch is None:  # no such points (M from the plant)
             continue
-        nominal.qpos[points][mask] = 0.0
-        nominal.qvel[points][mask] = 0.0
-        nominal.applied[points][mask] = 0.0
+        batch.qpos[mask] = 0.0
+        batch.qvel[mask] = 0.0
+        batch.applied[mask] = 0.0
 
 
 def _cut(values: np.ndarray, done: np.ndarray) -> None:

@@ -334,12 +334,12 @@ class NominalBatch:
     call :meth:`evaluate`, and its ``qacc`` is M(q)^-1 (applied - C(q, qd) qd - G(q)) and ``M`` is M(q).
     With ``applied`` = 0 the acceleration is Psi(q, qd) of eq. (5.2), computed exactly as
     ``-mj_solveM(bias)`` on one MjData would (bit for bit). ``mass_scale`` (one per point) scales the copy's
-    masses, inertias and armature: the controlled model mismatch of ``nominal.mass_scale``. The last
-    ``mass_only`` points are where only M(q) is wanted: they are evaluated to the position stage (M and its
-    factorisation; no velocity terms, no ``qacc``), which costs about half a whole evaluation.
+    masses, inertias and armature: the controlled model mismatch of ``nominal.mass_scale``. A ``mass_only``
+    batch holds points where only M(q) is wanted: it is evaluated to the position stage (M and its
+    factorisation; no velocity terms, no ``qacc``), which costs about two thirds of a whole evaluation.
     """
 
-    def __init__(self, model: mujoco.MjModel, mass_scale: np.ndarray, nthread: int, mass_only: int = 0):
+    def __init__(self, model: mujoco.MjModel, mass_scale: np.ndarray, nthread: int, mass_only: bool = False):
         model = rigid_body_model(model)
         points = len(mass_scale)
         self.batch = Batch(model, points, nthread=nthread)
@@ -354,23 +354,17 @@ class NominalBatch:
         #: MuJoCo's factorisation of M at each point (for :class:`SparseSolver`), from the last evaluate().
         self.factor, self.diagonal_inverse = self.batch.bind("qLD"), self.batch.bind("qLDiagInv")
         self._dense = DenseMass(model, points)
-        whole = points - mass_only
-        #: (ids, stage) of each forward call: the whole points to the acceleration, the mass-only ones to the
-        #: position stage (one call where there are none of either).
-        self._calls = [(None if not mass_only else np.arange(whole), _ACCELERATION_STAGE)] if whole else []
-        if mass_only:
-            self._calls.append((None if not whole else np.arange(whole, points), _POSITION_STAGE))
+        self._stage = _POSITION_STAGE if mass_only else _ACCELERATION_STAGE
 
     def evaluate(self) -> None:
-        """Forward dynamics at every point (positions, velocities and applied forces as set): the whole
-        evaluation, or M alone at the mass-only points."""
-        for ids, stage in self._calls:
-            self.batch.forward(ids=ids, stage=stage)
+        """Forward dynamics at every point (positions, velocities and applied forces as set), or M alone in a
+        ``mass_only`` batch."""
+        self.batch.forward(stage=self._stage)
 
     @property
     def qacc(self) -> np.ndarray:
-        """``(points, n)``: M^-1 (applied - C qd - G) at each point but the mass-only ones, from the last
-        :meth:`evaluate`."""
+        """``(points, n)``: M^-1 (applied - C qd - G) at each point, from the last :meth:`evaluate` (not in a
+        ``mass_only`` batch)."""
         return self._qacc
 
     def mass_matrices(self) -> np.ndarray:
