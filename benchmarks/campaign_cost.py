@@ -4,13 +4,17 @@ runs one by one with ``python -m ftc_mj.run``, measured in one run on the same m
 The first ``--runs`` runs of a campaign (default ``campaigns/ch5_monte_carlo.yaml``) are run with
 :func:`ftc_mj.campaign.execute.execute` into a temporary directory (all workers); the bare physics is a
 ``mujoco.batch.Batch`` of the base model with the campaign's substeps that only writes ``ctrl`` between steps,
-as many rows as the campaign steps together, on all cores, for as many member-periods; one by one is
+as many rows as a worker steps together, on all cores, for up to 4000 control periods; one by one is
 ``python -m ftc_mj.run`` as a new process per run (``--no-record --quiet``, every field of the run given with
-``--set``, as ``replay`` does) for ``--single`` runs, extrapolated. The bare physics is measured
-``--bare-rounds`` times just before and just after the campaign; the ratio is against the mean of those. Prints the three costs per member and
-control period and, as its last lines, the ratios (goal: campaign / bare physics <= 1.5).
+``--set``, as ``replay`` does) for ``--single`` runs, extrapolated.
 
-    python benchmarks/campaign_cost.py [--campaign campaigns/ch5_monte_carlo.yaml] [--runs 64] [--single 3] [--bare-rounds 3]
+The machine's speed drifts over a long campaign, so the bare physics is measured ``--bare-rounds`` times just
+before and just after the campaign, and once between its ``--slices`` (the campaign run as that many growing
+slices of its runs, each resuming the last); the ratio is against the mean of those, the campaign's time is the
+sum of its slices'. Prints the three costs per member and control period and, as its last lines, the ratios
+(goal: campaign / bare physics <= 1.5).
+
+    python benchmarks/campaign_cost.py [--campaign campaigns/ch5_monte_carlo.yaml] [--runs 64] [--single 3] [--bare-rounds 3] [--slices 1]
 """
 
 from __future__ import annotations
@@ -52,34 +56,43 @@ def main() -> None:
     parser.add_argument("--runs", type=int, default=64, help="sampled runs of the campaign to run")
     parser.add_argument("--single", type=int, default=3, help="runs timed one by one with python -m ftc_mj.run")
     parser.add_argument("--bare-rounds", type=int, default=3, help="bare physics measurements before and after")
+    parser.add_argument("--slices", type=int, default=1,
+                        help="run the campaign in this many growing slices (resumed), the bare physics between them")
     args = parser.parse_args()
     campaign = execute.load(args.campaign, runs=args.runs)
     periods, variants = campaign.control_periods, len(campaign.variants)
     member_periods = len(campaign.runs) * variants * periods
     # The bare physics with the rows one worker steps at once (its chunk of members, every variant), on all cores,
-    # measured just before and just after the campaign (the machine's speed drifts from minute to minute): the
-    # ratio is against their mean.
+    # measured before the campaign, between its slices and after it (the machine's speed drifts from minute to
+    # minute): the ratio is against their mean.
     rows = min(len(campaign.runs), max(1, execute.WORKER_MEMORY // campaign.member_bytes)) * variants
     threads = execute.default_workers()
 
-    def physics_rounds() -> list[float]:
+    def physics_rounds(count: int) -> list[float]:
         return [bare(campaign.scenario.model, rows, campaign.scenario.substeps, min(periods, 4000), threads)
-                for _ in range(args.bare_rounds)]
+                for _ in range(count)]
 
-    before = physics_rounds()
+    physics_times = [physics_rounds(args.bare_rounds)]
+    wall = 0.0
     with tempfile.TemporaryDirectory() as folder:
-        summary = execute.execute(campaign, Path(folder) / "out")
-    batched = summary["wall_time"] / member_periods
-    after = physics_rounds()
-    physics = float(np.mean(before + after))
+        for slice_ in range(1, args.slices + 1):  # the first k/S of the runs; each slice runs what is missing
+            runs = len(campaign.runs) * slice_ // args.slices
+            part = campaign if slice_ == args.slices else execute.load(args.campaign, runs=runs)
+            summary = execute.execute(part, Path(folder) / "out")
+            wall += summary["wall_time"]
+            physics_times.append(physics_rounds(args.bare_rounds if slice_ == args.slices else 1))
+    summary["wall_time"], summary["runs_per_second"] = wall, len(campaign.runs) / wall
+    batched = wall / member_periods
+    physics = float(np.mean([x for times in physics_times for x in times]))
     single = one_by_one(campaign, args.single)
     print(f"{args.campaign.name}: {len(campaign.runs)} runs x {variants} variants x {periods} control periods of "
-          f"{campaign.scenario.substeps} physics steps ({summary['groups']} groups, {summary['workers']} workers)")
+          f"{campaign.scenario.substeps} physics steps ({summary['groups']} groups, {summary['workers']} workers, "
+          f"{args.slices} slice{'s' if args.slices > 1 else ''})")
     print(f"campaign:       {summary['wall_time']:.1f} s, {summary['runs_per_second']:.3g} runs/s, "
           f"{batched * 1e6:.2f} us per member and control period")
     print(f"bare physics:   {physics * 1e6:.2f} us per member and control period ({rows} rows, {threads} threads; "
-          f"before the campaign {', '.join(f'{x * 1e6:.2f}' for x in before)}, after it "
-          f"{', '.join(f'{x * 1e6:.2f}' for x in after)})")
+          "mean of " + " | ".join(", ".join(f"{x * 1e6:.2f}" for x in times) for times in physics_times) +
+          f", measured before, {'between the slices and ' if args.slices > 1 else ''}after the campaign)")
     print(f"one by one:     {single * 1e6:.2f} us per member and control period ({args.single} runs of "
           "python -m ftc_mj.run)")
     print(f"for 1000 runs:  campaign {1000 * variants * periods * batched / 60:.1f} min, one by one "
