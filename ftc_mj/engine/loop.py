@@ -176,21 +176,21 @@ class _Run:
             max_velocity=spec.divergence.max_velocity)
 
         # Nominal evaluation points: Psi at each estimate (host observer and monitors of every variant) on one
-        # batch, and M at every row's measured position on a second, evaluated to the position stage only. Where the controller's model is the plant's (no mass scale) and the
-        # encoders read the state exactly (no sensor effects), M at the measured position is the plant's own M(q)
-        # and its factorisation, at no extra evaluation.
-        self.plant_is_nominal = bool(np.all(members.nominal_mass_scale == 1.0)
-                                     and np.all(members.plant_mass_scale == 1.0))
-        self.mass_from_plant = self.plant_is_nominal and scenario.position_sensor is None and plant.reads_state_exactly
+        # batch, and M at every row's measured position on a second, evaluated to the position stage only.
+        # Where the controller's model is the plant's (no mass scale) and the encoders read the state exactly (no
+        # sensor effects), M at the measured position is the plant's own M(q) and its factorisation, at no extra
+        # evaluation.
+        plant_is_nominal = bool(np.all(members.nominal_mass_scale == 1.0) and np.all(members.plant_mass_scale == 1.0))
+        mass_from_plant = plant_is_nominal and scenario.position_sensor is None and plant.reads_state_exactly
         # Per variant: Psi at the observer's estimate, at each monitor's, and, for a controller on measured
         # velocity (``controller_velocity``), at the readings.
         measured = [variant.controller_velocity == "measured" for variant in variants]
         self.estimators = [1 + len(v.monitors) + on_readings for v, on_readings in zip(variants, measured)]
         nominal = self.nominal = NominalBatch(
             scenario.model, np.concatenate([members.nominal_mass_scale] * sum(self.estimators)), threads)
-        #: M at the measured positions, one point per row, evaluated to the position stage only.
+        #: M at the measured positions, one point per row, evaluated to the position stage only (None: the plant's).
         self.nominal_mass = None
-        if self.mass_from_plant:  # buffers refreshed by every mass_matrices() call
+        if mass_from_plant:  # buffers refreshed by every mass_matrices() call
             self.mass, factor, diagonal_inverse = plant.mass_matrices(), plant.factor, plant.diagonal_inverse
         else:
             mass_batch = self.nominal_mass = NominalBatch(scenario.model, per_row(members.nominal_mass_scale),
@@ -392,7 +392,7 @@ class _Run:
     def actuate(self, k: int, t: float) -> None:
         """4. Terms on the true state and what the actuators deliver go to ``qfrc_applied``; the fault truth."""
         plant, terms, series, tau = self.plant, self.terms, self.series, self.tau
-        true_mass = (self.mass if self.mass_from_plant else plant.mass_matrices()) if terms.needs_mass else None
+        true_mass = (self.mass if self.nominal_mass is None else plant.mass_matrices()) if terms.needs_mass else None
         # M(q) of the sample instant and tau / c - C qd - G, for the truths solved after the run.
         self.sample_factor[k] = plant.factor
         self.sample_diagonal_inverse[k] = plant.diagonal_inverse
