@@ -267,21 +267,24 @@ class _Run:
         used = [list(spec.parameters).index(name) for name in scenario.reference.parameters]
         self.reference = scenario.reference.evaluate(self.times, members.parameters[:, used] if used else None)
         steps = self.steps
-        self.series = {name: np.full((steps, rows, n), np.nan) for name in SERIES}
-        for name in ("fault", "fault_torque", "fault_acceleration"):  # written only while a fault may be on
-            self.series[name][:] = 0.0
+        # Every sample of every series below is written before the run ends, or lies past its row's stop, where
+        # result() writes NaN: no fill beforehand (a pass over gigabytes in a campaign's batch). The fault series
+        # are written only while a fault may be on, so they start at zero.
+        self.series = {name: np.empty((steps, rows, n)) for name in SERIES}
+        for name in ("fault", "fault_torque", "fault_acceleration"):
+            self.series[name] = np.zeros((steps, rows, n))
         self.fault_active = np.repeat(fault_on[:, None], rows, axis=1)
-        self.qd_measured = np.full((steps, rows, n), np.nan) if self.measures_velocity else None
+        self.qd_measured = np.empty((steps, rows, n)) if self.measures_velocity else None
         self.torque_space = scenario.diagnoser is not None and scenario.diagnoser.space == "torque"
-        self.luaf_torque = np.full((steps, rows, n), np.nan) if self.torque_space else None
+        self.luaf_torque = np.empty((steps, rows, n)) if self.torque_space else None
         self.monitor_series = {
-            block.name: {name: {key: np.full((steps, count, n), np.nan) for key in ("qd_hat", "luaf_hat")}
-                         | ({"luaf_torque": np.full((steps, count, n), np.nan)} if self.torque_space else {})
+            block.name: {name: {key: np.empty((steps, count, n)) for key in ("qd_hat", "luaf_hat")}
+                         | ({"luaf_torque": np.empty((steps, count, n))} if self.torque_space else {})
                          for name, _, _ in block.monitors}
             for block in blocks
         }
         self.signals = [{**b.observer.signals, **b.controller.signals} for b in blocks]
-        self.extras = {b.name: {name: np.full((steps, count, n), np.nan) for name in signals}
+        self.extras = {b.name: {name: np.empty((steps, count, n)) for name in signals}
                        for b, signals in zip(blocks, self.signals)}
         self.body_xpos = self.body_xquat = None
         if record_poses:

@@ -17,6 +17,8 @@ import pytest
 import yaml
 
 from ftc_mj.analysis.metrics import compute_metrics
+from ftc_mj.engine.loop import simulate
+from ftc_mj.engine.members import single
 from ftc_mj.engine.runner import simulate_variant
 from ftc_mj.engine.results import VariantResult
 from ftc_mj.engine.runner import run_scenario
@@ -312,6 +314,21 @@ def test_diverging_variant_is_truncated_and_others_unaffected(tmp_path: Path) ->
     reference = simulate_variant(alone, alone.variants[0], record_poses=True)
     for name, value in array_fields(reference).items():
         np.testing.assert_array_equal(getattr(stable, name), value, err_msg=name)
+
+
+def test_batch_series_are_nan_from_each_rows_stop_on(tmp_path: Path) -> None:
+    """The raw batch run (what the campaign's metrics read): every series of a stopped row holds NaN from its
+    stop on, whatever its buffer held before (the buffers are not filled up front), and the running row's
+    series are finite throughout."""
+    scenario = load_scenario(write_scenario(tmp_path, _diverging_spec()))
+    run = simulate(scenario, single(scenario))
+    stable, wild = 0, 1  # rows: one member, the variants in the file's order
+    done = int(run.done[wild])
+    assert 10 < done < len(run.times) and run.done[stable] == len(run.times)
+    for name, values in run.series.items():
+        assert np.all(np.isnan(values[done:, wild])), name
+        assert np.all(np.isfinite(values[:done, wild])), name
+        assert np.all(np.isfinite(values[:, stable])), name
 
 
 def test_diverging_plant_term_does_not_raise(tmp_path: Path) -> None:
