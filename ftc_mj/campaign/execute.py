@@ -20,7 +20,7 @@ import json
 import math
 import os
 import time
-from collections.abc import Callable, Iterable, Iterator
+from collections.abc import Callable, Iterable, Iterator, Sequence
 from concurrent.futures import FIRST_COMPLETED, Future, ProcessPoolExecutor, wait
 from dataclasses import dataclass, field
 from functools import lru_cache
@@ -36,6 +36,7 @@ from ftc_mj.analysis.diagnosis import detection_statistics
 from ftc_mj.campaign.population import Run, fingerprint, population, population_size
 from ftc_mj.campaign.spec import CampaignSpec
 from ftc_mj.engine.members import members_from_overrides
+from ftc_mj.engine.results import VariantResult
 from ftc_mj.engine.runner import run_batch
 from ftc_mj.spec.errors import InputError
 from ftc_mj.spec.loading import load_scenario
@@ -217,18 +218,7 @@ def run_task(task: Task) -> list[dict[str, Any]]:
     statistics. What a worker runs."""
     scenario = compiled_scenario(task.scenario, task.variants, task.duration, frozen(task.structure))
     members = members_from_overrides(scenario, [member for _, _, member in task.runs])
-    diagnoser = scenario.diagnoser
-    detection: dict[tuple[int, str], dict[str, np.ndarray]] = {}
-
-    def keep_detection(member: int, results: list) -> None:
-        if diagnoser is None:
-            return
-        for result in results:
-            for one in (result, *result.monitors):
-                detection[member, one.name] = detection_statistics(
-                    one.diagnosis, diagnoser.persistence, scenario.joint_fault_onsets, list(task.scales),
-                    scenario.n_joints)
-
+    detection, keep_detection = detection_keeper(scenario, task.scales)
     outcomes = run_batch(scenario, members, memory_budget=task.memory_budget, nthread=task.nthread,
                          on_result=keep_detection)
     onsets = scenario.joint_fault_onsets
@@ -244,6 +234,25 @@ def run_task(task: Task) -> list[dict[str, Any]]:
                 row[f"{name}.{j + 1}"] = value
         rows.append(row)
     return rows
+
+
+def detection_keeper(scenario: Scenario, scales: Sequence[float]) -> tuple[
+        dict[tuple[int, str], dict[str, np.ndarray]], Callable[[int, list[VariantResult]], None]]:
+    """Where each member's threshold-free detection statistics go, by (member, variant), and the ``on_result``
+    callback of :func:`~ftc_mj.engine.runner.run_batch` that computes them (nothing without a diagnoser)."""
+    diagnoser = scenario.diagnoser
+    detection: dict[tuple[int, str], dict[str, np.ndarray]] = {}
+
+    def keep_detection(member: int, results: list[VariantResult]) -> None:
+        if diagnoser is None:
+            return
+        for result in results:
+            for one in (result, *result.monitors):
+                detection[member, one.name] = detection_statistics(
+                    one.diagnosis, diagnoser.persistence, scenario.joint_fault_onsets, list(scales),
+                    scenario.n_joints)
+
+    return detection, keep_detection
 
 
 # ------------------------------------------------------------------------------------------------ a campaign

@@ -100,16 +100,25 @@ def run_batch(
     for start in range(0, members.count, chunk):
         stop = min(members.count, start + chunk)
         run = simulate(scenario, members.select(slice(start, stop)), progress=progress, nthread=nthread)
-        for m in range(stop - start):
-            results = [variant_result(scenario, run, v, m) for v in range(len(scenario.variants))]
-            if on_result is not None:
-                on_result(start + m, results)
-            for result in results:
-                for one in (result, *result.monitors):
-                    metrics = compute_metrics(one, scenario.spec.metrics, scenario.fault_onsets,
-                                              scenario.joint_fault_onsets)
-                    outcomes.append(MemberOutcome(start + m, one.name, one.status, one.diverged_at, metrics))
+        outcomes += member_outcomes(scenario, run, start, on_result)
         del run
+    return outcomes
+
+
+def member_outcomes(scenario: Scenario, run: BatchRun, first: int = 0,
+                    on_result: Callable[[int, list[VariantResult]], None] | None = None) -> list[MemberOutcome]:
+    """The metrics of every member of a batch run (member order, then variant order), numbered from ``first``;
+    ``on_result(member, results)`` sees each member's whole results first."""
+    outcomes = []
+    for m in range(run.members):
+        results = [variant_result(scenario, run, v, m) for v in range(len(scenario.variants))]
+        if on_result is not None:
+            on_result(first + m, results)
+        for result in results:
+            for one in (result, *result.monitors):
+                metrics = compute_metrics(one, scenario.spec.metrics, scenario.fault_onsets,
+                                          scenario.joint_fault_onsets)
+                outcomes.append(MemberOutcome(first + m, one.name, one.status, one.diverged_at, metrics))
     return outcomes
 
 

@@ -1,0 +1,125 @@
+"""Where a campaign batch's time goes, phase by phase, against its own physics: the floor of the campaign's cost.
+
+The first batch of a campaign (default ``campaigns/ch5_monte_carlo.yaml``), cut as ``python -m ftc_mj.campaign
+run`` cuts it (its default batch size on this machine's workers), is run on one core the way a worker runs it,
+with a timer around each phase of the loop (:mod:`ftc_mj.engine.loop`):
+
+* physics: the plant's substeps (``Plant.step``), the campaign's only share of bare physics;
+* nominal model: Psi at every estimate and M at every measured position (MuJoCo, :class:`NominalBatch`);
+* methods: observers' and controllers' laws (``update``, ``compute``, ``advance``), the recorded series;
+* plant terms: friction, disturbance and fault terms on the true state, the truths' bookkeeping;
+* readings: sensor effects and the divergence check;
+* set-up and truths: buffers, plugins, the truths solved after the run;
+* metrics: every member's results, diagnosis, metrics and detection statistics, as a worker computes them.
+
+Each phase is printed per row (variant x member) and control period, and as a share of the physics. The
+campaign's goal (issue 10) is at most 1.5 times the bare physics, so everything but the physics must stay
+within half of it; the printed cumulative ratios say how far each phase brings it. The bare physics of the
+same rows on one core (``benchmarks/batch_cost.py``'s batch) is measured before and after as a check that the
+physics phase is the bare physics' cost.
+
+    python benchmarks/loop_phases.py [--campaign campaigns/ch5_monte_carlo.yaml] [--duration SECONDS] [--members B]
+"""
+
+from __future__ import annotations
+
+import argparse
+import time
+from pathlib import Path
+
+import numpy as np
+
+from batch_cost import bare  # the same bare physics as the batch benchmark (this folder is on sys.path)
+from ftc_mj.campaign import execute
+from ftc_mj.engine import loop
+from ftc_mj.engine.members import members_from_overrides
+from ftc_mj.engine.runner import member_outcomes
+
+ROOT = Path(__file__).resolve().parents[1]
+PHASES = ("physics", "nominal model", "methods", "plant terms", "readings", "set-up and truths", "metrics")
+
+
+def phase_seconds(campaign: execute.Campaign, task: execute.Task) -> tuple[dict[str, float], int, int]:
+    """Seconds per phase of one batch on one core; the batch's rows and control periods."""
+    scenario = execute.compiled_scenario(task.scenario, task.variants, task.duration, execute.frozen(task.structure))
+    members = members_from_overrides(scenario, [member for _, _, member in task.runs])
+    seconds = dict.fromkeys(PHASES, 0.0)
+    clock = time.perf_counter
+    start = clock()
+    run = loop._Run(scenario, members, record_poses=False, nthread=1)
+    seconds["set-up and truths"] += clock() - start
+    with np.errstate(all="ignore"):
+        for k in range(run.steps):
+            t = run.times[k]
+            a = clock()
+            run.stop(run.plant.check(), k)
+            run.sense(k)
+            b = clock()
+            run.evaluate_nominal(k)
+            c = clock()
+            run.control(k, t)
+            d = clock()
+            run.actuate(k, t)
+            e = clock()
+            # advance(), split: the observers integrate (methods), then the plant steps (physics).
+            run.solver.solve(run.factor, run.diagonal_inverse, run.tau, run.command_acceleration)
+            for block in run.blocks:
+                block.observer.advance(block.tau, block.model)
+                for _, observer, model in block.monitors:
+                    observer.advance(block.tau, model)
+            f = clock()
+            run.stop(run.plant.step(run.series["qdd_true"][k]), k)
+            g = clock()
+            seconds["readings"] += b - a
+            seconds["nominal model"] += c - b
+            seconds["methods"] += d - c + f - e
+            seconds["plant terms"] += e - d
+            seconds["physics"] += g - f
+        a = clock()
+        run.finish_truth()
+        batch_run = run.result()
+        seconds["set-up and truths"] += clock() - a
+    a = clock()
+    _, keep_detection = execute.detection_keeper(scenario, task.scales)
+    member_outcomes(scenario, batch_run, 0, keep_detection)
+    seconds["metrics"] += clock() - a
+    return seconds, run.rows, run.steps
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    parser.add_argument("--campaign", type=Path, default=ROOT / "campaigns" / "ch5_monte_carlo.yaml")
+    parser.add_argument("--duration", type=float, default=None, help="simulated seconds (default: the campaign's)")
+    parser.add_argument("--members", type=int, default=None, help="members of the batch (default: the campaign's)")
+    args = parser.parse_args()
+    campaign = execute.load(args.campaign)
+    task = execute.tasks_for(campaign, campaign.runs, args.members, execute.default_workers())[0]
+    if args.duration is not None:
+        task = execute.Task(**{**task.__dict__, "duration": args.duration})
+    periods = len(execute.compiled_scenario(task.scenario, task.variants, task.duration,
+                                            execute.frozen(task.structure)).times)
+    rows = len(task.runs) * len(task.variants)
+
+    def physics() -> float:
+        return bare(campaign.scenario.model, rows, campaign.scenario.substeps, min(periods, 4000), 1)
+
+    before = physics()
+    seconds, rows, steps = phase_seconds(campaign, task)
+    after = physics()
+    per = {name: value / (rows * steps) for name, value in seconds.items()}
+    print(f"{args.campaign.name}: one batch of {len(task.runs)} members x {len(task.variants)} variants = {rows} rows, "
+          f"{steps} control periods of {campaign.scenario.substeps} physics steps, on one core")
+    print(f"{'phase':20s} {'us per row-period':>18s} {'/ physics':>10s} {'cumulative':>11s}")
+    physics_cost, cumulative = per["physics"], 0.0
+    for name in PHASES:
+        cumulative += per[name]
+        print(f"{name:20s} {per[name] * 1e6:18.2f} {per[name] / physics_cost:10.2f} {cumulative / physics_cost:11.2f}")
+    print(f"bare physics, same rows, one core: {before * 1e6:.2f} before, {after * 1e6:.2f} after "
+          f"(the physics phase: {physics_cost * 1e6:.2f})")
+    print(f"ratio whole batch / its physics: {cumulative / physics_cost:.2f}")
+    print(f"ratio physics + nominal model / physics (the floor with the methods free): "
+          f"{(per['physics'] + per['nominal model']) / physics_cost:.2f}")
+
+
+if __name__ == "__main__":
+    main()
