@@ -61,12 +61,7 @@ def phase_seconds(campaign: execute.Campaign, task: execute.Task) -> tuple[dict[
             d = clock()
             run.actuate(k, t)
             e = clock()
-            # advance(), split: the observers integrate (methods), then the plant steps (physics).
-            run.solver.solve(run.factor, run.diagonal_inverse, run.tau, run.command_acceleration)
-            for block in run.blocks:
-                block.observer.advance(block.tau, block.model)
-                for _, observer, model in block.monitors:
-                    observer.advance(block.tau, model)
+            run.integrate_observers()  # advance(), split: the observers (methods), then the plant (physics)
             f = clock()
             run.stop(run.plant.step(run.series["qdd_true"][k]), k)
             g = clock()

@@ -240,7 +240,7 @@ def detection_keeper(scenario: Scenario, scales: Sequence[float]) -> tuple[
         dict[tuple[int, str], dict[str, np.ndarray]], Callable[[int, list[VariantResult]], None]]:
     """Where each member's threshold-free detection statistics go, by (member, variant), and the ``on_result``
     callback of :func:`~ftc_mj.engine.runner.run_batch` that computes them (nothing without a diagnoser)."""
-    diagnoser = scenario.diagnoser
+    diagnoser, scales = scenario.diagnoser, list(scales)
     detection: dict[tuple[int, str], dict[str, np.ndarray]] = {}
 
     def keep_detection(member: int, results: list[VariantResult]) -> None:
@@ -249,7 +249,7 @@ def detection_keeper(scenario: Scenario, scales: Sequence[float]) -> tuple[
         for result in results:
             for one in (result, *result.monitors):
                 detection[member, one.name] = detection_statistics(
-                    one.diagnosis, diagnoser.persistence, scenario.joint_fault_onsets, list(scales),
+                    one.diagnosis, diagnoser.persistence, scenario.joint_fault_onsets, scales,
                     scenario.n_joints)
 
     return detection, keep_detection

@@ -419,16 +419,20 @@ class _Run:
             series["fault_torque"][k] = terms.fault_force
 
     def advance(self, k: int) -> None:
-        """5. M(x1)^-1 tau of every row's command in one solve; the observers integrate over the period (with
-        this period's model, before the plant's M moves on); the plant steps; the period's true acceleration."""
-        plant, series = self.plant, self.series
+        """5. The observers integrate over the period (:meth:`integrate_observers`); the plant steps; the
+        period's true acceleration."""
+        self.integrate_observers()
+        self.stop(self.plant.step(self.series["qdd_true"][k]), k)
+
+    def integrate_observers(self) -> None:
+        """M(x1)^-1 tau of every row's command in one solve; every observer integrates over the period, with this
+        period's model (before the plant's M moves on)."""
         self.solver.solve(self.factor, self.diagonal_inverse, self.tau, self.command_acceleration)
         for block in self.blocks:
             tau_b = block.tau
             block.observer.advance(tau_b, block.model)
             for _, observer, model in block.monitors:
                 observer.advance(tau_b, model)
-        self.stop(plant.step(series["qdd_true"][k]), k)
 
     def finish_truth(self) -> None:
         """The truths solved with the samples' factorisations of M(q): the true LUaF, qdd - (Psi + M^-1 tau) of
