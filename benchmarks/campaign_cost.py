@@ -58,7 +58,12 @@ def main() -> None:
     parser.add_argument("--bare-rounds", type=int, default=3, help="bare physics measurements before and after")
     parser.add_argument("--slices", type=int, default=1,
                         help="run the campaign in this many growing slices (resumed), the bare physics between them")
+    parser.add_argument("--keep", type=Path, default=None,
+                        help="write the campaign's results here (a new folder; then `python -m ftc_mj.campaign report "
+                             "DIR`) instead of a temporary one")
     args = parser.parse_args()
+    if args.keep is not None and args.keep.exists():
+        parser.error(f"--keep: {args.keep} already exists")
     campaign = execute.load(args.campaign, runs=args.runs)
     periods, variants = campaign.control_periods, len(campaign.variants)
     member_periods = len(campaign.runs) * variants * periods
@@ -75,10 +80,11 @@ def main() -> None:
     physics_times = [physics_rounds(args.bare_rounds)]
     wall = 0.0
     with tempfile.TemporaryDirectory() as folder:
+        out = Path(folder) / "out" if args.keep is None else args.keep
         for slice_ in range(1, args.slices + 1):  # the first k/S of the runs; each slice runs what is missing
             runs = len(campaign.runs) * slice_ // args.slices
             part = campaign if slice_ == args.slices else execute.load(args.campaign, runs=runs)
-            summary = execute.execute(part, Path(folder) / "out")
+            summary = execute.execute(part, out)
             wall += summary["wall_time"]
             physics_times.append(physics_rounds(args.bare_rounds if slice_ == args.slices else 1))
     summary["wall_time"], summary["runs_per_second"] = wall, len(campaign.runs) / wall

@@ -9,9 +9,9 @@ Per control period k (time t_k = k * control_dt, zero-order hold on the command)
 1. the sensors of every row are current (the batch computes positions, velocities and sensors at the new
    state after each step, as ``mj_step1`` does); the true readings are corrupted by the scenario's sensor
    effects, per member (:mod:`ftc_mj.effects.sensors`);
-2. each observer takes the measurement (``measure``); the nominal model is evaluated for all rows at once on
-   batches of its own (:class:`~ftc_mj.robot.nominal.NominalBatch`): Psi at each observer's estimate, and M at
-   the measured position;
+2. each observer takes the measurement (``measure``); the nominal model is evaluated for all rows at once
+   (:class:`~ftc_mj.robot.nominal.NominalBatch`, compiled rigid-body algorithms): Psi at each observer's
+   estimate, and M at the measured position;
 3. each observer forms its injection (``update``); each controller computes its torque; ``ctrl`` = torque;
 4. friction, disturbance and fault terms on the *true* state of all rows, and what the actuator faults
    deliver beyond the command, go to ``qfrc_applied`` (:mod:`ftc_mj.effects.terms`, :mod:`~.faults`); the
@@ -176,18 +176,20 @@ class _Run:
             max_velocity=spec.divergence.max_velocity)
 
         # Nominal evaluation points: Psi at each estimate (host observer and monitors of every variant) on one
-        # batch, and M at every row's measured position on a second, evaluated to the position stage only.
-        # Where the controller's model is the plant's (no mass scale) and the encoders read the state exactly (no
-        # sensor effects), M at the measured position is the plant's own M(q) and its factorisation, at no extra
-        # evaluation.
-        plant_is_nominal = bool(np.all(members.nominal_mass_scale == 1.0) and np.all(members.plant_mass_scale == 1.0))
-        mass_from_plant = plant_is_nominal and scenario.position_sensor is None and plant.reads_state_exactly
+        # batch, and M at every row's measured position on a second, without the velocity terms.
         # Per variant: Psi at the observer's estimate, at each monitor's, and, for a controller on measured
         # velocity (``controller_velocity``), at the readings.
         measured = [variant.controller_velocity == "measured" for variant in variants]
         self.estimators = [1 + len(v.monitors) + on_readings for v, on_readings in zip(variants, measured)]
         nominal = self.nominal = NominalBatch(
             scenario.model, np.concatenate([members.nominal_mass_scale] * sum(self.estimators)), threads)
+        # Where MuJoCo itself evaluates the nominal model (a robot the compiled one does not cover), the
+        # controller's model is the plant's (no mass scale) and the encoders read the state exactly (no sensor
+        # effects), M at the measured position is the plant's own M(q) and its factorisation, bit for bit, at no
+        # extra evaluation. The compiled model rounds otherwise than the plant: it evaluates its own M.
+        plant_is_nominal = bool(np.all(members.nominal_mass_scale == 1.0) and np.all(members.plant_mass_scale == 1.0))
+        mass_from_plant = (nominal.tree is None and plant_is_nominal and scenario.position_sensor is None
+                           and plant.reads_state_exactly)
         #: M at the measured positions, one point per row, evaluated to the position stage only (None: the plant's).
         self.nominal_mass = None
         if mass_from_plant:  # buffers refreshed by every mass_matrices() call

@@ -14,6 +14,7 @@ import mujoco
 import numpy as np
 from mujoco.batch import Batch
 
+from ftc_mj.robot.rigid import RigidTree
 from ftc_mj.spec.schema import PositiveFloat, Strict
 
 
@@ -327,39 +328,60 @@ class SparseSolver:
 
 
 class NominalBatch:
-    """The controller side's model of many points at once, on a private :class:`mujoco.batch.Batch` of the
-    model's rigid-body model (:func:`rigid_body_model`).
+    """The controller side's model of many points at once.
 
-    Each simulation of the batch is an evaluation point: set its ``qpos``, ``qvel`` and ``qfrc_applied``,
-    call :meth:`evaluate`, and its ``qacc`` is M(q)^-1 (applied - C(q, qd) qd - G(q)) and ``M`` is M(q).
-    With ``applied`` = 0 the acceleration is Psi(q, qd) of eq. (5.2), computed exactly as
-    ``-mj_solveM(bias)`` on one MjData would (bit for bit). ``mass_scale`` (one per point) scales the copy's
-    masses, inertias and armature: the controlled model mismatch of ``nominal.mass_scale``. A ``mass_only``
-    batch holds points where only M(q) is wanted: it is evaluated to the position stage (M and its
-    factorisation; no velocity terms, no ``qacc``), which costs about two thirds of a whole evaluation.
+    Each point is an evaluation point: set its ``qpos``, ``qvel`` and ``applied`` (``(points, n)``), call
+    :meth:`evaluate`, and its ``qacc`` is M(q)^-1 (applied - C(q, qd) qd - G(q)) and :meth:`mass_matrices` is
+    M(q), with M's factorisation in MuJoCo's sparse layout (``factor``, ``diagonal_inverse``; solved by
+    :class:`SparseSolver`). With ``applied`` = 0 the acceleration is Psi(q, qd) of eq. (5.2). ``mass_scale``
+    (one per point) scales masses, inertias and armature: the controlled model mismatch of
+    ``nominal.mass_scale``. A ``mass_only`` batch holds points where only M(q) is wanted: no velocity terms,
+    no ``qacc``.
+
+    The model is the robot's rigid-body model (:func:`rigid_body_model`). Where it is a tree of hinge and slide
+    joints (every shipped robot but the Panda with its coupled fingers), the compiled algorithms of
+    :mod:`ftc_mj.robot.rigid` evaluate it, at about a quarter of MuJoCo's forward pass per point and equal to
+    it to rounding (1e-15). Otherwise the points are the simulations of a private :class:`mujoco.batch.Batch`
+    (``nthread`` threads), evaluated by MuJoCo itself. Either way a point's numbers do not depend on the
+    number of points, so a batch member gets its single run's bits.
     """
 
     def __init__(self, model: mujoco.MjModel, mass_scale: np.ndarray, nthread: int, mass_only: bool = False):
         model = rigid_body_model(model)
-        points = len(mass_scale)
-        self.batch = Batch(model, points, nthread=nthread)
-        if np.any(np.asarray(mass_scale) != 1.0):
-            scale_masses(self.batch.expand, mass_scale)
-            self.batch.set_const()
-        self.qpos = self.batch.bind("qpos")
-        self.qvel = self.batch.bind("qvel")
-        self.applied = self.batch.bind("qfrc_applied")
-        self._qacc = self.batch.bind("qacc")
-        self._sparse_M = self.batch.bind("M")
-        #: MuJoCo's factorisation of M at each point (for :class:`SparseSolver`), from the last evaluate().
-        self.factor, self.diagonal_inverse = self.batch.bind("qLD"), self.batch.bind("qLDiagInv")
+        mass_scale = np.asarray(mass_scale, dtype=float)
+        points, n = len(mass_scale), model.nv
+        self._with_velocity = not mass_only
+        self.tree = RigidTree.from_model(model)
+        if self.tree is not None:
+            self.batch = None
+            self._inertias = self.tree.scaled(mass_scale)
+            self.qpos, self.qvel, self.applied = np.zeros((points, n)), np.zeros((points, n)), np.zeros((points, n))
+            self._qacc, self._bias = np.zeros((points, n)), np.zeros((points, n))
+            self._sparse_M = np.zeros((points, model.nM))
+            self.factor, self.diagonal_inverse = np.zeros((points, model.nM)), np.ones((points, n))
+        else:
+            self.batch = Batch(model, points, nthread=nthread)
+            if np.any(mass_scale != 1.0):
+                scale_masses(self.batch.expand, mass_scale)
+                self.batch.set_const()
+            self.qpos = self.batch.bind("qpos")
+            self.qvel = self.batch.bind("qvel")
+            self.applied = self.batch.bind("qfrc_applied")
+            self._qacc = self.batch.bind("qacc")
+            self._sparse_M = self.batch.bind("M")
+            #: MuJoCo's factorisation of M at each point (for :class:`SparseSolver`), from the last evaluate().
+            self.factor, self.diagonal_inverse = self.batch.bind("qLD"), self.batch.bind("qLDiagInv")
         self._dense = DenseMass(model, points)
-        self._stage = _POSITION_STAGE if mass_only else _ACCELERATION_STAGE
+        self._stage = _ACCELERATION_STAGE if self._with_velocity else _POSITION_STAGE
 
     def evaluate(self) -> None:
         """Forward dynamics at every point (positions, velocities and applied forces as set), or M alone in a
         ``mass_only`` batch."""
-        self.batch.forward(stage=self._stage)
+        if self.tree is None:
+            self.batch.forward(stage=self._stage)
+        else:
+            self.tree.evaluate(*self._inertias, self.qpos, self.qvel, self.applied, self._sparse_M, self.factor,
+                               self.diagonal_inverse, self._qacc, self._bias, self._with_velocity)
 
     @property
     def qacc(self) -> np.ndarray:

@@ -188,10 +188,14 @@ def test_members_select_keeps_member_values(scenario):
 
 
 def test_the_plants_own_mass_matrix_is_the_nominal_one(tmp_path, monkeypatch):
-    """Where the controller's model is the plant's and the encoders read the state exactly, the engine takes
-    M(q_meas), its factorisation and the truth's M and bias from the plant instead of evaluating the nominal
-    model again: the run is the same bit for bit."""
+    """Where MuJoCo evaluates the nominal model (here forced: the compiled model declines), the controller's
+    model is the plant's and the encoders read the state exactly, the engine takes M(q_meas), its factorisation
+    and the truth's M and bias from the plant instead of evaluating the nominal model again: the run is the
+    same bit for bit."""
     import ftc_mj.engine.loop as loop
+    import ftc_mj.robot.nominal as nominal
+
+    monkeypatch.setattr(nominal.RigidTree, "from_model", classmethod(lambda cls, model: None))
 
     spec = scenario_dict()
     del spec["sensors"]

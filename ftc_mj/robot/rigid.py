@@ -1,0 +1,359 @@
+"""The nominal model's rigid-body algorithms, compiled: M(q), C(q, qd) qd + G(q), the factorisation of M and
+M^-1 (applied - C qd - G) for many evaluation points at once (eq. (5.2)).
+
+A controller's nominal model is a kinematic tree of rigid links, hinge and slide joints and gravity; nothing
+else of MuJoCo's forward pass is used (the copy in :func:`~ftc_mj.robot.nominal.rigid_body_model` disables the
+rest). On the PUMA560's three joints MuJoCo's ``mj_forward`` still costs about three quarters of one plant step
+per point, most of it in the stages and bookkeeping a general engine needs; a campaign evaluates two points per
+row and control period. The textbook algorithms on that tree, compiled with Numba, take a small fraction:
+
+- kinematics from the joint positions (MuJoCo's conventions: a hinge turns its body about ``jnt_axis``
+  through ``jnt_pos``; a slide moves it along the axis; angles from ``qpos0``);
+- the recursive Newton-Euler algorithm with zero joint acceleration and the base accelerated against gravity,
+  which gives MuJoCo's ``qfrc_bias`` = C(q, qd) qd + G(q);
+- the composite-rigid-body algorithm for M(q) (plus the joint armature);
+- M = L' D L in MuJoCo's own sparse layout (``qLD``, ``qLDiagInv``), by ``mj_factorM``'s recursion from the
+  last joint up, so that :class:`~ftc_mj.robot.nominal.SparseSolver` solves with it unchanged.
+
+Everything is expressed in world coordinates about the world origin (Featherstone's spatial vectors, angular
+part first), where composite inertias simply add. Bodies without a joint are welded into the nearest ancestor
+that has one (their inertias combined once at construction), so the recursion runs over joints only.
+
+The numbers equal MuJoCo's to rounding (about 1e-15 relative; tested on every shipped robot) but not bit for
+bit. Every point is computed by the same compiled code whatever the number of points, so a member of a batch
+still gets exactly the bits of its single run.
+"""
+
+from __future__ import annotations
+
+import os
+
+# Numba vectorises loops with Intel's SVML where it is installed: a vectorised sine may round differently from
+# the scalar one, and a point's bits must not depend on its neighbours. Set before Numba is imported.
+os.environ.setdefault("NUMBA_DISABLE_INTEL_SVML", "1")
+
+from dataclasses import dataclass  # noqa: E402
+
+import mujoco  # noqa: E402
+import numba  # noqa: E402
+import numpy as np  # noqa: E402
+
+_HINGE, _SLIDE = int(mujoco.mjtJoint.mjJNT_HINGE), int(mujoco.mjtJoint.mjJNT_SLIDE)
+
+
+@dataclass(frozen=True)
+class RigidTree:
+    """A model's kinematic tree with one joint per node (node i is dof i), in the arrays the kernels read.
+
+    Frames: a node's ``offset_*`` place its body frame (before its joint moves it) in its parent node's body
+    frame, or in the world for a root node. Inertias are the node's welded bodies together, about the node's
+    body origin and in its body frame: ``mass``, first moment ``first_moment`` (mass times the centre of mass)
+    and ``inertia`` (3 x 3)."""
+
+    parent: np.ndarray  # (n,) int64, -1 for a root
+    offset_position: np.ndarray  # (n, 3)
+    offset_rotation: np.ndarray  # (n, 3, 3)
+    hinge: np.ndarray  # (n,) bool: hinge, else slide
+    axis: np.ndarray  # (n, 3) unit, body frame
+    anchor: np.ndarray  # (n, 3) body frame
+    reference: np.ndarray  # (n,) the joint's qpos0
+    armature: np.ndarray  # (n,)
+    mass: np.ndarray  # (n,)
+    first_moment: np.ndarray  # (n, 3)
+    inertia: np.ndarray  # (n, 3, 3)
+    gravity: np.ndarray  # (3,)
+    #: MuJoCo's sparse layout of M and its factor: for each entry, its row and column.
+    sparse_row: np.ndarray  # (nM,) int64
+    sparse_column: np.ndarray  # (nM,) int64
+
+    @property
+    def n(self) -> int:
+        return len(self.parent)
+
+    @classmethod
+    def from_model(cls, model: mujoco.MjModel) -> RigidTree | None:
+        """The tree of ``model`` (its masses as they are), or None where these kernels do not apply: a body with
+        more than one joint, a joint other than hinge or slide, gravity compensation, or what the rigid-body
+        copy keeps MuJoCo's whole model for (tendons, equality constraints, flexes, mocap bodies)."""
+        if (model.ntendon or model.neq or model.nflex or model.nmocap or model.nv == 0 or model.nq != model.nv
+                or np.any(model.body_jntnum > 1) or np.any(model.body_gravcomp != 0.0)
+                or not np.isin(model.jnt_type, (_HINGE, _SLIDE)).all()):
+            return None
+        n = model.nv
+        node_of_body = np.full(model.nbody, -1)
+        # Each body's pose in its carrier's frame: the carrier is the nearest body, itself included, with a
+        # joint (world: -1); a jointed body's pose in its own frame is the identity.
+        pose_position = np.zeros((model.nbody, 3))
+        pose_rotation = np.tile(np.eye(3), (model.nbody, 1, 1))
+        parent, offset_position, offset_rotation = np.full(n, -1), np.zeros((n, 3)), np.zeros((n, 3, 3))
+        mass, first_moment, inertia = np.zeros(n), np.zeros((n, 3)), np.zeros((n, 3, 3))
+        for body in range(1, model.nbody):
+            up = model.body_parentid[body]
+            rotation = np.zeros(9)
+            mujoco.mju_quat2Mat(rotation, model.body_quat[body])
+            # The body's frame in its parent's carrier's frame.
+            position = pose_position[up] + pose_rotation[up] @ model.body_pos[body]
+            rotation = pose_rotation[up] @ rotation.reshape(3, 3)
+            if model.body_jntnum[body] == 1:
+                joint = model.body_jntadr[body]
+                node = model.jnt_dofadr[joint]
+                node_of_body[body] = node
+                parent[node] = node_of_body[up]
+                offset_position[node], offset_rotation[node] = position, rotation
+            else:  # welded to its parent's carrier
+                node_of_body[body] = node_of_body[up]
+                pose_position[body], pose_rotation[body] = position, rotation
+            node = node_of_body[body]
+            if node < 0 or model.body_mass[body] == 0.0:
+                continue
+            # The body's inertia about its carrier's origin, in the carrier's frame.
+            principal = np.zeros(9)
+            mujoco.mju_quat2Mat(principal, model.body_iquat[body])
+            frame = pose_rotation[body] @ principal.reshape(3, 3)
+            centre = pose_position[body] + pose_rotation[body] @ model.body_ipos[body]
+            m = model.body_mass[body]
+            mass[node] += m
+            first_moment[node] += m * centre
+            inertia[node] += (frame * model.body_inertia[body]) @ frame.T + m * (centre @ centre * np.eye(3)
+                                                                                - np.outer(centre, centre))
+        if np.any(np.diff(node_of_body[node_of_body >= 0]) < 0) or np.any(parent >= np.arange(n)):
+            return None  # dofs out of tree order (MuJoCo numbers them in body order; a guard, not expected)
+        sparse_row = np.repeat(np.arange(n), model.M_rownnz)
+        joints = model.dof_jntid
+        return cls(parent=parent.astype(np.int64), offset_position=offset_position,
+                   offset_rotation=np.ascontiguousarray(offset_rotation),
+                   hinge=model.jnt_type[joints] == _HINGE, axis=model.jnt_axis[joints].copy(),
+                   anchor=model.jnt_pos[joints].copy(), reference=model.qpos0[model.jnt_qposadr[joints]].copy(),
+                   armature=model.dof_armature.copy(), mass=mass, first_moment=first_moment, inertia=inertia,
+                   gravity=model.opt.gravity.copy(), sparse_row=sparse_row.astype(np.int64),
+                   sparse_column=model.M_colind.astype(np.int64))
+
+    def scaled(self, mass_scale: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+        """Per point ``(points, n, ...)``: mass, first moment, inertia and armature times the point's scale (the
+        nominal model's controlled mismatch, as :func:`~ftc_mj.robot.nominal.scale_masses` scales MuJoCo's)."""
+        scale = np.asarray(mass_scale, dtype=float)
+        return (scale[:, None] * self.mass, scale[:, None, None] * self.first_moment,
+                scale[:, None, None, None] * self.inertia, scale[:, None] * self.armature)
+
+    def evaluate(self, mass: np.ndarray, first_moment: np.ndarray, inertia: np.ndarray, armature: np.ndarray,
+                 qpos: np.ndarray, qvel: np.ndarray, applied: np.ndarray, sparse_M: np.ndarray,
+                 factor: np.ndarray, diagonal_inverse: np.ndarray, qacc: np.ndarray, bias: np.ndarray,
+                 with_velocity: bool) -> None:
+        """At every point: M (sparse), its factorisation and, ``with_velocity``, C qd + G into ``bias`` and
+        M^-1 (applied - bias) into ``qacc``. The per-point inertias come from :meth:`scaled`."""
+        _evaluate(self.parent, self.offset_position, self.offset_rotation, self.hinge, self.axis, self.anchor,
+                  self.reference, self.gravity, self.sparse_row, self.sparse_column,
+                  mass, first_moment, inertia, armature, qpos, qvel, applied,
+                  sparse_M, factor, diagonal_inverse, qacc, bias, with_velocity)
+
+
+@numba.njit(cache=True, nogil=True, inline="always")
+def _cross(a0: float, a1: float, a2: float, b: np.ndarray, out: np.ndarray, sign: float) -> None:
+    out[0] += sign * (a1 * b[2] - a2 * b[1])
+    out[1] += sign * (a2 * b[0] - a0 * b[2])
+    out[2] += sign * (a0 * b[1] - a1 * b[0])
+
+
+@numba.njit(cache=True, nogil=True, inline="always")
+def _apply_inertia(m: float, h: np.ndarray, inertia: np.ndarray, motion: np.ndarray, out: np.ndarray) -> None:
+    """``out`` = I motion for a spatial inertia (mass m, first moment h, rotational inertia about the origin),
+    motion = [w; v]: [I w + h x v; m v - h x w]."""
+    w, v = motion[:3], motion[3:]
+    for r in range(3):
+        out[r] = inertia[r, 0] * w[0] + inertia[r, 1] * w[1] + inertia[r, 2] * w[2]
+        out[3 + r] = m * v[r]
+    _cross(h[0], h[1], h[2], v, out[:3], 1.0)
+    _cross(h[0], h[1], h[2], w, out[3:], -1.0)
+
+
+@numba.njit(cache=True, nogil=True, fastmath=False, error_model="numpy")
+def _evaluate(parent, offset_position, offset_rotation, hinge, axis, anchor, reference, gravity, sparse_row,
+              sparse_column, mass, first_moment, inertia, armature, qpos, qvel, applied, sparse_M, factor,
+              diagonal_inverse, qacc, bias, with_velocity):  # pragma: no cover - compiled (tested through its wrapper)
+    points, n = qpos.shape
+    rotation = np.empty((n, 3, 3))
+    position = np.empty((n, 3))
+    subspace = np.empty((n, 6))  # each joint's motion subspace S in world coordinates [w; v at the origin]
+    velocity = np.empty((n, 6))
+    acceleration = np.empty((n, 6))
+    force = np.empty((n, 6))
+    c_mass = np.empty(n)  # composite inertias, world frame about the origin
+    c_first = np.empty((n, 3))
+    c_inertia = np.empty((n, 3, 3))
+    dense = np.empty((n, n))
+    momentum = np.empty(6)
+    column = np.empty(6)
+    before = np.empty((3, 3))
+    turn = np.empty((3, 3))
+    world_axis = np.empty(3)
+    world_anchor = np.empty(3)
+    rhs = np.empty(n)
+    for p in range(points):
+        for i in range(n):
+            # The body frame before the joint: the parent's frame composed with the offset.
+            up = parent[i]
+            for r in range(3):
+                for c in range(3):
+                    if up < 0:
+                        before[r, c] = offset_rotation[i, r, c]
+                    else:
+                        before[r, c] = (rotation[up, r, 0] * offset_rotation[i, 0, c]
+                                        + rotation[up, r, 1] * offset_rotation[i, 1, c]
+                                        + rotation[up, r, 2] * offset_rotation[i, 2, c])
+                if up < 0:
+                    position[i, r] = offset_position[i, r]
+                else:
+                    position[i, r] = (position[up, r] + rotation[up, r, 0] * offset_position[i, 0]
+                                      + rotation[up, r, 1] * offset_position[i, 1]
+                                      + rotation[up, r, 2] * offset_position[i, 2])
+            for r in range(3):
+                world_axis[r] = before[r, 0] * axis[i, 0] + before[r, 1] * axis[i, 1] + before[r, 2] * axis[i, 2]
+                world_anchor[r] = position[i, r] + (before[r, 0] * anchor[i, 0] + before[r, 1] * anchor[i, 1]
+                                                    + before[r, 2] * anchor[i, 2])
+            displacement = qpos[p, i] - reference[i]
+            if hinge[i]:
+                # Rodrigues: the body turns by the angle about its axis, through the anchor.
+                s, c1 = np.sin(displacement), 1.0 - np.cos(displacement)
+                x, y, z = axis[i, 0], axis[i, 1], axis[i, 2]
+                turn[0, 0] = 1.0 - c1 * (y * y + z * z)
+                turn[1, 1] = 1.0 - c1 * (x * x + z * z)
+                turn[2, 2] = 1.0 - c1 * (x * x + y * y)
+                turn[0, 1] = c1 * x * y - s * z
+                turn[1, 0] = c1 * x * y + s * z
+                turn[0, 2] = c1 * x * z + s * y
+                turn[2, 0] = c1 * x * z - s * y
+                turn[1, 2] = c1 * y * z - s * x
+                turn[2, 1] = c1 * y * z + s * x
+                for r in range(3):
+                    for c in range(3):
+                        rotation[i, r, c] = before[r, 0] * turn[0, c] + before[r, 1] * turn[1, c] + before[r, 2] * turn[2, c]
+                for r in range(3):
+                    position[i, r] = world_anchor[r] - (rotation[i, r, 0] * anchor[i, 0]
+                                                        + rotation[i, r, 1] * anchor[i, 1]
+                                                        + rotation[i, r, 2] * anchor[i, 2])
+                subspace[i, :3] = world_axis
+                subspace[i, 3] = world_anchor[1] * world_axis[2] - world_anchor[2] * world_axis[1]
+                subspace[i, 4] = world_anchor[2] * world_axis[0] - world_anchor[0] * world_axis[2]
+                subspace[i, 5] = world_anchor[0] * world_axis[1] - world_anchor[1] * world_axis[0]
+            else:
+                rotation[i] = before
+                for r in range(3):
+                    position[i, r] += world_axis[r] * displacement
+                subspace[i, :3] = 0.0
+                subspace[i, 3:] = world_axis
+            # The node's inertia in world coordinates about the world origin: R I R' shifted by the position d,
+            # I_O = R I R' - m [d][d] - [d][h] - [h][d] with h = R h_body the first moment about the body origin.
+            m = mass[p, i]
+            d0, d1, d2 = position[i, 0], position[i, 1], position[i, 2]
+            h0 = rotation[i, 0, 0] * first_moment[p, i, 0] + rotation[i, 0, 1] * first_moment[p, i, 1] + rotation[i, 0, 2] * first_moment[p, i, 2]
+            h1 = rotation[i, 1, 0] * first_moment[p, i, 0] + rotation[i, 1, 1] * first_moment[p, i, 1] + rotation[i, 1, 2] * first_moment[p, i, 2]
+            h2 = rotation[i, 2, 0] * first_moment[p, i, 0] + rotation[i, 2, 1] * first_moment[p, i, 1] + rotation[i, 2, 2] * first_moment[p, i, 2]
+            for r in range(3):
+                for c in range(3):
+                    turn[r, c] = (inertia[p, i, r, 0] * rotation[i, c, 0] + inertia[p, i, r, 1] * rotation[i, c, 1]
+                                  + inertia[p, i, r, 2] * rotation[i, c, 2])
+            for r in range(3):
+                for c in range(3):
+                    c_inertia[i, r, c] = (rotation[i, r, 0] * turn[0, c] + rotation[i, r, 1] * turn[1, c]
+                                          + rotation[i, r, 2] * turn[2, c])
+            # -[a][b] = (a . b) E - b a'; the shift is m(-[d][d]) + (-[d][h]) + (-[h][d]).
+            dd, dh = d0 * d0 + d1 * d1 + d2 * d2, d0 * h0 + d1 * h1 + d2 * h2
+            d = (d0, d1, d2)
+            h = (h0, h1, h2)
+            for r in range(3):
+                for c in range(3):
+                    shift = -m * d[c] * d[r] - h[r] * d[c] - d[r] * h[c]
+                    if r == c:
+                        shift += m * dd + 2.0 * dh
+                    c_inertia[i, r, c] += shift
+            c_mass[i] = m
+            for r in range(3):
+                c_first[i, r] = m * d[r] + h[r]
+        if with_velocity:
+            # Newton-Euler, forward: velocities, and accelerations with qdd = 0 and the base at -gravity.
+            for i in range(n):
+                up = parent[i]
+                speed = qvel[p, i]
+                for k in range(6):
+                    velocity[i, k] = (0.0 if up < 0 else velocity[up, k]) + subspace[i, k] * speed
+                    column[k] = subspace[i, k] * speed
+                if up < 0:
+                    acceleration[i, :3] = 0.0
+                    for r in range(3):
+                        acceleration[i, 3 + r] = -gravity[r]
+                else:
+                    acceleration[i] = acceleration[up]
+                # + V x S qd (motion cross product: [w x a_w; w x a_v + v x a_w])
+                w, v = velocity[i, :3], velocity[i, 3:]
+                _cross(w[0], w[1], w[2], column[:3], acceleration[i, :3], 1.0)
+                _cross(w[0], w[1], w[2], column[3:], acceleration[i, 3:], 1.0)
+                _cross(v[0], v[1], v[2], column[:3], acceleration[i, 3:], 1.0)
+                # f = I a + V x* (I V) (force cross product: [w x f_n + v x f_f; w x f_f])
+                _apply_inertia(c_mass[i], c_first[i], c_inertia[i], acceleration[i], force[i])
+                _apply_inertia(c_mass[i], c_first[i], c_inertia[i], velocity[i], momentum)
+                _cross(w[0], w[1], w[2], momentum[:3], force[i, :3], 1.0)
+                _cross(v[0], v[1], v[2], momentum[3:], force[i, :3], 1.0)
+                _cross(w[0], w[1], w[2], momentum[3:], force[i, 3:], 1.0)
+        # Backward: Newton-Euler's joint forces, and the composite inertias for the CRBA.
+        for i in range(n - 1, -1, -1):
+            up = parent[i]
+            if with_velocity:
+                total = 0.0
+                for k in range(6):
+                    total += subspace[i, k] * force[i, k]
+                bias[p, i] = total
+            if up >= 0:
+                if with_velocity:
+                    for k in range(6):
+                        force[up, k] += force[i, k]
+                c_mass[up] += c_mass[i]
+                for r in range(3):
+                    c_first[up, r] += c_first[i, r]
+                    for c in range(3):
+                        c_inertia[up, r, c] += c_inertia[i, r, c]
+        # Composite rigid bodies: M[i, j] = S_j' (I^c_i S_i) along i's ancestors j.
+        for i in range(n):
+            _apply_inertia(c_mass[i], c_first[i], c_inertia[i], subspace[i], column)
+            j = i
+            while j >= 0:
+                total = 0.0
+                for k in range(6):
+                    total += subspace[j, k] * column[k]
+                dense[i, j] = total
+                j = parent[j]
+            dense[i, i] += armature[p, i]
+        for entry in range(len(sparse_row)):
+            sparse_M[p, entry] = dense[sparse_row[entry], sparse_column[entry]]
+        # M = L' D L, from the last row up (mj_factorM's order; a tree's structure has no fill-in).
+        for k in range(n - 1, -1, -1):
+            inverse = 1.0 / dense[k, k]
+            j = parent[k]
+            while j >= 0:
+                scaled = dense[k, j] * inverse
+                i = j
+                while i >= 0:
+                    dense[j, i] -= scaled * dense[k, i]
+                    i = parent[i]
+                dense[k, j] = scaled
+                j = parent[j]
+        for entry in range(len(sparse_row)):
+            factor[p, entry] = dense[sparse_row[entry], sparse_column[entry]]
+        for i in range(n):
+            diagonal_inverse[p, i] = 1.0 / dense[i, i]
+        if with_velocity:
+            # qacc = M^-1 (applied - bias): x <- L'^-1 x, x <- D^-1 x, x <- L^-1 x.
+            for i in range(n):
+                rhs[i] = applied[p, i] - bias[p, i]
+            for i in range(n - 1, -1, -1):
+                j = parent[i]
+                while j >= 0:
+                    rhs[j] -= dense[i, j] * rhs[i]
+                    j = parent[j]
+            for i in range(n):
+                rhs[i] *= diagonal_inverse[p, i]
+            for i in range(n):
+                j = parent[i]
+                while j >= 0:
+                    rhs[i] -= dense[i, j] * rhs[j]
+                    j = parent[j]
+                qacc[p, i] = rhs[i]

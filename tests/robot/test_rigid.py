@@ -1,0 +1,154 @@
+"""The compiled rigid-body algorithms against MuJoCo's forward pass (ftc_mj/robot/rigid.py)."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import mujoco
+import numpy as np
+import pytest
+
+from ftc_mj.robot.nominal import NominalBatch, rigid_body_model, scale_masses
+from ftc_mj.robot.rigid import RigidTree
+
+MODELS = Path(__file__).resolve().parents[2] / "models"
+
+#: A tree with what the shipped arms lack: a slide joint, a branch, jointless bodies with mass welded between
+#: jointed ones (and one with a jointed child), rotated body and inertia frames, joint anchors off the body
+#: origin, reference positions (qpos0) and armature.
+TREE = """
+<mujoco>
+  <option gravity="0.3 -0.2 -9.81"/>
+  <worldbody>
+    <body name="base" pos="0.1 0 0.2" quat="0.9 0.1 0.3 0.2">
+      <inertial pos="0 0 0.1" mass="3" diaginertia="0.1 0.2 0.3"/>
+      <body name="a" pos="0 0.1 0.3" quat="0.7 0.7 0 0">
+        <joint name="a" type="hinge" axis="0.3 0.4 0.8" pos="0.05 0 -0.02" ref="0.4" armature="0.02"/>
+        <inertial pos="0.1 0.02 0" quat="0.8 0 0.6 0" mass="2" diaginertia="0.02 0.03 0.04"/>
+        <body name="a_weld" pos="0.3 0 0" quat="0.5 0.5 0.5 0.5">
+          <inertial pos="0 0.05 0" mass="0.7" diaginertia="0.01 0.005 0.008"/>
+          <body name="b" pos="0 0 0.2">
+            <joint name="b" type="slide" axis="1 0.2 0" ref="-0.1" armature="0.1"/>
+            <inertial pos="0.02 0 0.01" mass="1.2" diaginertia="0.01 0.01 0.02"/>
+          </body>
+          <body name="c" pos="0.1 -0.1 0" quat="0.9 0 0 0.4">
+            <joint name="c" type="hinge" axis="0 1 0" pos="0 0 0.03"/>
+            <inertial pos="0.2 0 0" mass="0.9" diaginertia="0.004 0.02 0.02"/>
+            <body name="c_weld" pos="0.4 0 0">
+              <inertial pos="0 0 0" quat="0.6 0 0 0.8" mass="0.3" diaginertia="0.001 0.002 0.003"/>
+              <body name="d" pos="0.05 0 0">
+                <joint name="d" type="hinge" axis="1 0 0"/>
+                <inertial pos="0 0.03 0" mass="0.4" diaginertia="0.001 0.001 0.001"/>
+              </body>
+            </body>
+          </body>
+        </body>
+      </body>
+    </body>
+  </worldbody>
+</mujoco>
+"""
+
+
+def _models() -> dict[str, mujoco.MjModel]:
+    models = {name: mujoco.MjModel.from_xml_path(str(MODELS / name))
+              for name in ("puma560.xml", "two_link.xml", "ur5e.xml")}
+    models["tree"] = mujoco.MjModel.from_xml_string(TREE)
+    return models
+
+
+def _evaluate(tree: RigidTree, scale: np.ndarray, q: np.ndarray, qd: np.ndarray, applied: np.ndarray,
+              with_velocity: bool = True) -> dict[str, np.ndarray]:
+    points, n = q.shape
+    out = {"M": np.zeros((points, len(tree.sparse_row))), "qLD": np.zeros((points, len(tree.sparse_row))),
+           "qLDiagInv": np.zeros((points, n)), "qacc": np.zeros((points, n)), "qfrc_bias": np.zeros((points, n))}
+    tree.evaluate(*tree.scaled(scale), q, qd, applied, out["M"], out["qLD"], out["qLDiagInv"], out["qacc"],
+                  out["qfrc_bias"], with_velocity)
+    return out
+
+
+@pytest.mark.parametrize("name", ["puma560.xml", "two_link.xml", "ur5e.xml", "tree"])
+def test_the_compiled_algorithms_give_mujocos_forward_pass_to_rounding(name):
+    """M (MuJoCo's sparse layout), its factorisation L'DL, C qd + G and M^-1 (applied - C qd - G) equal
+    ``mj_forward``'s on the rigid-body copy at random states, with a mass scale per point, to 1e-12 of each
+    quantity's size: the same model, other rounding."""
+    model = rigid_body_model(_models()[name])
+    tree = RigidTree.from_model(model)
+    assert tree is not None
+    rng = np.random.default_rng(5)
+    points, n = 12, model.nv
+    q, qd = rng.uniform(-3.0, 3.0, (points, n)), rng.normal(size=(points, n)) * 3
+    applied, scale = rng.normal(size=(points, n)) * 10, rng.uniform(0.5, 2.0, points)
+    got = _evaluate(tree, scale, q, qd, applied)
+    for point in range(points):
+        scaled = rigid_body_model(_models()[name])
+        scale_masses(lambda field: getattr(scaled, field)[None], np.array([scale[point]]))
+        data = mujoco.MjData(scaled)
+        data.qpos[:], data.qvel[:], data.qfrc_applied[:] = q[point], qd[point], applied[point]
+        mujoco.mj_forward(scaled, data)
+        for field, values in got.items():
+            expected = getattr(data, field)
+            np.testing.assert_allclose(values[point], expected, rtol=0, atol=1e-12 * np.abs(expected).max(),
+                                       err_msg=f"{name} {field} at point {point}")
+        assert np.abs(data.qfrc_bias).max() > 0.1 and np.abs(data.qvel).max() > 0.1  # the terms really act
+
+
+def test_the_welded_bodies_count_a_jointless_body_inside_the_tree_counts_in_its_carrier():
+    """The synthetic tree has four joints over seven bodies: the jointless base is welded to the world (no
+    node), the jointless bodies inside the tree to their carriers, whose masses they add to."""
+    model = mujoco.MjModel.from_xml_string(TREE)
+    tree = RigidTree.from_model(model)
+    assert tree.n == 4
+    np.testing.assert_array_equal(tree.parent, [-1, 0, 0, 2])
+    np.testing.assert_allclose(tree.mass, [2.0 + 0.7, 1.2, 0.9 + 0.3, 0.4])
+    np.testing.assert_array_equal(tree.hinge, [True, False, True, True])
+
+
+def test_a_points_numbers_do_not_depend_on_the_other_points():
+    """A point's bits are those of its evaluation alone, wherever it sits among how many points: a batch member
+    gets its single run's bits."""
+    model = rigid_body_model(mujoco.MjModel.from_xml_path(str(MODELS / "puma560.xml")))
+    tree = RigidTree.from_model(model)
+    rng = np.random.default_rng(6)
+    q, qd, applied = rng.uniform(-3, 3, (37, 3)), rng.normal(size=(37, 3)), rng.normal(size=(37, 3))
+    scale = rng.uniform(0.5, 2.0, 37)
+    many = _evaluate(tree, scale, q, qd, applied)
+    for point in (0, 17, 36):
+        alone = _evaluate(tree, scale[point:point + 1], q[point:point + 1], qd[point:point + 1],
+                          applied[point:point + 1])
+        for field in many:
+            np.testing.assert_array_equal(alone[field][0], many[field][point])
+
+
+def test_mass_only_gives_the_same_M_and_factor_and_no_velocity_terms():
+    model = rigid_body_model(mujoco.MjModel.from_xml_string(TREE))
+    tree = RigidTree.from_model(model)
+    rng = np.random.default_rng(7)
+    q, qd, applied = rng.uniform(-3, 3, (5, 4)), rng.normal(size=(5, 4)), rng.normal(size=(5, 4))
+    whole, mass_only = (_evaluate(tree, np.ones(5), q, qd, applied, with_velocity) for with_velocity in (True, False))
+    for field in ("M", "qLD", "qLDiagInv"):
+        np.testing.assert_array_equal(mass_only[field], whole[field])
+    assert not mass_only["qacc"].any() and not mass_only["qfrc_bias"].any()
+
+
+@pytest.mark.parametrize("xml", [
+    '<body><joint type="ball"/><geom size="0.1" mass="1"/></body>',
+    '<body><joint type="hinge"/><joint type="hinge" axis="1 0 0"/><geom size="0.1" mass="1"/></body>',
+    '<body gravcomp="1"><joint type="hinge"/><geom size="0.1" mass="1"/></body>',
+])
+def test_what_the_kernels_do_not_cover_is_declined_and_the_nominal_batch_uses_mujoco(xml):
+    """A ball joint, two joints in one body, gravity compensation: no tree; the nominal batch then evaluates the
+    points on MuJoCo's own batch, and still gives Psi."""
+    model = mujoco.MjModel.from_xml_string(f"<mujoco><worldbody>{xml}</worldbody></mujoco>")
+    assert RigidTree.from_model(rigid_body_model(model)) is None
+    batch = NominalBatch(model, np.ones(2), nthread=1)
+    assert batch.tree is None and batch.batch is not None
+    batch.qvel[:] = 0.5
+    batch.evaluate()
+    assert np.isfinite(batch.qacc).all()
+
+
+def test_the_panda_with_coupled_fingers_is_declined():
+    """Menagerie's panda as shipped couples its fingers by a tendon and an equality: MuJoCo evaluates it."""
+    model = rigid_body_model(mujoco.MjModel.from_xml_path(str(MODELS / "panda.xml")))
+    assert RigidTree.from_model(model) is None
