@@ -7,8 +7,8 @@ Per arm and mode it measures, alternating rounds and keeping the fastest of each
 * closed loop: a single run (:func:`ftc_mj.engine.runner.simulate_variant`, no recording) or a batch of B
   members (:func:`ftc_mj.engine.runner.run_batch`), per member and control period;
 * physics: a bare ``mujoco.batch.Batch`` of the same model, substeps and B that only writes ``ctrl``;
-* nominal model: one forward evaluation of the nominal batch (:class:`ftc_mj.robot.nominal.NominalBatch`) on
-  B points, as the loop does once per period;
+* nominal model: one evaluation (M, C qd + G, M^-1) of the nominal batch
+  (:class:`ftc_mj.robot.nominal.NominalBatch`) on B points, as the loop does once per period;
 * the rest (methods' math, sensors, terms, bookkeeping) is the closed loop minus the two.
 
 Prints a table and writes ``benchmarks/joint_cost.png`` (needs matplotlib) and ``benchmarks/joint_cost.json``.
@@ -41,7 +41,7 @@ SCENARIOS = {3: HERE.parent / "scenarios" / "puma_fault.yaml",
 
 
 def nominal_evaluation(model: mujoco.MjModel, members: int, periods: int, threads: int) -> float:
-    """Seconds per point of one forward evaluation of the nominal batch."""
+    """Seconds per point of one evaluation of the nominal batch (M, C qd + G and the solve)."""
     nominal = NominalBatch(model, np.ones(members), nthread=threads)
     nominal.qpos[:] = 0.1
     start = time.perf_counter()
@@ -84,7 +84,7 @@ def figure(results: dict[int, dict], members: int, path: Path) -> None:
     joints = sorted(results)
     fig, axes = plt.subplots(1, 2, figsize=(10, 4.6), constrained_layout=True)
     titles = {"single": "single run (B = 1)", "batch": f"batch (B = {members}), per member"}
-    parts = [("physics", "physics (4 MuJoCo steps)", "#4c72b0"), ("nominal", "nominal model (1 forward)", "#55a868"),
+    parts = [("physics", "physics (4 MuJoCo steps)", "#4c72b0"), ("nominal", "nominal model (1 evaluation)", "#55a868"),
              ("rest", "methods, sensors, terms, bookkeeping", "#c44e52")]
     for axis, mode in zip(axes, ("single", "batch")):
         bottom = np.zeros(len(joints))

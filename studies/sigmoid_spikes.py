@@ -12,7 +12,8 @@ joint, from each joint's first reaching of the surface to the end:
   outweighs the reaching law), and ``per_second`` that count per second;
 * ``largest_term`` [rad/s^2] and ``largest_torque_step`` [N m] (|tau[k] - tau[k-1]| at a spike), with the
   |e| [rad] of the sample that gave the largest term;
-* ``first_reaching_time`` and ``reaching_time`` (for good) of the scenario's metrics.
+* ``first_reaching_time`` and ``reaching_time`` (for good) of the scenario's metrics;
+* ``gain``: the switching gain Delta_d + mu a spike exceeds [rad/s^2].
 """
 
 from __future__ import annotations
@@ -48,7 +49,7 @@ def spikes(scenario_name: str, overrides: list[str] | None = None) -> dict[str, 
         error = np.abs(result.q_meas - result.q_ref)
         row: dict[str, list[float]] = {key: [] for key in (
             "spikes", "per_second", "largest_term", "largest_torque_step", "error_at_largest",
-            "first_reaching_time", "reaching_time")}
+            "first_reaching_time", "reaching_time", "gain")}
         for j in range(scenario.n_joints):
             start = metrics["first_reaching_time"][j]
             after = t >= (start if np.isfinite(start) else np.inf)
@@ -61,6 +62,7 @@ def spikes(scenario_name: str, overrides: list[str] | None = None) -> dict[str, 
             row["error_at_largest"].append(float(error[k, j]))
             row["first_reaching_time"].append(float(metrics["first_reaching_time"][j]))
             row["reaching_time"].append(float(metrics["reaching_time"][j]))
+            row["gain"].append(float(threshold[j]))
         out[variant.name] = row
     return out
 

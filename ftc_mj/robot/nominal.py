@@ -339,11 +339,11 @@ class NominalBatch:
     no ``qacc``.
 
     The model is the robot's rigid-body model (:func:`rigid_body_model`). Where it is a tree of hinge and slide
-    joints (every shipped robot but the Panda with its coupled fingers), the compiled algorithms of
-    :mod:`ftc_mj.robot.rigid` evaluate it, at about a quarter of MuJoCo's forward pass per point and equal to
-    it to rounding (1e-15). Otherwise the points are the simulations of a private :class:`mujoco.batch.Batch`
-    (``nthread`` threads), evaluated by MuJoCo itself. Either way a point's numbers do not depend on the
-    number of points, so a batch member gets its single run's bits.
+    joints (the robot of every shipped scenario; not Menagerie's Panda with its coupled fingers), the compiled
+    algorithms of :mod:`ftc_mj.robot.rigid` evaluate it, at about a quarter of MuJoCo's forward pass per point
+    and equal to it to rounding (1e-15). Otherwise the points are the simulations of a private
+    :class:`mujoco.batch.Batch` (``nthread`` threads), evaluated by MuJoCo itself. Either way a point's numbers
+    do not depend on the number of points, so a batch member gets its single run's bits.
     """
 
     def __init__(self, model: mujoco.MjModel, mass_scale: np.ndarray, nthread: int, mass_only: bool = False):

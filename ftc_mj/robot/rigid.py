@@ -155,6 +155,12 @@ def _cross(a0: float, a1: float, a2: float, b: np.ndarray, out: np.ndarray, sign
 
 
 @numba.njit(cache=True, nogil=True, inline="always")
+def _row_dot(matrix: np.ndarray, r: int, vector: np.ndarray) -> float:
+    """``matrix[r] . vector`` of 3-vectors, summed from the left."""
+    return matrix[r, 0] * vector[0] + matrix[r, 1] * vector[1] + matrix[r, 2] * vector[2]
+
+
+@numba.njit(cache=True, nogil=True, inline="always")
 def _apply_inertia(m: float, h: np.ndarray, inertia: np.ndarray, motion: np.ndarray, out: np.ndarray) -> None:
     """``out`` = I motion for a spatial inertia (mass m, first moment h, rotational inertia about the origin),
     motion = [w; v]: [I w + h x v; m v - h x w]."""
@@ -170,6 +176,9 @@ def _apply_inertia(m: float, h: np.ndarray, inertia: np.ndarray, motion: np.ndar
 def _evaluate(parent, offset_position, offset_rotation, hinge, axis, anchor, reference, gravity, sparse_row,
               sparse_column, mass, first_moment, inertia, armature, qpos, qvel, applied, sparse_M, factor,
               diagonal_inverse, qacc, bias, with_velocity):  # pragma: no cover - compiled (tested through its wrapper)
+    """:meth:`RigidTree.evaluate` over the points ``p``: kinematics and each node's inertia in world coordinates,
+    Newton-Euler (``with_velocity``), composite inertias, M, L'DL and the solve. One point's numbers come from its
+    inputs alone (scratch arrays are rewritten per point)."""
     points, n = qpos.shape
     rotation = np.empty((n, 3, 3))
     position = np.empty((n, 3))
@@ -187,6 +196,7 @@ def _evaluate(parent, offset_position, offset_rotation, hinge, axis, anchor, ref
     turn = np.empty((3, 3))
     world_axis = np.empty(3)
     world_anchor = np.empty(3)
+    h = np.empty(3)  # a node's first moment about its body origin, world axes
     rhs = np.empty(n)
     for p in range(points):
         for i in range(n):
@@ -207,9 +217,8 @@ def _evaluate(parent, offset_position, offset_rotation, hinge, axis, anchor, ref
                                       + rotation[up, r, 1] * offset_position[i, 1]
                                       + rotation[up, r, 2] * offset_position[i, 2])
             for r in range(3):
-                world_axis[r] = before[r, 0] * axis[i, 0] + before[r, 1] * axis[i, 1] + before[r, 2] * axis[i, 2]
-                world_anchor[r] = position[i, r] + (before[r, 0] * anchor[i, 0] + before[r, 1] * anchor[i, 1]
-                                                    + before[r, 2] * anchor[i, 2])
+                world_axis[r] = _row_dot(before, r, axis[i])
+                world_anchor[r] = position[i, r] + _row_dot(before, r, anchor[i])
             displacement = qpos[p, i] - reference[i]
             if hinge[i]:
                 # Rodrigues: the body turns by the angle about its axis, through the anchor.
@@ -226,11 +235,10 @@ def _evaluate(parent, offset_position, offset_rotation, hinge, axis, anchor, ref
                 turn[2, 1] = c1 * y * z + s * x
                 for r in range(3):
                     for c in range(3):
-                        rotation[i, r, c] = before[r, 0] * turn[0, c] + before[r, 1] * turn[1, c] + before[r, 2] * turn[2, c]
+                        rotation[i, r, c] = (before[r, 0] * turn[0, c] + before[r, 1] * turn[1, c]
+                                             + before[r, 2] * turn[2, c])
                 for r in range(3):
-                    position[i, r] = world_anchor[r] - (rotation[i, r, 0] * anchor[i, 0]
-                                                        + rotation[i, r, 1] * anchor[i, 1]
-                                                        + rotation[i, r, 2] * anchor[i, 2])
+                    position[i, r] = world_anchor[r] - _row_dot(rotation[i], r, anchor[i])
                 subspace[i, :3] = world_axis
                 subspace[i, 3] = world_anchor[1] * world_axis[2] - world_anchor[2] * world_axis[1]
                 subspace[i, 4] = world_anchor[2] * world_axis[0] - world_anchor[0] * world_axis[2]
@@ -243,11 +251,9 @@ def _evaluate(parent, offset_position, offset_rotation, hinge, axis, anchor, ref
                 subspace[i, 3:] = world_axis
             # The node's inertia in world coordinates about the world origin: R I R' shifted by the position d,
             # I_O = R I R' - m [d][d] - [d][h] - [h][d] with h = R h_body the first moment about the body origin.
-            m = mass[p, i]
-            d0, d1, d2 = position[i, 0], position[i, 1], position[i, 2]
-            h0 = rotation[i, 0, 0] * first_moment[p, i, 0] + rotation[i, 0, 1] * first_moment[p, i, 1] + rotation[i, 0, 2] * first_moment[p, i, 2]
-            h1 = rotation[i, 1, 0] * first_moment[p, i, 0] + rotation[i, 1, 1] * first_moment[p, i, 1] + rotation[i, 1, 2] * first_moment[p, i, 2]
-            h2 = rotation[i, 2, 0] * first_moment[p, i, 0] + rotation[i, 2, 1] * first_moment[p, i, 1] + rotation[i, 2, 2] * first_moment[p, i, 2]
+            m, d = mass[p, i], position[i]
+            for r in range(3):
+                h[r] = _row_dot(rotation[i], r, first_moment[p, i])
             for r in range(3):
                 for c in range(3):
                     turn[r, c] = (inertia[p, i, r, 0] * rotation[i, c, 0] + inertia[p, i, r, 1] * rotation[i, c, 1]
@@ -257,9 +263,7 @@ def _evaluate(parent, offset_position, offset_rotation, hinge, axis, anchor, ref
                     c_inertia[i, r, c] = (rotation[i, r, 0] * turn[0, c] + rotation[i, r, 1] * turn[1, c]
                                           + rotation[i, r, 2] * turn[2, c])
             # -[a][b] = (a . b) E - b a'; the shift is m(-[d][d]) + (-[d][h]) + (-[h][d]).
-            dd, dh = d0 * d0 + d1 * d1 + d2 * d2, d0 * h0 + d1 * h1 + d2 * h2
-            d = (d0, d1, d2)
-            h = (h0, h1, h2)
+            dd, dh = d[0] * d[0] + d[1] * d[1] + d[2] * d[2], d[0] * h[0] + d[1] * h[1] + d[2] * h[2]
             for r in range(3):
                 for c in range(3):
                     shift = -m * d[c] * d[r] - h[r] * d[c] - d[r] * h[c]
