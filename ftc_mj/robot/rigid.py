@@ -116,7 +116,8 @@ class RigidTree:
             first_moment[node] += m * centre
             inertia[node] += (frame * model.body_inertia[body]) @ frame.T + m * (centre @ centre * np.eye(3)
                                                                                 - np.outer(centre, centre))
-        if np.any(np.diff(node_of_body[node_of_body >= 0]) < 0) or np.any(parent >= np.arange(n)):
+        jointed = node_of_body[model.body_jntnum == 1]
+        if np.any(np.diff(jointed) <= 0) or np.any(parent >= np.arange(n)):
             return None  # dofs out of tree order (MuJoCo numbers them in body order; a guard, not expected)
         sparse_row = np.repeat(np.arange(n), model.M_rownnz)
         joints = model.dof_jntid

@@ -14,8 +14,8 @@ from ftc_mj.robot.rigid import RigidTree
 MODELS = Path(__file__).resolve().parents[2] / "models"
 
 #: A tree with what the shipped arms lack: a slide joint, a branch, jointless bodies with mass welded between
-#: jointed ones (and one with a jointed child), rotated body and inertia frames, joint anchors off the body
-#: origin, reference positions (qpos0) and armature.
+#: jointed ones (one with jointed children, one after a jointed sibling's subtree), rotated body and inertia
+#: frames, joint anchors off the body origin, reference positions (qpos0) and armature.
 TREE = """
 <mujoco>
   <option gravity="0.3 -0.2 -9.81"/>
@@ -42,6 +42,9 @@ TREE = """
               </body>
             </body>
           </body>
+        </body>
+        <body name="a_tip" pos="0.1 0.2 0">
+          <inertial pos="0 0 0.05" mass="0.25" diaginertia="0.002 0.002 0.001"/>
         </body>
       </body>
     </body>
@@ -94,13 +97,14 @@ def test_the_compiled_algorithms_give_mujocos_forward_pass_to_rounding(name):
 
 
 def test_the_welded_bodies_count_a_jointless_body_inside_the_tree_counts_in_its_carrier():
-    """The synthetic tree has four joints over seven bodies: the jointless base is welded to the world (no
-    node), the jointless bodies inside the tree to their carriers, whose masses they add to."""
+    """The synthetic tree has four joints over eight bodies: the jointless base is welded to the world (no
+    node), the jointless bodies inside the tree to their carriers, whose masses they add to (``a_tip`` comes
+    after the subtree of ``a_weld`` in body order and still joins node 0)."""
     model = mujoco.MjModel.from_xml_string(TREE)
     tree = RigidTree.from_model(model)
     assert tree.n == 4
     np.testing.assert_array_equal(tree.parent, [-1, 0, 0, 2])
-    np.testing.assert_allclose(tree.mass, [2.0 + 0.7, 1.2, 0.9 + 0.3, 0.4])
+    np.testing.assert_allclose(tree.mass, [2.0 + 0.7 + 0.25, 1.2, 0.9 + 0.3, 0.4])
     np.testing.assert_array_equal(tree.hinge, [True, False, True, True])
 
 
