@@ -190,7 +190,7 @@ class _Run:
         plant_is_nominal = bool(np.all(members.nominal_mass_scale == 1.0) and np.all(members.plant_mass_scale == 1.0))
         mass_from_plant = (nominal.tree is None and plant_is_nominal and scenario.position_sensor is None
                            and plant.reads_state_exactly)
-        #: M at the measured positions, one point per row, evaluated to the position stage only (None: the plant's).
+        #: M at the measured positions, one point per row, without the velocity terms (None: the plant's).
         self.nominal_mass = None
         if mass_from_plant:  # buffers refreshed by every mass_matrices() call
             self.mass, factor, diagonal_inverse = plant.mass_matrices(), plant.factor, plant.diagonal_inverse

@@ -371,8 +371,8 @@ class NominalBatch:
             self._sparse_M = self.batch.bind("M")
             #: MuJoCo's factorisation of M at each point (for :class:`SparseSolver`), from the last evaluate().
             self.factor, self.diagonal_inverse = self.batch.bind("qLD"), self.batch.bind("qLDiagInv")
+            self._stage = _ACCELERATION_STAGE if self._with_velocity else _POSITION_STAGE
         self._dense = DenseMass(model, points)
-        self._stage = _ACCELERATION_STAGE if self._with_velocity else _POSITION_STAGE
 
     def evaluate(self) -> None:
         """Forward dynamics at every point (positions, velocities and applied forces as set), or M alone in a
