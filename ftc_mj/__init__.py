@@ -10,7 +10,7 @@ Bad input raises :class:`InputError` (one line naming the file, the field and th
 """
 
 from ftc_mj.engine.runner import run_scenario
-from ftc_mj.spec.errors import InputError
+from ftc_mj.config.errors import InputError
 from ftc_mj.spec.loading import load_scenario
 
 __version__ = "0.1.0"

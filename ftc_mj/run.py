@@ -24,9 +24,9 @@ from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, T
 from rich.table import Table
 
 from ftc_mj.analysis.metrics import METRICS, compute_metrics, unit
-from ftc_mj.engine.results import VariantResult
+from ftc_mj.results import VariantResult
 from ftc_mj.engine.runner import run_scenario
-from ftc_mj.spec.errors import ArgumentParser, InputError
+from ftc_mj.config.errors import ArgumentParser, InputError
 from ftc_mj.spec.loading import load_scenario
 from ftc_mj.spec.scenario import Scenario
 

@@ -14,7 +14,7 @@ import argparse
 import sys
 from pathlib import Path
 
-from ftc_mj.spec.errors import ArgumentParser, InputError
+from ftc_mj.config.errors import ArgumentParser, InputError
 
 
 def build_parser() -> argparse.ArgumentParser:

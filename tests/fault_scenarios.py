@@ -11,8 +11,8 @@ import pytest
 import yaml
 
 from ftc_mj.engine.runner import simulate_variant
-from ftc_mj.engine.results import VariantResult
-from ftc_mj.spec.errors import InputError
+from ftc_mj.results import VariantResult
+from ftc_mj.config.errors import InputError
 from ftc_mj.spec.loading import load_scenario
 from ftc_mj.spec.scenario import Scenario
 

@@ -40,19 +40,17 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
-from typing import TYPE_CHECKING, Annotated, Literal
+from typing import Annotated, Literal
 
 import numpy as np
 from pydantic import Field, StrictInt, model_validator
 from scipy.signal import lfilter
 
-from ftc_mj.spec.errors import InputError
-from ftc_mj.spec.expressions import StateFunction, state_variables
-from ftc_mj.spec.schema import ExpressionText, NonNegativeFloat, PositiveFloat, Strict, parse_expression, per_joint
+from ftc_mj.config.errors import InputError
+from ftc_mj.config.expressions import StateFunction, state_variables
+from ftc_mj.results import Diagnosis, VariantResult
+from ftc_mj.config.types import ExpressionText, NonNegativeFloat, PositiveFloat, Strict, parse_expression, per_joint
 
-if TYPE_CHECKING:
-    from ftc_mj.engine.results import VariantResult
-    from ftc_mj.spec.scenario import ScenarioSpec
 
 #: The diagnosis metrics, in the order of :data:`ftc_mj.analysis.metrics.METRICS` (they close it).
 DIAGNOSIS_METRICS: tuple[str, ...] = (
@@ -131,59 +129,6 @@ class DiagnosisSpec(Strict):
 
 
 @dataclass
-class Diagnosis:
-    """What the diagnoser produced for one run; per-joint series are ``(N, n)``.
-
-    Attributes:
-        space: ``acceleration`` or ``torque``.
-        t: sample times.
-        signal: the (filtered) LUaF estimate in the diagnosis space.
-        fault_estimate: signal - baseline mean.
-        residual: |fault_estimate|.
-        threshold: per sample and joint; NaN before the diagnoser is armed.
-        alarm: per sample and joint.
-        armed: per sample.
-        mean, std: the baseline per joint (0 without one).
-        injected: the injected fault in the same space (ground truth, for the metrics and the recording).
-    """
-
-    space: str
-    t: np.ndarray
-    signal: np.ndarray
-    fault_estimate: np.ndarray
-    residual: np.ndarray
-    threshold: np.ndarray
-    alarm: np.ndarray
-    armed: np.ndarray
-    mean: np.ndarray
-    std: np.ndarray
-    injected: np.ndarray
-
-    @property
-    def raised(self) -> np.ndarray:
-        """Samples at which an alarm is raised (rising edges), ``(N, n)``."""
-        before = np.vstack([np.zeros((1, self.alarm.shape[1]), dtype=bool), self.alarm[:-1]])
-        return self.alarm & ~before
-
-    @property
-    def cleared(self) -> np.ndarray:
-        """Samples at which an alarm is cleared (falling edges), ``(N, n)``."""
-        before = np.vstack([np.zeros((1, self.alarm.shape[1]), dtype=bool), self.alarm[:-1]])
-        return ~self.alarm & before
-
-    def alarm_times(self) -> list[list[float]]:
-        """Per joint, the times at which an alarm is raised."""
-        raised = self.raised
-        return [self.t[raised[:, j]].tolist() for j in range(raised.shape[1])]
-
-    def isolated(self, first_onset: float) -> np.ndarray:
-        """Joints the diagnoser names faulty: an alarm at or after the first fault onset (at any armed time in
-        a run without faults), ``(n,)``."""
-        after = self.t >= first_onset if math.isfinite(first_onset) else self.armed
-        return self.alarm[after].any(axis=0)
-
-
-@dataclass
 class Diagnoser:
     """A compiled ``diagnosis`` section (see the module docstring)."""
 
@@ -227,10 +172,10 @@ class Diagnoser:
                          mean=mean, std=std, injected=np.asarray(injected, dtype=float))
 
 
-def compile_diagnoser(spec: DiagnosisSpec, scenario: ScenarioSpec, file: str, n: int,
+def compile_diagnoser(spec: DiagnosisSpec, dt: float, estimation_window_start: float, file: str, n: int,
                       fault_onsets: list[float]) -> Diagnoser:
-    """The scenario's ``diagnosis`` section for a robot of ``n`` joints (``fault_onsets``: the scenario's)."""
-    dt = scenario.control_dt
+    """The scenario's ``diagnosis`` section for a robot of ``n`` joints, a control period ``dt`` and the
+    scenario's ``metrics.estimation_window_start`` and ``fault_onsets``."""
     bound = None
     if spec.threshold.bound is not None:
         texts = spec.threshold.bound
@@ -249,7 +194,7 @@ def compile_diagnoser(spec: DiagnosisSpec, scenario: ScenarioSpec, file: str, n:
     persistence = spec.persistence.samples or math.ceil(spec.persistence.time / dt - 1e-9)
     start = spec.start
     if start is None:
-        start = spec.baseline.end if spec.baseline is not None else scenario.metrics.estimation_window_start
+        start = spec.baseline.end if spec.baseline is not None else estimation_window_start
     return Diagnoser(space=spec.space, dt=dt, start=start, k=spec.threshold.k, persistence=max(1, persistence),
                      fixed=per_joint(spec.threshold.fixed, n, file, "diagnosis.threshold.fixed"), baseline=baseline,
                      filter_time_constant=spec.filter_time_constant, bound=bound)

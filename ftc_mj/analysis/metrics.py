@@ -51,8 +51,8 @@ from collections.abc import Sequence
 import numpy as np
 
 from ftc_mj.analysis.diagnosis import DIAGNOSIS_METRICS, diagnosis_metrics
-from ftc_mj.engine.results import VariantResult
-from ftc_mj.spec.schema import NonNegativeFloat, PositiveFloat, Strict
+from ftc_mj.results import VariantResult
+from ftc_mj.config.types import NonNegativeFloat, PositiveFloat, Strict
 
 
 class MetricsSpec(Strict):

@@ -24,7 +24,7 @@ from pathlib import Path
 from rich.console import Console
 from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn, TimeRemainingColumn
 
-from ftc_mj.spec.errors import ArgumentParser, InputError
+from ftc_mj.config.errors import ArgumentParser, InputError
 
 
 def build_parser() -> argparse.ArgumentParser:

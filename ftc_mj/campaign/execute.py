@@ -36,9 +36,9 @@ from ftc_mj.analysis.diagnosis import detection_statistics
 from ftc_mj.campaign.population import Run, fingerprint, population, population_size
 from ftc_mj.campaign.spec import CampaignSpec
 from ftc_mj.engine.members import members_from_overrides
-from ftc_mj.engine.results import VariantResult
+from ftc_mj.results import VariantResult
 from ftc_mj.engine.runner import run_batch
-from ftc_mj.spec.errors import InputError
+from ftc_mj.config.errors import InputError
 from ftc_mj.spec.loading import load_scenario
 from ftc_mj.spec.scenario import Scenario, series_bytes
 

@@ -29,7 +29,7 @@ from ftc_mj.analysis.diagnosis import scale_tag  # noqa: E402
 from ftc_mj.analysis.metrics import unit  # noqa: E402
 from ftc_mj.campaign import statistics as st  # noqa: E402
 from ftc_mj.campaign.spec import CampaignSpec  # noqa: E402
-from ftc_mj.spec.errors import InputError  # noqa: E402
+from ftc_mj.config.errors import InputError  # noqa: E402
 
 #: One colour and line style per variant, in the scenario's order, in every figure (styles tell overlapping
 #: curves apart).

@@ -2,7 +2,7 @@
 
 A campaign is untrusted input like a scenario: it is read with the scenario's YAML loader (duplicate keys are
 errors), validated by a strict schema (unknown keys are errors), and every problem is one
-:class:`~ftc_mj.spec.errors.InputError` naming the file, the field and what is wrong. Example::
+:class:`~ftc_mj.config.errors.InputError` naming the file, the field and what is wrong. Example::
 
     name: ch5_monte_carlo
     scenario: ../scenarios/puma_fault.yaml
@@ -35,9 +35,9 @@ import yaml
 from pydantic import Field, StrictInt, StrictStr, ValidationError, field_validator, model_validator
 
 from ftc_mj.analysis.metrics import METRICS
-from ftc_mj.spec.errors import InputError, validation_error
-from ftc_mj.spec.loading import read_yaml_mapping
-from ftc_mj.spec.schema import FiniteFloat, PositiveFloat, Strict
+from ftc_mj.config.errors import InputError, validation_error
+from ftc_mj.config.yaml import read_yaml_mapping
+from ftc_mj.config.types import FiniteFloat, PositiveFloat, Strict
 
 PositiveInt = Annotated[StrictInt, Field(gt=0)]
 NonNegativeInt = Annotated[StrictInt, Field(ge=0)]

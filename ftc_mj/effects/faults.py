@@ -30,9 +30,9 @@ import mujoco
 import numpy as np
 
 from ftc_mj.effects.profiles import AbruptSpec, Profile, ProfileSpec, compile_profile
-from ftc_mj.spec import expressions
-from ftc_mj.spec.errors import InputError
-from ftc_mj.spec.schema import (
+from ftc_mj.config import expressions
+from ftc_mj.config.errors import InputError
+from ftc_mj.config.types import (
     ExpressionText,
     JointSelection,
     PositiveFloat,

@@ -19,7 +19,7 @@ from typing import Annotated, Literal
 import numpy as np
 from pydantic import Field
 
-from ftc_mj.spec.schema import Interval, NonNegativeFloat, PositiveFloat, per_joint, tagged_union
+from ftc_mj.config.types import Interval, NonNegativeFloat, PositiveFloat, per_joint, tagged_union
 
 _PHASE_TOLERANCE = 1e-9
 

@@ -24,7 +24,7 @@ import mujoco
 import numpy as np
 from pydantic import Field, StrictInt, model_validator
 
-from ftc_mj.spec.schema import (
+from ftc_mj.config.types import (
     FiniteFloat,
     Interval,
     JointSelection,

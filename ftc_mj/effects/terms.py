@@ -26,9 +26,9 @@ import sympy as sp
 
 from ftc_mj.effects.profiles import Profile, ProfileSpec, compile_profile
 from ftc_mj.robot.nominal import matvec
-from ftc_mj.spec import expressions
-from ftc_mj.spec.errors import InputError
-from ftc_mj.spec.schema import (ExpressionText, NonNegativeFloat, ParameterName, PositiveFloat, Strict,
+from ftc_mj.config import expressions
+from ftc_mj.config.errors import InputError
+from ftc_mj.config.types import (ExpressionText, NonNegativeFloat, ParameterName, PositiveFloat, Strict,
                                 parse_expression, per_joint)
 
 
@@ -142,7 +142,7 @@ def _term_profile(term: TermSpec, file: str, field: str, n: int, parameters: Seq
 class PlantTerms:
     """Friction, disturbance and fault terms of every row, evaluated on the true states.
 
-    Every term's expressions are compiled into one function (:class:`~ftc_mj.spec.expressions.StateFunction`),
+    Every term's expressions are compiled into one function (:class:`~ftc_mj.config.expressions.StateFunction`),
     called once per period for all rows. The profiles depend on time only, so which terms are on at each
     sample of the run's grid, and their weights, are worked out before the run: each period then follows the
     plan of its set of active terms (``fault_on``: whether a fault term is on, per sample, for every row alike).

@@ -30,8 +30,8 @@ import numpy as np
 from pydantic import ValidationError
 
 from ftc_mj.methods.gains import GainConfig, stack
-from ftc_mj.spec.errors import InputError, validation_error
-from ftc_mj.spec.loading import set_path
+from ftc_mj.config.errors import InputError, validation_error
+from ftc_mj.config.yaml import set_path
 from ftc_mj.spec.scenario import Scenario, ScenarioSpec, compile_variant_methods, joint_values, observer_start
 
 

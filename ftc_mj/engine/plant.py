@@ -20,7 +20,7 @@ from mujoco.batch import Batch, SimulationError
 
 from ftc_mj.robot.model import position_sensor_addresses, velocity_sensor_addresses
 from ftc_mj.robot.nominal import DenseMass, scale_masses
-from ftc_mj.spec.expressions import SCALAR_ROWS
+from ftc_mj.config.expressions import SCALAR_ROWS
 
 _POSITION_VELOCITY_STAGE = int(mujoco.mjtStage.mjSTAGE_VEL)
 #: MuJoCo warnings after which it resets a simulation: that is a divergence here.

@@ -1,7 +1,7 @@
 """The library's entry point: run a scenario, once or as a batch of members.
 
 :func:`run_scenario` is what the command line, the studies and the benchmarks call: one member, every series
-kept, a :class:`~ftc_mj.engine.results.VariantResult` per variant, each followed by its monitors'::
+kept, a :class:`~ftc_mj.results.VariantResult` per variant, each followed by its monitors'::
 
     from ftc_mj import load_scenario, run_scenario
 
@@ -25,7 +25,7 @@ from ftc_mj.analysis.diagnosis import diagnose_result
 from ftc_mj.analysis.metrics import compute_metrics
 from ftc_mj.engine.loop import BatchRun, ProgressCallback, simulate
 from ftc_mj.engine.members import Members, single
-from ftc_mj.engine.results import VariantResult
+from ftc_mj.results import VariantResult
 from ftc_mj.spec.scenario import Scenario, Variant, series_bytes
 
 #: Default memory for the series of one chunk of members [bytes].

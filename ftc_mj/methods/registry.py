@@ -26,8 +26,8 @@ from pydantic import ValidationError
 
 from ftc_mj.methods import controllers, observers
 from ftc_mj.methods.gains import GainConfig
-from ftc_mj.spec.errors import InputError, validation_error
-from ftc_mj.spec.schema import Strict
+from ftc_mj.config.errors import InputError, validation_error
+from ftc_mj.config.types import Strict
 
 OBSERVER_GROUP = "ftc_mj.observers"
 CONTROLLER_GROUP = "ftc_mj.controllers"

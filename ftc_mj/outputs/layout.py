@@ -13,17 +13,18 @@ import json
 import re
 from collections.abc import Sequence
 from dataclasses import asdict, dataclass, field
-from typing import TYPE_CHECKING, Annotated, Literal
+from typing import Annotated, Any, Literal
 
 import mujoco
 import numpy as np
 from pydantic import Field, model_validator
 
-from ftc_mj.spec.errors import InputError
-from ftc_mj.spec.schema import FiniteFloat, JointSelection, NonNegativeFloat, Strict, joint_indices
+from ftc_mj.config.errors import InputError
+from ftc_mj.config.types import FiniteFloat, JointSelection, NonNegativeFloat, Strict, joint_indices
 
-if TYPE_CHECKING:
-    from ftc_mj.spec.scenario import ScenarioSpec
+#: The scenario's validated spec (:class:`ftc_mj.spec.scenario.ScenarioSpec`, which assembles this module's
+#: section): read for its variants, terms, metrics and diagnosis. Not imported, since the scenario is above.
+ScenarioSpec = Any
 
 
 @dataclass(frozen=True)
@@ -127,7 +128,7 @@ class FigureSpec(Strict):
         return self
 
 
-def check_figure_names(spec: "ScenarioSpec") -> None:
+def check_figure_names(spec: ScenarioSpec) -> None:
     """The checks that need the whole scenario (used by its validator): unique figure names, variants that exist
     (the file's variants and their monitors, before any ``--variant`` selection). Spans are not checked
     against the duration: a shortened run (``--duration``) shows what it has."""
@@ -206,7 +207,7 @@ def variant_styles(names: Sequence[str]) -> list[VariantStyle]:
             for i, name in enumerate(names)]
 
 
-def _units(spec: "ScenarioSpec") -> dict[str, str]:
+def _units(spec: ScenarioSpec) -> dict[str, str]:
     spaces = {term.space for term in spec.terms if term.kind == "fault"}
     fault = {"acceleration": "rad/s^2", "torque": "N m"}.get(spaces.pop()) if len(spaces) == 1 else "rad/s^2 or N m"
     diagnosis = "N m" if spec.diagnosis is not None and spec.diagnosis.space == "torque" else "rad/s^2"
@@ -220,7 +221,7 @@ def _unit(quantity: str, units: dict[str, str]) -> str:
     return units.get(unit, unit)
 
 
-def compile_figures(spec: "ScenarioSpec", model: mujoco.MjModel, variant_names: Sequence[str],
+def compile_figures(spec: ScenarioSpec, model: mujoco.MjModel, variant_names: Sequence[str],
                     file: str) -> list[Figure]:
     """The scenario's figures (its ``figures`` section, else :func:`default_figures`) for the variants that
     run (``variant_names``, monitors included): a figure's variants not selected by ``--variant`` are left
@@ -256,7 +257,7 @@ def _title(quantity: str) -> str:
     return QUANTITIES[quantity].title
 
 
-def default_figures(spec: "ScenarioSpec", n: int, variant_names: Sequence[str]) -> list[Figure]:
+def default_figures(spec: ScenarioSpec, n: int, variant_names: Sequence[str]) -> list[Figure]:
     """Tracking error (zoomed from ``metrics.window_start``), velocity estimation error and LUaF estimation error
     (zoomed from ``metrics.estimation_window_start``), LUaF estimate and truth, torque; with a ``diagnosis``
     section its residual against the threshold and the fault estimate against the injected fault."""

@@ -42,7 +42,7 @@ import numpy as np
 import rerun as rr
 import rerun.blueprint as rrb
 
-from ftc_mj.engine.results import VariantResult
+from ftc_mj.results import VariantResult
 from ftc_mj.outputs.layout import COLOR_NAMES, Figure, Layout, data_range, generic_figures, variant_styles, zoom_span
 
 TIMELINE = "sim_time"
@@ -70,7 +70,7 @@ OPTIONAL_SERIES: tuple[tuple[str, str, str], ...] = (
     ("fault_torque", "fault_torque", ""),
     ("fault_acceleration", "fault_acceleration", ""),
 )
-#: The diagnoser's output (attributes of ftc_mj.analysis.diagnosis.Diagnosis), under /diagnosis. Its injected
+#: The diagnoser's output (attributes of ftc_mj.results.Diagnosis), under /diagnosis. Its injected
 #: fault is fault_torque or fault_acceleration, already recorded.
 DIAGNOSIS_SERIES: tuple[tuple[str, str, str], ...] = (
     ("diagnosis/residual", "residual", ""),

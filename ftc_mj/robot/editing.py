@@ -16,7 +16,7 @@ from collections.abc import Mapping, Sequence
 import mujoco
 import numpy as np
 
-from ftc_mj.spec.errors import InputError
+from ftc_mj.config.errors import InputError
 
 _HINGE, _SLIDE = mujoco.mjtJoint.mjJNT_HINGE, mujoco.mjtJoint.mjJNT_SLIDE
 

@@ -25,7 +25,7 @@ import mujoco
 import numpy as np
 
 from ftc_mj.robot import editing
-from ftc_mj.spec.errors import InputError
+from ftc_mj.config.errors import InputError
 
 _MOVABLE = (int(mujoco.mjtJoint.mjJNT_HINGE), int(mujoco.mjtJoint.mjJNT_SLIDE))
 

@@ -15,8 +15,8 @@ from pydantic import Field
 
 from ftc_mj.robot import mjcf, urdf
 from ftc_mj.robot.packages import resolve_package_uri, split_package_uri
-from ftc_mj.spec.errors import InputError
-from ftc_mj.spec.schema import FiniteFloat, NonNegativeFloat, PositiveFloat, Strict
+from ftc_mj.config.errors import InputError
+from ftc_mj.config.types import FiniteFloat, NonNegativeFloat, PositiveFloat, Strict
 
 #: The options that rebuild a model; an MJCF in the testbed's form is used as it is without them.
 _REBUILD_OPTIONS = ("joints", "lock", "torque_limits", "armature", "contacts")

@@ -15,7 +15,7 @@ import numpy as np
 from mujoco.batch import Batch
 
 from ftc_mj.robot.rigid import RigidTree
-from ftc_mj.spec.schema import PositiveFloat, Strict
+from ftc_mj.config.types import PositiveFloat, Strict
 
 
 try:  # the C function np.einsum calls (with optimize=False), without its Python dispatch: half the cost on a few rows

@@ -1,7 +1,7 @@
 """URDF robots: read and check a URDF file, then build the testbed's MuJoCo model from it.
 
 A URDF is untrusted input. It is parsed strictly (no DTD, no entities), read with yourdfpy and checked element
-by element; any problem raises :class:`~ftc_mj.spec.errors.InputError` naming the URDF file and the element
+by element; any problem raises :class:`~ftc_mj.config.errors.InputError` naming the URDF file and the element
 (``joint 'elbow'``, ``link 'forearm'``, ``link 'forearm': visual 1: mesh``). Then MuJoCo's own URDF compiler
 builds an ``MjSpec`` from it (visual geometry kept, mesh paths resolved here), which is edited into the
 testbed's conventions, those of ``models/*.xml``:
@@ -35,7 +35,7 @@ from lxml import etree
 from ftc_mj.robot import editing, meshes as mesh_files
 from ftc_mj.robot.meshes import CONVERTED_FORMATS, MUJOCO_FORMATS, MeshConversionError, MeshPart
 from ftc_mj.robot.packages import resolve_package_uri
-from ftc_mj.spec.errors import InputError
+from ftc_mj.config.errors import InputError
 
 if TYPE_CHECKING:  # imported when a URDF is read: it takes about 1 s (trimesh), which MJCF runs need not pay
     import yourdfpy

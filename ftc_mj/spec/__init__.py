@@ -1,2 +1,2 @@
-"""Scenario files to a validated, compiled scenario: the schema's building blocks, the one-line input errors,
-the safe expression language, the YAML loader with ``--set`` overrides, and the compile orchestration."""
+"""Scenario files to a validated, compiled scenario: the top-level schema that assembles every concept's own
+section, its compilation, and :func:`~ftc_mj.spec.loading.load_scenario`."""

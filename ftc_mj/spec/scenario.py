@@ -36,9 +36,9 @@ from ftc_mj.methods.registry import MethodSpec, compile_method, controller_types
 from ftc_mj.outputs.layout import Figure, FigureSpec, check_figure_names, compile_figures
 from ftc_mj.robot.model import PlantSpec, RobotSpec, load_robot
 from ftc_mj.robot.nominal import NominalSpec
-from ftc_mj.spec import expressions
-from ftc_mj.spec.errors import InputError
-from ftc_mj.spec.schema import ExpressionText, FiniteFloat, PositiveFloat, Strict, parse_expression
+from ftc_mj.config import expressions
+from ftc_mj.config.errors import InputError
+from ftc_mj.config.types import ExpressionText, FiniteFloat, PositiveFloat, Strict, parse_expression
 
 
 class InitialState(Strict):
@@ -412,7 +412,8 @@ def compile_scenario(path: Path, spec: ScenarioSpec) -> Scenario:
         velocity_sensor=velocity_sensor,
     )
     if spec.diagnosis is not None:
-        scenario.diagnoser = compile_diagnoser(spec.diagnosis, spec, file, n, scenario.fault_onsets)
+        scenario.diagnoser = compile_diagnoser(spec.diagnosis, spec.control_dt, spec.metrics.estimation_window_start,
+                                                file, n, scenario.fault_onsets)
     names = [name for v in variants for name in (v.name, *(f"{v.name}.{m.name}" for m in v.monitors))]
     scenario.figures = compile_figures(spec, model, names, file)
     return scenario

@@ -33,7 +33,7 @@ from ftc_mj.campaign.population import Run, digest
 from ftc_mj.campaign.spec import load_campaign
 from ftc_mj.campaign.population import population_size
 from ftc_mj.engine.members import members_from_overrides
-from ftc_mj.spec.errors import InputError
+from ftc_mj.config.errors import InputError
 from ftc_mj.tuning.spec import TuningSpec, load_tuning
 
 #: A diverged condition's cost, as a multiple of the scenario's gains' cost (sum of the weights).

@@ -31,9 +31,9 @@ from pydantic import Field, StrictBool, StrictInt, StrictStr, ValidationError, f
 from ftc_mj.analysis.metrics import METRICS
 from ftc_mj.campaign.spec import FieldPath, Name
 from ftc_mj.engine.members import BATCHABLE
-from ftc_mj.spec.errors import InputError, validation_error
-from ftc_mj.spec.loading import read_yaml_mapping
-from ftc_mj.spec.schema import NonNegativeFloat, PositiveFloat, Strict
+from ftc_mj.config.errors import InputError, validation_error
+from ftc_mj.config.yaml import read_yaml_mapping
+from ftc_mj.config.types import NonNegativeFloat, PositiveFloat, Strict
 
 PositiveInt = Annotated[StrictInt, Field(gt=0)]
 

@@ -23,7 +23,7 @@ from ftc_mj.analysis.metrics import compute_metrics
 from ftc_mj.outputs.recording import read_series
 from ftc_mj.robot.nominal import NominalModel
 from ftc_mj.run import main
-from ftc_mj.spec.expressions import StateFunction, parse, state_variables
+from ftc_mj.config.expressions import StateFunction, parse, state_variables
 from ftc_mj.spec.loading import load_scenario
 
 DT = 1e-3
@@ -336,7 +336,8 @@ def test_table_json_and_recording(tmp_path: Path, capsys: pytest.CaptureFixture)
 def test_detection_statistics_at_every_threshold_multiple():
     """The held residual peak decides the alarm at each multiple, and the scaled diagnoser's delays and false
     alarms follow from the residual as the diagnoser's own do."""
-    from ftc_mj.analysis.diagnosis import Diagnosis, detection_statistics, persistent
+    from ftc_mj.results import Diagnosis
+    from ftc_mj.analysis.diagnosis import detection_statistics, persistent
 
     dt = 0.01
     t = np.arange(200) * dt
@@ -397,7 +398,8 @@ def test_persistence_equals_the_state_machine_on_every_column_at_once():
 def test_detection_statistics_equal_the_scaled_diagnoser_one_scale_at_a_time():
     """Every scale at once gives, bit for bit, the false alarms and delays of persistent() on the residual against
     c times the threshold, scale by scale and joint by joint; the held peaks are the windows' minima."""
-    from ftc_mj.analysis.diagnosis import Diagnosis, detection_statistics, scale_tag
+    from ftc_mj.results import Diagnosis
+    from ftc_mj.analysis.diagnosis import detection_statistics, scale_tag
 
     rng = np.random.default_rng(8)
     scales = [0.25, 0.5, 1.0, 1.5, 3.0, 16.0]

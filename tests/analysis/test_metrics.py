@@ -11,7 +11,7 @@ import pytest
 
 from ftc_mj.analysis.metrics import METRICS, compute_metrics, evaluation_mask, settling_time
 from ftc_mj.analysis.metrics import MetricsSpec
-from ftc_mj.engine.results import VariantResult
+from ftc_mj.results import VariantResult
 
 DT = 2.0**-10
 N = 2049  # t = 0 .. 2 s

@@ -12,7 +12,7 @@ import pytest
 
 import small_campaign
 from ftc_mj.campaign import execute
-from ftc_mj.spec.errors import InputError
+from ftc_mj.config.errors import InputError
 
 
 @pytest.fixture(scope="module")

@@ -14,7 +14,7 @@ from fault_scenarios import assert_input_error, load, run, scenario_data, write
 from ftc_mj.effects.faults import ActuatorFault, ActuatorFaults
 from ftc_mj.effects.profiles import Profile
 from ftc_mj.robot.nominal import NominalModel
-from ftc_mj.spec.errors import InputError
+from ftc_mj.config.errors import InputError
 from ftc_mj.spec.loading import load_scenario
 
 N, NJ, DT = 1000, 3, 1e-3

@@ -14,7 +14,7 @@ import yaml
 from ftc_mj.engine.loop import simulate
 from ftc_mj.engine.members import Members, members_from_overrides, replicates
 from ftc_mj.engine.runner import run_batch, variant_result
-from ftc_mj.spec.errors import InputError
+from ftc_mj.config.errors import InputError
 from ftc_mj.spec.loading import load_scenario
 from ftc_mj.spec.scenario import Scenario
 

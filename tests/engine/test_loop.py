@@ -20,7 +20,7 @@ from ftc_mj.analysis.metrics import compute_metrics
 from ftc_mj.engine.loop import simulate
 from ftc_mj.engine.members import single
 from ftc_mj.engine.runner import simulate_variant
-from ftc_mj.engine.results import VariantResult
+from ftc_mj.results import VariantResult
 from ftc_mj.engine.runner import run_scenario
 from ftc_mj.methods import controllers, observers, registry
 from ftc_mj.methods.controllers.nftsmc import NFTSMC

@@ -24,7 +24,7 @@ from ftc_mj.methods.controllers.nftsmc import NFTSMC, NFTSMCConfig
 from ftc_mj.methods.gains import GainConfig, PositiveFloat
 from ftc_mj.methods.observers.base import Observer
 from ftc_mj.methods.observers.tosmo import TOSMO
-from ftc_mj.spec.errors import InputError
+from ftc_mj.config.errors import InputError
 from ftc_mj.spec.loading import load_scenario
 
 ROOT = Path(__file__).resolve().parents[2]

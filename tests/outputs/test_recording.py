@@ -14,7 +14,7 @@ import pytest
 import rerun as rr
 from rerun.chunk import RrdReader
 
-from ftc_mj.engine.results import VariantResult
+from ftc_mj.results import VariantResult
 from ftc_mj.outputs.layout import Figure, variant_styles
 from ftc_mj.outputs.recording import (DIAGNOSIS_SERIES, OPTIONAL_SERIES, SERIES, read_layout, read_series,
                                      write_recording)

@@ -24,7 +24,7 @@ import yaml
 from ftc_mj.robot import mjcf
 from ftc_mj.robot.nominal import NominalBatch
 from ftc_mj.run import main
-from ftc_mj.spec.errors import InputError
+from ftc_mj.config.errors import InputError
 from ftc_mj.spec.loading import load_scenario
 
 ROOT = Path(__file__).resolve().parents[2]

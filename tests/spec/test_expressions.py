@@ -1,4 +1,4 @@
-"""The scenario expression language of ftc_mj.spec.expressions: grammar, rejections, exact derivatives and the
+"""The scenario expression language of ftc_mj.config.expressions: grammar, rejections, exact derivatives and the
 compiled per-step state functions.
 
 Tests named ``test_regression_*`` pin bugs found while writing this file (fixed in commit b37582f).
@@ -16,7 +16,7 @@ import sympy as sp
 from hypothesis import assume, example, given, settings
 from hypothesis import strategies as st
 
-from ftc_mj.spec.expressions import (
+from ftc_mj.config.expressions import (
     FUNCTIONS,
     MAX_DEPTH,
     MAX_SOURCE_LENGTH,

@@ -18,8 +18,8 @@ import numpy as np
 import pytest
 import yaml
 
-from ftc_mj.spec.errors import InputError
-from ftc_mj.spec.expressions import ExpressionError
+from ftc_mj.config.errors import InputError
+from ftc_mj.config.expressions import ExpressionError
 from ftc_mj.spec.loading import load_scenario
 
 ROOT = Path(__file__).resolve().parents[2]

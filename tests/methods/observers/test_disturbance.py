@@ -19,7 +19,7 @@ from pydantic import ValidationError
 from double_integrator import DT, SLOW, FakeStepModel, simulate
 
 from ftc_mj.methods.observers import DisturbanceObserver
-from ftc_mj.spec.errors import InputError
+from ftc_mj.config.errors import InputError
 from ftc_mj.spec.loading import load_scenario
 
 GAINS = {"k1": 8.0, "k2": 18.0, "p1": 10.0, "p2": 10.0}  # Table 2.2

@@ -1,11 +1,11 @@
 """Building blocks of the scenario schema shared by its sections (plant terms, actuator faults, sensors,
 diagnosis): strict models, checked number types, expressions, per-joint values and joint selections; and the
 functions that compile them once the robot is known (per-joint arrays, joint indices, parsed expressions),
-raising :class:`~ftc_mj.spec.errors.InputError` with the field's path.
+raising :class:`~ftc_mj.config.errors.InputError` with the field's path.
 
 Each section's pydantic model and its compile function live in the module of its concept;
 :mod:`ftc_mj.spec.scenario` assembles them. Unions over a ``kind`` or ``shape`` key are discriminated with
-tags written ``"<key>-<value>"``: :func:`ftc_mj.spec.errors.validation_error` drops such tags from the field
+tags written ``"<key>-<value>"``: :func:`ftc_mj.config.errors.validation_error` drops such tags from the field
 path it reports.
 """
 
@@ -18,8 +18,8 @@ import mujoco
 import numpy as np
 from pydantic import BaseModel, ConfigDict, Discriminator, Field, StrictFloat, StrictInt, StrictStr, Tag, model_validator
 
-from ftc_mj.spec import expressions
-from ftc_mj.spec.errors import InputError
+from ftc_mj.config import expressions
+from ftc_mj.config.errors import InputError
 
 PositiveFloat = Annotated[float, Field(gt=0, allow_inf_nan=False)]
 NonNegativeFloat = Annotated[float, Field(ge=0, allow_inf_nan=False)]
@@ -115,7 +115,7 @@ def joint_mask(indices: list[int], n: int) -> np.ndarray:
 
 
 def parse_expression(text: ExpressionText, variables: list[str], file: str, field: str):
-    """An expression of the scenario file, parsed (:func:`ftc_mj.spec.expressions.parse`)."""
+    """An expression of the scenario file, parsed (:func:`ftc_mj.config.expressions.parse`)."""
     try:
         return expressions.parse(text, variables)
     except expressions.ExpressionError as exc:

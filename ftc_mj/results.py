@@ -1,4 +1,5 @@
-"""What one simulated variant leaves behind: time series of estimates beside the ground truth.
+"""What a run leaves behind: per variant, time series of estimates beside the ground truth, and the diagnoser's
+output. A leaf: the engine fills these, analysis and outputs read them.
 
 Every array is sampled once per control period, at the instant the controller runs (before its command acts).
 Shapes: ``(N,)`` for time, ``(N, n)`` for per-joint series, ``(N, nbody, 3|4)`` for body poses.
@@ -6,13 +7,64 @@ Shapes: ``(N,)`` for time, ``(N, n)`` for per-joint series, ``(N, nbody, 3|4)`` 
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass, field
-from typing import TYPE_CHECKING
 
 import numpy as np
 
-if TYPE_CHECKING:
-    from ftc_mj.analysis.diagnosis import Diagnosis
+
+
+@dataclass
+class Diagnosis:
+    """What the diagnoser produced for one run; per-joint series are ``(N, n)``.
+
+    Attributes:
+        space: ``acceleration`` or ``torque``.
+        t: sample times.
+        signal: the (filtered) LUaF estimate in the diagnosis space.
+        fault_estimate: signal - baseline mean.
+        residual: |fault_estimate|.
+        threshold: per sample and joint; NaN before the diagnoser is armed.
+        alarm: per sample and joint.
+        armed: per sample.
+        mean, std: the baseline per joint (0 without one).
+        injected: the injected fault in the same space (ground truth, for the metrics and the recording).
+    """
+
+    space: str
+    t: np.ndarray
+    signal: np.ndarray
+    fault_estimate: np.ndarray
+    residual: np.ndarray
+    threshold: np.ndarray
+    alarm: np.ndarray
+    armed: np.ndarray
+    mean: np.ndarray
+    std: np.ndarray
+    injected: np.ndarray
+
+    @property
+    def raised(self) -> np.ndarray:
+        """Samples at which an alarm is raised (rising edges), ``(N, n)``."""
+        before = np.vstack([np.zeros((1, self.alarm.shape[1]), dtype=bool), self.alarm[:-1]])
+        return self.alarm & ~before
+
+    @property
+    def cleared(self) -> np.ndarray:
+        """Samples at which an alarm is cleared (falling edges), ``(N, n)``."""
+        before = np.vstack([np.zeros((1, self.alarm.shape[1]), dtype=bool), self.alarm[:-1]])
+        return ~self.alarm & before
+
+    def alarm_times(self) -> list[list[float]]:
+        """Per joint, the times at which an alarm is raised."""
+        raised = self.raised
+        return [self.t[raised[:, j]].tolist() for j in range(raised.shape[1])]
+
+    def isolated(self, first_onset: float) -> np.ndarray:
+        """Joints the diagnoser names faulty: an alarm at or after the first fault onset (at any armed time in
+        a run without faults), ``(n,)``."""
+        after = self.t >= first_onset if math.isfinite(first_onset) else self.armed
+        return self.alarm[after].any(axis=0)
 
 
 @dataclass
