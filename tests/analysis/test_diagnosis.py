@@ -1,8 +1,9 @@
-"""Fault diagnosis (ftc_mj.analysis.diagnosis and its metrics in ftc_mj.analysis.metrics): persistence against chattering,
-baseline and thresholds, detection delay, false alarms, missed detections, isolation and the fault-estimate
-error on synthetic residuals, each joint from its own fault onset when the onsets differ; then closed-loop PUMA runs with realistic encoders: no alarm without a fault,
-detection within a stated delay and the right joints with one fault or two at different times; the schema's errors; the recording, table
-and JSON outputs."""
+"""Fault diagnosis (ftc_mj.analysis.diagnosis and its metrics in ftc_mj.analysis.metrics): persistence against
+chattering, baseline and thresholds, detection delay, false alarms, missed detections, isolation and the
+fault-estimate error on synthetic residuals, each joint from its own fault onset when the onsets differ; then
+closed-loop PUMA runs with realistic encoders: no alarm without a fault, detection within a stated delay and the
+right joints with one fault or two at different times; the schema's errors; the recording, table and JSON
+outputs."""
 
 from __future__ import annotations
 
