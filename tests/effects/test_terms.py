@@ -38,7 +38,7 @@ def phi(q: np.ndarray, qd: np.ndarray, scale: np.ndarray) -> np.ndarray:
 
 def states(rows: int) -> tuple[np.ndarray, np.ndarray]:
     """A trajectory per row, ``(len(TIMES), rows, NJ)``: q and qd swing through zero with row-dependent
-    phases, so that at any instant some rows have f > 0 and others f < 0."""
+    phases, so that f takes both signs on every faulty joint, in time and across rows."""
     phase = np.linspace(0.0, 2 * np.pi, rows, endpoint=False)[None, :, None] + np.arange(NJ)[None, None, :]
     t = TIMES[:, None, None]
     return 1.3 * np.sin(9 * t + phase), 2.1 * np.cos(7 * t + 2 * phase)
