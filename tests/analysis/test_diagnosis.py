@@ -1,8 +1,9 @@
-"""Fault diagnosis (ftc_mj.analysis.diagnosis and its metrics in ftc_mj.analysis.metrics): persistence against chattering,
-baseline and thresholds, detection delay, false alarms, missed detections, isolation and the fault-estimate
-error on synthetic residuals; then closed-loop PUMA runs with realistic encoders: no alarm without a fault,
-detection within a stated delay and the right joints with one; the schema's errors; the recording, table
-and JSON outputs."""
+"""Fault diagnosis (ftc_mj.analysis.diagnosis and its metrics in ftc_mj.analysis.metrics): persistence against
+chattering, baseline and thresholds, detection delay, false alarms, missed detections, isolation and the
+fault-estimate error on synthetic residuals, each joint from its own fault onset when the onsets differ; then
+closed-loop PUMA runs with realistic encoders: no alarm without a fault, detection within a stated delay and the
+right joints with one fault or two at different times; the schema's errors; the recording, table and JSON
+outputs."""
 
 from __future__ import annotations
 
@@ -131,6 +132,90 @@ def test_false_alarms_missed_detection_and_isolation() -> None:
     np.testing.assert_array_equal(diagnosis.isolated(6.0), [True, True, False])
 
 
+# Staggered onsets: joint 1 faulty from 2 s, joint 2 from 5 s, joint 3 healthy. Every metric that uses an onset
+# must take the joint's own, not the scenario's first.
+STAGGERED_ONSETS = np.array([2.0, 5.0, np.nan])
+
+
+def staggered_run():
+    """Diagnoser armed from 1.5 s (baseline [0.5, 1.5)), persistence 20 samples. Joint 1's fault (+2) shows at
+    its onset; joint 2's (-1.5) shows 50 samples after its onset (an observer's lag), and joint 2 has a
+    30-sample blip at 3 s: after joint 1's onset, before its own, so a false alarm of joint 2."""
+    injected = np.zeros((len(T), NJ))
+    injected[2000:, 0] = 2.0
+    injected[5000:, 1] = -1.5
+    luaf = healthy_signal()
+    luaf[2000:, 0] += 2.0
+    luaf[5050:, 1] += -1.5
+    luaf[3000:3030, 1] += 3.0
+    return luaf, injected, diagnose(synthetic(baseline=(0.5, 1.5), start=1.5), luaf, injected)
+
+
+def test_staggered_onsets_each_joint_from_its_own_onset() -> None:
+    luaf, injected, diagnosis = staggered_run()
+    assert diagnosis.alarm_times() == [[T[2019]], [T[3019], T[5069]], []]
+    m = diagnosis_metrics(diagnosis, STAGGERED_ONSETS, 2.0, NJ)
+    # Joint 1 at its 20th sample above, 19 periods after 2 s; joint 2 at 5.05 s + 19 periods, 69 periods after
+    # 5 s (from the first onset it would be the blip's alarm, 1.019 s after 2 s).
+    np.testing.assert_allclose(m["detection_delay"], [19 * DT, 69 * DT, np.nan], rtol=1e-9,
+                               err_msg="detection_delay is not measured from each joint's own onset")
+    np.testing.assert_array_equal(m["missed_detection"], [0, 0, np.nan])
+    # The blip at 3 s is before joint 2's onset: a false alarm of joint 2, over 1.5 s to 5 s of fault-free time.
+    np.testing.assert_array_equal(m["false_alarms"], [0, 1, 0], err_msg="false alarms not counted up to each "
+                                  "joint's own onset")
+    np.testing.assert_allclose(m["false_alarm_rate"], [0.0, 1 / 3.5, 0.0], rtol=1e-9)
+    np.testing.assert_array_equal(m["isolation_correct"], [1, 1, 1])
+    # The fault-estimate error from each joint's own detection: joint 2's from 5.069 s, after the lag.
+    for joint, first in ((0, 2019), (1, 5069)):
+        error = (luaf - diagnosis.mean - injected)[first:, joint]
+        np.testing.assert_allclose(m["fault_estimate_rms"][joint], np.sqrt(np.mean(error**2)), rtol=1e-12)
+    assert m["fault_estimate_rms"][1] < 0.1 and np.isnan(m["fault_estimate_rms"][2])
+
+
+def test_staggered_onsets_in_the_detection_statistics() -> None:
+    """The threshold-free statistics split each joint's run at its own onset, and at 1x the threshold give the
+    diagnoser's own delays and false alarms."""
+    from ftc_mj.analysis.diagnosis import detection_statistics
+
+    _, _, diagnosis = staggered_run()
+    m = diagnosis_metrics(diagnosis, STAGGERED_ONSETS, 2.0, NJ)
+    stats = detection_statistics(diagnosis, 20, STAGGERED_ONSETS, [1.0], NJ)
+    np.testing.assert_array_equal(stats["detection_delay_x1"], m["detection_delay"])
+    np.testing.assert_array_equal(stats["false_alarms_x1"], m["false_alarms"])
+    np.testing.assert_allclose(stats["healthy_time"], [0.5, 3.5, 8.5], rtol=1e-9)
+    # Joint 2: the blip (about 3 / 0.35 of the threshold) is on the healthy side, the fault (about 1.5 / 0.35)
+    # on the faulty one; joint 1 is healthy only in [1.5, 2) s.
+    assert stats["residual_peak_healthy"][1] > 7.0 and 3.0 < stats["residual_peak_fault"][1] < 5.0
+    assert stats["residual_peak_healthy"][0] < 1.0 and stats["residual_peak_fault"][0] > 4.0
+    np.testing.assert_array_equal(stats["isolated"], [1, 1, 0])
+
+
+def test_staggered_onsets_through_compute_metrics() -> None:
+    """compute_metrics hands each joint's onset to the diagnosis metrics and to the fault response: joint 2's
+    tracking excursion at 3 s (before its onset) is not its fault peak."""
+    from ftc_mj.analysis.metrics import MetricsSpec
+    from ftc_mj.results import VariantResult
+
+    _, _, diagnosis = staggered_run()
+    zeros = np.zeros((len(T), NJ))
+    error = zeros.copy()
+    error[2000:2250, 0] = 0.3
+    error[3000:3100, 1] = 0.4
+    error[5000:5500, 1] = -0.2
+    result = VariantResult(name="v", observer="obs", controller="ctl", t=T, q_ref=zeros, q_true=error,
+                           fault_active=T >= 2.0, diagnosis=diagnosis,
+                           **{name: zeros for name in ("qd_ref", "qdd_ref", "q_meas", "qd_true", "qdd_true", "qd_hat",
+                                                       "luaf_hat", "luaf_true", "tau", "sliding", "fault")})
+    spec = MetricsSpec(window_start=1.0, estimation_window_start=1.0, tracking_tolerance=0.01)
+    m = compute_metrics(result, spec, [2.0, 5.0], STAGGERED_ONSETS)
+    expected = diagnosis_metrics(diagnosis, STAGGERED_ONSETS, 2.0, NJ)
+    for name, values in expected.items():
+        np.testing.assert_array_equal(m[name], values, err_msg=name)
+    np.testing.assert_allclose(m["fault_peak_error"], [0.3, 0.2, np.nan], rtol=1e-12,
+                               err_msg="fault_peak_error is not measured from each joint's own onset")
+    np.testing.assert_allclose(m["recovery_time"], [0.25, 0.5, np.nan], rtol=1e-9)
+
+
 def test_persistence_against_chattering_estimate() -> None:
     """Single-sample spikes (the chattering of a discrete sliding-mode estimate) raise alarms without
     persistence and none with it."""
@@ -235,6 +320,30 @@ def test_loss_of_effectiveness_detected_and_isolated(loe_runs) -> None:
     np.testing.assert_array_equal(m["isolation_correct"], [1, 1, 1])
     assert result.diagnosis.alarm_times()[0] == [] and result.diagnosis.alarm_times()[2] == []
     assert m["fault_estimate_rms"][1] < 0.25 * np.abs(result.fault_torque[:, 1]).max()
+
+
+def test_staggered_onsets_in_the_closed_loop(tmp_path: Path) -> None:
+    """scenarios/faults/puma_loss_of_effectiveness.yaml with a second fault, a 10 N m bias on joint 1 from 9.5 s,
+    through the command line: each joint's delay from its own onset (joint 2's LoE at 8 s, joint 1's bias at
+    9.5 s). Measured: joint 1 detected at 9.600 s (0.100 s), joint 2 at 8.171 s (0.171 s), no false alarm."""
+    data = scenario_data()
+    data["actuator_faults"].append({"name": "joint1_bias", "kind": "bias", "joints": [1], "offset": 10.0,
+                                    "profile": {"onset": 9.5}})
+    out = tmp_path / "out.json"
+    assert main([str(write(tmp_path, data)), "--quiet", "--no-record", "--json", str(out)]) == 0
+    variant = json.loads(out.read_text())["variants"]["proposed"]
+    alarms, m = variant["diagnosis"]["alarms"], variant["metrics"]
+    assert alarms[2] == [] and len(alarms[0]) >= 1 and len(alarms[1]) >= 1
+    onsets = [9.5, 8.0]
+    for joint, onset in enumerate(onsets):
+        first = min(time for time in alarms[joint] if time >= onset)
+        assert m["detection_delay"][joint] == pytest.approx(first - onset), (
+            f"joint {joint + 1}: detection_delay is not measured from its own onset ({onset:g} s)")
+    # Margin about 2x on each measured delay; from the first onset joint 1's would be 1.6 s.
+    assert m["detection_delay"][0] < 0.25 and m["detection_delay"][1] < 0.35
+    assert m["detection_delay"][2] is None
+    assert m["missed_detection"] == [0.0, 0.0, None]
+    assert m["false_alarms"] == [0.0, 0.0, 0.0] and m["isolation_correct"] == [1.0, 1.0, 1.0]
 
 
 def test_bias_detected_against_the_uncertainty_bound(tmp_path: Path) -> None:

@@ -1,7 +1,9 @@
 """Chapter 5 end to end: scenarios/puma_fault.yaml, the full 30 s, through the command line.
 
 Bounds are set from measured values (in the comments) with a margin of about 3x, tight enough that a broken
-compensation (which gives the uncompensated law's ~6e-5 rad) or a broken observer fails them. The tracking-error bounds leave room for the 1 ms physics step (6.7e-6 rad).
+compensation (which gives the uncompensated law's ~6e-5 rad) or a broken observer fails them. The tracking-error
+bounds leave room for the 1 ms physics step (6.7e-6 rad). The fault's own effects (torque, detection delay) are
+bounded within 10-15% of their measured values: the fault (5.38) entering with the wrong sign moves them by 20-60%.
 """
 
 from __future__ import annotations
@@ -81,10 +83,50 @@ def test_third_order_estimates_luaf_better_than_sosmo(metrics: dict) -> None:
         assert np.all(metrics[name]["rms_luaf_error"] < 0.2 * metrics["nftsmc_sosmo"]["rms_luaf_error"]), name
 
 
-def test_recording_holds_what_the_runner_computed(run: tuple[dict, Path]) -> None:
-    path = run[1]
+def test_fault_response_as_measured(metrics: dict) -> None:
+    """The fault's footprint on the two TOSMO loops (nearly the same numbers for both). With the fault's sign
+    reversed (measured: rms torque 36.0 / 70.5 / 10.4 N m, delays 0.184-0.186 / 0.301 s) these bounds fail."""
+    for name in ("proposed", "nftsmc_tosmo"):
+        m = metrics[name]
+        # Measured: 36.28 / 44.94 / 7.03 N m (both loops); margin 10%.
+        np.testing.assert_allclose(m["rms_torque"], [36.28, 44.94, 7.03], rtol=0.1, err_msg=f"{name}: rms_torque")
+        # Measured: 0.151 / 0.239 s (proposed), 0.151 / 0.237 s (TOSMO); margin 0.02 / 0.03 s (13%, 20-30
+        # samples of 1 ms). Joint 3 is healthy.
+        delay = m["detection_delay"]
+        assert 0.13 < delay[0] < 0.17 and 0.21 < delay[1] < 0.27 and np.isnan(delay[2]), f"{name}: {delay}"
+        np.testing.assert_array_equal(m["missed_detection"], [0.0, 0.0, np.nan], err_msg=name)
+        np.testing.assert_array_equal(m["false_alarms"], [0.0, 0.0, 0.0], err_msg=name)
+        np.testing.assert_array_equal(m["isolation_correct"], [1.0, 1.0, 1.0], err_msg=name)
+        # Measured: 0.46 / 0.51 rad/s^2 against a fault that grows to about 9 / 13 rad/s^2; margin 30%.
+        assert np.all(m["fault_estimate_rms"][:2] < 0.65), f"{name}: {m['fault_estimate_rms']}"
+
+
+@pytest.fixture(scope="module")
+def proposed() -> tuple:
+    """The proposed variant alone, from the runner (not through the command line)."""
     scenario = load_scenario(SCENARIO, variants=["proposed"])
-    result = simulate_variant(scenario, scenario.variants[0])
+    return scenario, simulate_variant(scenario, scenario.variants[0])
+
+
+def test_fault_is_the_printed_one(proposed: tuple) -> None:
+    """The injected fault is +Phi (5.38) times 1 - exp(-zeta (t - Tf)), zeta = 2 1/s (a scenario parameter) and
+    Tf = 10 s, on the true state: the sign +1 of (5.1), zero before the onset."""
+    _, result = proposed
+    t, q, qd = result.t, result.q_true, result.qd_true
+    q1q2, qd1q2, qd1qd2 = q[:, 0] * q[:, 1], qd[:, 0] * q[:, 1], qd[:, 0] * qd[:, 1]
+    phi = np.stack([10 * np.sin(q1q2) + 3.7 * np.cos(qd1q2) + 5.2 * np.cos(qd1qd2),
+                    15 * np.sin(q1q2) + 3.6 * np.cos(qd1q2) + 2.7 * np.cos(qd1qd2), np.zeros(len(t))], axis=1)
+    weight = np.where(t >= 10.0, 1.0 - np.exp(-2.0 * (t - 10.0)), 0.0)[:, None]
+    np.testing.assert_allclose(result.fault, phi * weight, rtol=1e-12, atol=1e-12,
+                               err_msg="the fault is not +Phi (1 - exp(-zeta (t - Tf)))")
+    np.testing.assert_array_equal(result.fault[t < 10.0], 0.0)
+    # Near q = qd = 0 (the reference at 10 s) Phi is about (8.9, 6.3, 0): the fault starts positive.
+    assert (result.fault[(t > 10.0) & (t < 11.0), :2] > 0).all()
+
+
+def test_recording_holds_what_the_runner_computed(run: tuple[dict, Path], proposed: tuple) -> None:
+    path = run[1]
+    _, result = proposed
     times, estimate = read_series(path, "/luaf/estimate/proposed")
     np.testing.assert_array_equal(estimate, result.luaf_hat.astype(np.float32))  # stored as float32
     np.testing.assert_allclose(times, result.t, atol=1e-9)

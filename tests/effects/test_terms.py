@@ -1,0 +1,190 @@
+"""Plant terms (ftc_mj.effects.terms): a fault term s f(t, q, qd) omega(t - Tf) with the incipient profile
+omega(t - Tf) = 1 - exp(-zeta (t - Tf)) of (5.1) and (5.38) enters the plant as the closed form says, whether its
+rate ``zeta`` is a number or names a scenario parameter (each member's own, worked out in the loop rather than
+tabulated): both forms give the same series, for both signs s, for values f of both signs, before, at and after
+the onset, in torque and in acceleration space (the latter through the true M(q)), one row or many."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+import pytest
+import yaml
+
+from ftc_mj.config.expressions import SCALAR_ROWS
+from ftc_mj.effects.terms import PlantTerms, TermSpec, compile_terms
+from ftc_mj.engine.runner import simulate_variant
+from ftc_mj.spec.loading import load_scenario
+
+ROOT = Path(__file__).resolve().parents[2]
+NJ = 3
+DT = 1e-3
+TIMES = np.arange(1200) * DT
+ONSET = 0.4
+K0 = int(round(ONSET / DT))
+PARAMETERS = ["fault_scale", "zeta"]
+# f crosses zero on joints 1 and 2 as the states below swing (joint 1 through q1, joint 2 through qd2), so the
+# term is checked with f > 0 and f < 0; joint 3 is healthy (f = 0).
+VALUE = ["fault_scale*(3*sin(q1) + 0.5*cos(qd1*q2))", "fault_scale*(2*qd2 - 1.5*sin(q1*q2))", "0"]
+
+
+def phi(q: np.ndarray, qd: np.ndarray, scale: np.ndarray) -> np.ndarray:
+    """VALUE in NumPy, ``(samples, rows, NJ)`` from states ``(samples, rows, NJ)`` and ``scale`` ``(rows,)``."""
+    return np.stack([scale * (3 * np.sin(q[..., 0]) + 0.5 * np.cos(qd[..., 0] * q[..., 1])),
+                     scale * (2 * qd[..., 1] - 1.5 * np.sin(q[..., 0] * q[..., 1])),
+                     np.zeros(q.shape[:-1])], axis=-1)
+
+
+def states(rows: int) -> tuple[np.ndarray, np.ndarray]:
+    """A trajectory per row, ``(len(TIMES), rows, NJ)``: q and qd swing through zero with row-dependent
+    phases, so that f takes both signs on every faulty joint, in time and across rows."""
+    phase = np.linspace(0.0, 2 * np.pi, rows, endpoint=False)[None, :, None] + np.arange(NJ)[None, None, :]
+    t = TIMES[:, None, None]
+    return 1.3 * np.sin(9 * t + phase), 2.1 * np.cos(7 * t + 2 * phase)
+
+
+def masses(rows: int) -> np.ndarray:
+    """Symmetric positive definite M(q) per sample and row, ``(len(TIMES), rows, NJ, NJ)``, changing in time."""
+    rng = np.random.default_rng(5)
+    a = rng.normal(size=(rows, NJ, NJ))
+    base = a @ np.swapaxes(a, 1, 2) + NJ * np.eye(NJ)
+    return base[None] * (1.0 + 0.3 * np.sin(3 * TIMES))[:, None, None, None]
+
+
+def omega(zeta: np.ndarray) -> np.ndarray:
+    """The incipient profile 1 - exp(-zeta (t - Tf)) for t >= Tf, 0 before, ``(len(TIMES), rows, 1)``."""
+    elapsed = (TIMES - ONSET)[:, None, None]
+    return np.where(elapsed >= 0, 1.0 - np.exp(-np.asarray(zeta)[None, :, None] * elapsed), 0.0)
+
+
+def sweep(rate: float | str, sign: int, space: str, scale: np.ndarray, zeta: np.ndarray,
+          extra: list[TermSpec] = ()) -> dict[str, np.ndarray]:
+    """Every sample of the grid through PlantTerms.apply, for rows with the given ``fault_scale`` and ``zeta``
+    parameters: the applied force and the fault sums, ``(len(TIMES), rows, NJ)`` each."""
+    rows = len(zeta)
+    spec = TermSpec(kind="fault", space=space, sign=sign, value=VALUE, onset=ONSET, rate=rate, name="fault")
+    terms = compile_terms([*extra, spec], "test.yaml", NJ, PARAMETERS)
+    plant = PlantTerms(terms, TIMES, rows, NJ, np.column_stack([scale, zeta]), PARAMETERS)
+    q, qd = states(rows)
+    mass = masses(rows)
+    series = {name: np.empty((len(TIMES), rows, NJ)) for name in ("applied", "fault", "fault_force")}
+    out = np.empty((rows, NJ))
+    for k, t in enumerate(TIMES.tolist()):
+        plant.apply(k, t, q[k], qd[k], mass[k] if plant.needs_mass else None, out)
+        series["applied"][k], series["fault"][k], series["fault_force"][k] = out, plant.fault, plant.fault_force
+    np.testing.assert_array_equal(plant.fault_on, TIMES >= ONSET)
+    return series
+
+
+def closed_form(sign: int, space: str, scale: np.ndarray, zeta: np.ndarray) -> dict[str, np.ndarray]:
+    """s f omega(t - Tf), and its generalized force (M(q) times it in acceleration space)."""
+    q, qd = states(len(zeta))
+    fault = sign * phi(q, qd, scale) * omega(zeta)
+    force = np.einsum("krij,krj->kri", masses(len(zeta)), fault) if space == "acceleration" else fault
+    return {"applied": force, "fault": fault, "fault_force": force}
+
+
+def test_a_parameter_rate_compiles_to_an_abrupt_profile_and_its_parameter() -> None:
+    """The loop multiplies the abrupt profile by each member's 1 - exp(-zeta (t - Tf)); a numeric rate is
+    tabulated in the profile itself."""
+    spec = dict(kind="fault", space="acceleration", sign=1, value=VALUE, onset=ONSET)
+    by_name, by_number = compile_terms([TermSpec(**spec, rate="zeta"), TermSpec(**spec, rate=2.0)], "test.yaml", NJ,
+                                       PARAMETERS)
+    assert by_name.rate_parameter == "zeta" and by_name.time_profile.shape == "abrupt"
+    assert by_number.rate_parameter is None and by_number.time_profile.shape == "incipient"
+    np.testing.assert_array_equal(by_number.rate, [2.0, 2.0, 2.0])
+    np.testing.assert_array_equal(by_name.joints, [True, True, False])
+
+
+@pytest.mark.parametrize("space", ["acceleration", "torque"])
+@pytest.mark.parametrize("sign", [1, -1])
+@pytest.mark.parametrize("zeta", [0.5, 2.0, 40.0])
+def test_parameter_rate_equals_numeric_rate_and_the_closed_form(space: str, sign: int, zeta: float) -> None:
+    """The same term with ``rate: zeta`` (zeta a parameter) and with the number itself: the same series bit for bit, and
+    both s f (1 - exp(-zeta (t - Tf))) from the onset on, zero before."""
+    rows = 4
+    scale, rates = np.array([1.0, 0.5, -2.0, 1.0]), np.full(rows, zeta)
+    by_name = sweep("zeta", sign, space, scale, rates)
+    by_number = sweep(zeta, sign, space, scale, rates)
+    expected = closed_form(sign, space, scale, rates)
+    fault = expected["fault"][K0 + 1:, :, :2]
+    assert (fault > 0).any() and (fault < 0).any()  # f of both signs on the faulty joints, after the onset
+    for name, series in by_name.items():
+        np.testing.assert_array_equal(series, by_number[name],
+                                   err_msg=f"{name}: rate as a parameter differs from the same rate as a number")
+        np.testing.assert_allclose(series, expected[name], rtol=1e-12, atol=1e-12,
+                                   err_msg=f"{name}: not s f (1 - exp(-zeta (t - Tf)))")
+        np.testing.assert_array_equal(series[:K0], 0.0, err_msg=f"{name}: on before the onset")
+        np.testing.assert_array_equal(series[K0], 0.0, err_msg=f"{name}: omega(0) = 0 at the onset")
+    # The term always has the sign of s f (the profile is in [0, 1)): a sign error in the profile flips it.
+    sign_of = np.sign(by_name["fault"][K0 + 1:, :, :2])
+    np.testing.assert_array_equal(sign_of, np.sign(sign * phi(*states(rows), scale)[K0 + 1:, :, :2]),
+                                  err_msg="the fault term does not have the sign of s f")
+
+
+@pytest.mark.parametrize("rows", [3, SCALAR_ROWS + 3])
+@pytest.mark.parametrize("sign", [1, -1])
+def test_each_member_follows_its_own_rate(rows: int, sign: int) -> None:
+    """Rows (members) with different rates: each row is the closed form with its own rate and equals the row
+    of a run with that rate as a number; on both sides of the row count where expressions go columnwise."""
+    rng = np.random.default_rng(rows)
+    zeta = rng.uniform(0.3, 30.0, rows)
+    scale = rng.choice([-1.5, -0.5, 0.7, 2.0], rows)
+    by_name = sweep("zeta", sign, "acceleration", scale, zeta)
+    expected = closed_form(sign, "acceleration", scale, zeta)
+    for name, series in by_name.items():
+        np.testing.assert_allclose(series, expected[name], rtol=1e-12, atol=1e-12, err_msg=name)
+    for row in (0, rows - 1):
+        alone = sweep(float(zeta[row]), sign, "acceleration", scale, zeta)
+        np.testing.assert_array_equal(by_name["fault"][:, row], alone["fault"][:, row])
+
+
+def test_other_terms_add_and_stay_out_of_the_fault_sums() -> None:
+    """A torque-space friction term beside the parameter-rate fault: the applied force is friction plus the
+    fault's M(q) image; the fault sums hold the fault alone."""
+    friction = TermSpec(kind="friction", space="torque", sign=-1, value=["1.9*sin(qd1)", "2.03*sin(qd2)", "0.5"])
+    scale, zeta = np.array([1.0, -1.0]), np.array([2.0, 5.0])
+    series = sweep("zeta", 1, "acceleration", scale, zeta, extra=[friction])
+    expected = closed_form(1, "acceleration", scale, zeta)
+    _, qd = states(2)
+    torque = -np.stack([1.9 * np.sin(qd[..., 0]), 2.03 * np.sin(qd[..., 1]), np.full(qd.shape[:-1], 0.5)], axis=-1)
+    np.testing.assert_allclose(series["applied"], torque + expected["applied"], rtol=1e-12, atol=1e-12)
+    np.testing.assert_allclose(series["fault"], expected["fault"], rtol=1e-12, atol=1e-12)
+    np.testing.assert_allclose(series["fault_force"], expected["fault_force"], rtol=1e-12, atol=1e-12)
+
+
+def test_closed_loop_parameter_rate_equals_the_numeric_rate(tmp_path: Path) -> None:
+    """scenarios/puma_fault.yaml (``rate: zeta``, zeta = 2) with its fault moved to 0.2 s, against the same file
+    with ``rate: 2.0``: the same run bit for bit, and the recorded fault is (5.38)'s Phi times
+    1 - exp(-2 (t - 0.2)) on the true state, with the sign +1 of (5.1)."""
+    data = yaml.safe_load((ROOT / "scenarios" / "puma_fault.yaml").read_text(encoding="utf-8"))
+    data["robot"]["model"] = str(ROOT / "models" / "puma560.xml")
+    data.update(duration=0.8, figures=[])
+    data.pop("output", None)
+    data.pop("diagnosis", None)
+    data["variants"] = {"proposed": data["variants"]["proposed"]}
+    data["metrics"].update(window_start=0.1, estimation_window_start=0.1)
+    fault = data["terms"][2]
+    assert fault["rate"] == "zeta" and data["parameters"]["zeta"] == 2.0
+    fault["onset"] = 0.2
+    results = []
+    for rate in ("zeta", 2.0):
+        fault["rate"] = rate
+        path = tmp_path / f"rate_{rate}.yaml"
+        path.write_text(yaml.safe_dump(data, sort_keys=False), encoding="utf-8")
+        scenario = load_scenario(path)
+        results.append(simulate_variant(scenario, scenario.variants[0]))
+    by_name, by_number = results
+    assert by_name.status == by_number.status == "ok"
+    for name in ("fault", "fault_acceleration", "fault_torque", "tau", "q_true", "luaf_true"):
+        np.testing.assert_array_equal(getattr(by_name, name), getattr(by_number, name), err_msg=name)
+    t, q, qd = by_name.t, by_name.q_true, by_name.qd_true
+    phi_538 = np.stack([10 * np.sin(q[:, 0] * q[:, 1]) + 3.7 * np.cos(qd[:, 0] * q[:, 1])
+                        + 5.2 * np.cos(qd[:, 0] * qd[:, 1]),
+                        15 * np.sin(q[:, 0] * q[:, 1]) + 3.6 * np.cos(qd[:, 0] * q[:, 1])
+                        + 2.7 * np.cos(qd[:, 0] * qd[:, 1]), np.zeros(len(t))], axis=1)
+    weight = np.where(t >= 0.2, 1.0 - np.exp(-2.0 * (t - 0.2)), 0.0)[:, None]
+    np.testing.assert_allclose(by_name.fault, phi_538 * weight, rtol=1e-12, atol=1e-12,
+                               err_msg="the fault is not +Phi (1 - exp(-zeta (t - Tf)))")
+    assert by_name.fault[-1, 0] > 1.0  # well into the fault: Phi_1 is about 9 here
