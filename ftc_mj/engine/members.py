@@ -247,7 +247,9 @@ class _Columns:
                 section = estimates[field.variant]
                 section[field.name] = _set_element(section.get(field.name), field, value, file)
             else:
-                section = gains.setdefault(field.section, unshared(self._method(field).gains))
+                if field.section not in gains:
+                    gains[field.section] = unshared(self._method(field).gains)
+                section = gains[field.section]
                 try:
                     set_path(section, field.key, unshared(value), file)
                 except InputError as exc:
@@ -298,7 +300,7 @@ class _Columns:
     def members(self) -> Members:
         """The members' values stacked, member axis first."""
         def stacked(path: str) -> GainConfig:
-            plugin, configs = self.gains[path]
+            _, configs = self.gains[path]
             try:
                 return stack(configs, self.n)
             except ValueError as exc:

@@ -107,7 +107,7 @@ def test_a_path_outside_the_list_is_refused_in_one_line(path):
     assert batchable(path) is None
     with pytest.raises(InputError) as error:
         member_field(path, "f.yaml")
-    assert str(error.value) == f"f.yaml: {path}: {NOT_BATCHABLE}" if path else f"f.yaml: {NOT_BATCHABLE}"
+    assert str(error.value) == (f"f.yaml: {path}: {NOT_BATCHABLE}" if path else f"f.yaml: {NOT_BATCHABLE}")
 
 
 # ------------------------------------------------------------------------------------ overrides and their member
