@@ -5,10 +5,10 @@ Run k (0-based) is point ``(sample s, case c, grid point g, replicate r)`` with
 whatever ``samples.runs``, and its seed is ``seed + s R + r``: the cases and the grid's points share seeds
 (common random numbers: a sweep compares its points on the same noise), every sample and replicate has its own.
 
-A run's fields split in two (:data:`ftc_mj.engine.members.BATCHABLE`): what may differ between the members of
-one batch (seed, initial states, parameters, mass scales, gains) and what is the batch's structure (a fault's
-kind or onset, the sensors, ...). Runs with the same structure form a group: one compiled scenario, its runs
-stepped together as members.
+A run's fields split in two (:func:`ftc_mj.engine.batching.batchable`): what may differ between the members
+of one batch (seed, initial states, parameters, mass scales, gains) and what is the batch's structure (a
+fault's kind or onset, the sensors, ...). Runs with the same structure form a group: one compiled scenario,
+its runs stepped together as members.
 """
 
 from __future__ import annotations
@@ -25,7 +25,7 @@ import numpy as np
 from scipy.stats import qmc
 
 from ftc_mj.campaign.spec import CampaignSpec, CaseSpec
-from ftc_mj.engine.members import BATCHABLE
+from ftc_mj.engine.batching import batchable
 from ftc_mj.spec.scenario import Scenario
 
 
@@ -117,7 +117,7 @@ def population(spec: CampaignSpec, base_seed: int) -> list[Run]:
                     member: dict[str, Any] = {"seed": seed}
                     for path, value in values.items():
                         for target in (path, *also.get(path, ())):
-                            (member if BATCHABLE.fullmatch(target) else structure)[target] = value
+                            (member if batchable(target) is not None else structure)[target] = value
                     label = case.label if spec.cases else None
                     content = {"set": spec.set, "case": case.set, "values": values, "seed": seed}
                     runs.append(Run(index=((s * C + c) * G + g) * R + r, run_id=digest(content), seed=seed,

@@ -1,8 +1,8 @@
-"""Members: the B runs of a batch, stepped together, and what may differ between them.
+"""Members: the B runs of a batch, stepped together, and their values.
 
-A run of a scenario is a batch of members; a single run is one member. Members share the scenario's
-structure (robot, grid, terms and their expressions, faults, sensor effects, methods) and may differ in every
-number the batch carries per member, each with the member axis first:
+A run of a scenario is a batch of members; a single run is one member. Members share the compiled scenario's
+structure and may differ in the fields of :data:`ftc_mj.engine.batching.FIELD_KINDS`, each with the member
+axis first:
 
 * ``seed``: each member its own random streams, ``SeedSequence(seed_k, spawn_key=(stream,))``; by default
   ``seed_k = seed + k``, so that member k of a batch is the same run whatever B and the thread count, and
@@ -13,26 +13,34 @@ number the batch carries per member, each with the member axis first:
   ``mujoco.batch``'s per-simulation model fields);
 * every method's gains, per variant and monitor.
 
-:func:`members_from_overrides` builds them from per-member overrides given by dotted paths, as ``--set``
-takes them (``{"variants.proposed.controller.gains.mu": 2.0, "parameters.fault_scale": 0.5}``); a path outside
-those is refused, since it would change the batch's structure.
+Every member starts from the compiled scenario's values (its :class:`~ftc_mj.spec.scenario.Variant` configs,
+q0, qd0, parameters, mass scales); nothing is compiled again. :func:`members_from_overrides` changes them by
+dotted paths, as ``--set`` takes them (``{"variants.proposed.controller.gains.mu": 2.0,
+"parameters.fault_scale": 0.5}``); each override is validated against the section it changes, as compiling
+the scenario validates that section: a gain merged into its method's gains and validated by the plugin's
+``Config`` (the same arrays, bit for bit), a parameter as a finite number (positive where it is a term's
+rate), a state as one finite number per joint, a seed as an integer >= 0, a mass scale as a positive number.
 """
 
 from __future__ import annotations
 
-import copy
-import re
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
-from typing import Any
+from functools import cache
+from typing import Annotated, Any
 
 import numpy as np
-from pydantic import ValidationError
+from pydantic import BaseModel, TypeAdapter, ValidationError
 
-from ftc_mj.methods.gains import GainConfig, stack
 from ftc_mj.config.errors import InputError, validation_error
-from ftc_mj.config.yaml import set_path
-from ftc_mj.spec.scenario import Scenario, ScenarioSpec, compile_variant_methods, joint_values, observer_start
+from ftc_mj.config.types import FiniteFloat
+from ftc_mj.config.yaml import set_path, unshared
+from ftc_mj.engine.batching import MemberField, member_field, stack, stack_select, stack_states
+from ftc_mj.methods.gains import GainConfig
+from ftc_mj.robot.model import PlantSpec
+from ftc_mj.robot.nominal import NominalSpec
+from ftc_mj.spec.scenario import (InitialState, ObserverInitial, Scenario, ScenarioSpec, joint_values,
+                                  observer_estimates, rate_parameter_problem)
 
 
 @dataclass
@@ -80,19 +88,6 @@ class Members:
                        take(self.nominal_mass_scale), take(self.plant_mass_scale), variants, overrides)
 
 
-def stack_select(config: GainConfig, chosen: slice | np.ndarray) -> GainConfig:
-    """The members ``chosen`` of a stacked configuration."""
-    values = {name: (value[chosen] if isinstance(value, np.ndarray) else value) for name, value in config}
-    return type(config).model_construct(**values)
-
-
-#: Fields that may differ between the members of a batch, as dotted paths.
-BATCHABLE = re.compile(
-    r"seed|initial\.qd?(\.\d+)?|observer_initial\..+|parameters\.[A-Za-z_]\w*|(nominal|plant)\.mass_scale"
-    r"|variants\.[^.]+\.((observer|controller)\.gains|monitors\.[^.]+\.gains|observer_initial)\..+"
-)
-
-
 def single(scenario: Scenario) -> Members:
     """The scenario as written: one member."""
     return replicates(scenario, 1)
@@ -100,94 +95,231 @@ def single(scenario: Scenario) -> Members:
 
 def replicates(scenario: Scenario, count: int) -> Members:
     """``count`` members that differ only in their seed: ``seed + k`` for member k."""
-    one = _values(scenario, scenario.spec)
-    members = _stack([one] * count)
-    members.seeds = scenario.spec.seed + np.arange(count)
-    return members
+    return _Columns(scenario, count).members()
 
 
 def members_from_overrides(scenario: Scenario, overrides: Sequence[Mapping[str, Any]]) -> Members:
-    """One member per mapping of dotted paths to values, each applied to the scenario as loaded. A member
+    """One member per mapping of dotted paths to values, each applied to the scenario as compiled. A member
     whose mapping sets no ``seed`` gets ``seed + k`` (k its index), as :func:`replicates` does: each member has
     its own random streams, and member 0 is the scenario's own run.
 
+    An override of a variant that the file declares but ``load_scenario`` left out is accepted and unused.
+
     Raises:
-        InputError: a path that may not differ within a batch (:data:`BATCHABLE`), or a value the scenario's
-            schema refuses, naming the member and the field.
+        InputError: a path that may not differ within a batch (:func:`~ftc_mj.engine.batching.member_field`),
+            or a value its section refuses, naming the member and the field.
     """
-    file = str(scenario.path)
-    values = []
+    columns = _Columns(scenario, len(overrides))
+    fields: dict[str, MemberField | None] = {}
     for k, member in enumerate(overrides):
-        raw = copy.deepcopy(scenario.raw)
-        raw["seed"] = scenario.spec.seed + k
-        for key, value in member.items():
-            if BATCHABLE.fullmatch(key) is None:
-                raise InputError(file, key, f"member {k}: cannot differ between the members of a batch (only the "
-                                 "seed, initial states, parameters, mass scales and gains can)")
-            set_path(raw, key, value, file)
         try:
-            spec = ScenarioSpec.model_validate(raw)
-        except ValidationError as exc:
-            raise validation_error(file, "", exc) from None
-        if set(spec.parameters) != set(scenario.spec.parameters):
-            raise InputError(file, "parameters", f"member {k}: set the scenario's parameters, do not add any")
-        values.append(_values(scenario, spec))
-    members = _stack(values)
+            changes = []
+            for path, value in member.items():
+                if path not in fields:
+                    fields[path] = _bind(scenario, member_field(path, columns.file))
+                if fields[path] is not None:
+                    changes.append((fields[path], value))
+            columns.apply(k, changes)
+        except InputError as exc:
+            raise InputError(exc.file, exc.field, f"member {k}: {exc.problem}") from None
+    members = columns.members()
     members.overrides = [dict(member) for member in overrides]
     return members
 
 
-def _values(scenario: Scenario, spec: ScenarioSpec) -> Members:
-    """One member's values from its validated spec (a batch of one)."""
-    file, n = str(scenario.path), scenario.n_joints
+def _bind(scenario: Scenario, field: MemberField) -> MemberField | None:
+    """Check ``field`` against the scenario's structure; None for a gain or estimate of a variant the file
+    declares but the scenario does not run.
 
-    def vector(values: list[float] | None, field: str, default: float | None = 0.0) -> np.ndarray | None:
-        return joint_values(values, n, file, field, default)
-
-    variants = []
-    for variant in scenario.variants:
-        (_, observer), (_, controller), monitors = compile_variant_methods(file, variant.name,
-                                                                           spec.variants[variant.name], n)
-        q_hat0, qd_hat0 = observer_start(spec, variant.name, n, file)
-        variants.append(MemberVariant(observer, controller, [m.observer_config for m in monitors],
-                                      None if q_hat0 is None else q_hat0[None], qd_hat0[None]))
-    return Members(
-        seeds=np.array([spec.seed]),
-        q0=vector(spec.initial.q, "initial.q")[None],
-        qd0=vector(spec.initial.qd, "initial.qd")[None],
-        parameters=np.array([[spec.parameters[name] for name in scenario.spec.parameters]], dtype=float),
-        nominal_mass_scale=np.array([spec.nominal.mass_scale]),
-        plant_mass_scale=np.array([spec.plant.mass_scale]),
-        variants=variants,
-    )
-
-
-def _stack(members: list[Members]) -> Members:
-    """Members of batches of one, as one batch (gains stacked per variant and monitor)."""
-    def join(values: list[np.ndarray | None]) -> np.ndarray | None:
-        if all(value is None for value in values):
+    Raises:
+        InputError: an unknown parameter, variant or monitor, or a gain that selects the law's form.
+    """
+    file, spec = str(scenario.path), scenario.spec
+    if field.kind == "parameter" and field.name not in spec.parameters:
+        raise InputError(file, field.path, "set the scenario's parameters, do not add any")
+    if field.variant is None:
+        return field
+    if field.variant not in spec.variants:
+        if field.variant in scenario.raw.get("variants", {}):
             return None
-        if any(value is None for value in values):
-            raise ValueError("observer_initial.q_hat given for some members and not for others")
-        return np.concatenate(values)
+        raise InputError(file, field.path, f"no variant {field.variant!r} (known: {', '.join(spec.variants)})")
+    if field.kind == "gain":
+        variant = next(v for v in scenario.variants if v.name == field.variant)
+        if field.role == "monitor":
+            monitor = next((m for m in variant.monitors if m.name == field.monitor), None)
+            if monitor is None:
+                raise InputError(file, field.path, f"variant {field.variant} has no monitor {field.monitor!r}")
+            config = monitor.observer_config
+        else:
+            config = variant.observer_config if field.role == "observer" else variant.controller_config
+        if field.name in type(config).model_fields and isinstance(getattr(config, field.name), (bool, str)):
+            raise InputError(file, field.path, "cannot differ between the members of a batch: it selects the "
+                             "law's form")
+    return field
 
-    n = members[0].q0.shape[1]
-    variants = []
-    for v in range(len(members[0].variants)):
-        of_variant = [m.variants[v] for m in members]
-        variants.append(MemberVariant(
-            observer=stack([mv.observer for mv in of_variant], n),
-            controller=stack([mv.controller for mv in of_variant], n),
-            monitors=[stack([mv.monitors[i] for mv in of_variant], n) for i in range(len(of_variant[0].monitors))],
-            q_hat0=join([mv.q_hat0 for mv in of_variant]),
-            qd_hat0=join([mv.qd_hat0 for mv in of_variant]),
-        ))
-    return Members(
-        seeds=np.concatenate([m.seeds for m in members]),
-        q0=np.concatenate([m.q0 for m in members]),
-        qd0=np.concatenate([m.qd0 for m in members]),
-        parameters=np.concatenate([m.parameters for m in members]),
-        nominal_mass_scale=np.concatenate([m.nominal_mass_scale for m in members]),
-        plant_mass_scale=np.concatenate([m.plant_mass_scale for m in members]),
-        variants=variants,
-    )
+
+@cache
+def _adapter(model: type[BaseModel], name: str) -> TypeAdapter:
+    """The validator of one field of a schema section (its type and constraints)."""
+    info = model.model_fields[name]
+    return TypeAdapter(Annotated[(info.annotation, *info.metadata)])
+
+
+#: A parameter's value: the type of the scenario's ``parameters``.
+_PARAMETER = TypeAdapter(FiniteFloat)
+
+
+def _validated(adapter: TypeAdapter, value: Any, file: str, path: str) -> Any:
+    try:
+        return adapter.validate_python(value)
+    except ValidationError as exc:
+        raise validation_error(file, path, exc) from None
+
+
+def _set_element(values: list | None, field: MemberField, value: Any, file: str) -> list:
+    """``values`` with ``field``'s element (or all of it) replaced by ``value``."""
+    if field.element is None:
+        return unshared(value)
+    if not isinstance(values, list) or field.element >= len(values):
+        given = "no values" if not isinstance(values, list) else f"{len(values)} values"
+        raise InputError(file, field.path, f"{field.section}.{field.name} has {given}: it has no element "
+                         f"{field.element} to set")
+    values = list(values)
+    values[field.element] = value
+    return values
+
+
+class _Columns:
+    """The members' values before stacking, each member starting from the compiled scenario's."""
+
+    def __init__(self, scenario: Scenario, count: int):
+        spec, n = scenario.spec, scenario.n_joints
+        self.scenario, self.spec, self.n, self.file = scenario, spec, n, str(scenario.path)
+        self.count = count
+        self.seeds = spec.seed + np.arange(count)
+        self.q0 = np.repeat(scenario.q0[None], count, axis=0)
+        self.qd0 = np.repeat(scenario.qd0[None], count, axis=0)
+        self.parameter_index = {name: i for i, name in enumerate(spec.parameters)}
+        self.parameters = np.repeat(np.array([list(spec.parameters.values())], dtype=float).reshape(1, -1),
+                                    count, axis=0)
+        self.mass_scale = {"nominal": np.full(count, spec.nominal.mass_scale),
+                           "plant": np.full(count, spec.plant.mass_scale)}
+        # Per section of gains (its dotted path): the plugin class and one configuration per member.
+        self.gains: dict[str, tuple[type, list[GainConfig]]] = {}
+        self.estimates: list[tuple[list[np.ndarray | None], list[np.ndarray]]] = []
+        for variant in scenario.variants:
+            prefix = f"variants.{variant.name}"
+            self.gains[f"{prefix}.observer"] = (variant.observer_type, [variant.observer_config] * count)
+            self.gains[f"{prefix}.controller"] = (variant.controller_type, [variant.controller_config] * count)
+            for monitor in variant.monitors:
+                self.gains[f"{prefix}.monitors.{monitor.name}"] = (monitor.observer_type,
+                                                                   [monitor.observer_config] * count)
+            self.estimates.append(([variant.q_hat0] * count, [variant.qd_hat0] * count))
+
+    def apply(self, k: int, changes: list[tuple[MemberField, Any]]) -> None:
+        """Member ``k``'s overrides, in their order, each section validated once with all of its changes."""
+        file, spec = self.file, self.spec
+        initial: dict[str, Any] | None = None
+        estimates: dict[str | None, dict[str, Any] | None] = {}
+        gains: dict[str, dict[str, Any]] = {}
+        for field, value in changes:
+            if field.kind == "seed":
+                self.seeds[k] = _validated(_adapter(ScenarioSpec, "seed"), value, file, field.path)
+            elif field.kind == "parameter":
+                number = _validated(_PARAMETER, value, file, field.path)
+                problem = rate_parameter_problem(spec.terms, field.name, number)
+                if problem is not None:
+                    raise InputError(file, field.path, problem)
+                self.parameters[k, self.parameter_index[field.name]] = number
+            elif field.kind == "mass_scale":
+                model = NominalSpec if field.name == "nominal" else PlantSpec
+                self.mass_scale[field.name][k] = _validated(_adapter(model, "mass_scale"), value, file, field.path)
+            elif field.kind == "initial":
+                if initial is None:
+                    qd = spec.initial.qd if spec.initial.qd is not None else [0.0] * self.n
+                    initial = {"q": list(spec.initial.q), "qd": list(qd)}
+                initial[field.name] = _set_element(initial[field.name], field, value, file)
+            elif field.kind == "observer_initial":
+                if field.variant not in estimates:
+                    own = spec.observer_initial if field.variant is None else \
+                        spec.variants[field.variant].observer_initial
+                    estimates[field.variant] = {} if own is None else own.model_dump()
+                section = estimates[field.variant]
+                section[field.name] = _set_element(section.get(field.name), field, value, file)
+            else:
+                if field.section not in gains:
+                    gains[field.section] = unshared(self._method(field).gains)
+                section = gains[field.section]
+                try:
+                    set_path(section, field.key, unshared(value), file)
+                except InputError as exc:
+                    raise InputError(file, field.path, exc.problem.removeprefix("--set: ")) from None
+        if initial is not None:
+            self._initial(k, initial)
+        if estimates:
+            self._estimates(k, estimates)
+        for path, section in gains.items():
+            plugin, configs = self.gains[path]
+            try:
+                configs[k] = plugin.Config.model_validate(section, context={"n_joints": self.n})
+            except ValidationError as exc:
+                raise validation_error(file, f"{path}.gains", exc) from None
+
+    def _method(self, field: MemberField) -> Any:
+        """The :class:`~ftc_mj.methods.registry.MethodSpec` a gain field belongs to."""
+        variant = self.spec.variants[field.variant]
+        if field.role == "monitor":
+            return variant.monitors[field.monitor]
+        return variant.observer if field.role == "observer" else variant.controller
+
+    def _initial(self, k: int, raw: dict[str, Any]) -> None:
+        try:
+            state = InitialState.model_validate(raw)
+        except ValidationError as exc:
+            raise validation_error(self.file, "initial", exc) from None
+        self.q0[k] = joint_values(state.q, self.n, self.file, "initial.q")
+        self.qd0[k] = joint_values(state.qd, self.n, self.file, "initial.qd")
+
+    def _estimates(self, k: int, raw: dict[str | None, dict[str, Any] | None]) -> None:
+        """The observers' initial estimates of every variant once member ``k`` changed the scenario's
+        ``observer_initial`` or a variant's own (``raw``, by variant; None for the scenario's)."""
+        def section(variant: str | None) -> ObserverInitial | None:
+            field = "observer_initial" if variant is None else f"variants.{variant}.observer_initial"
+            try:
+                return ObserverInitial.model_validate(raw[variant])
+            except ValidationError as exc:
+                raise validation_error(self.file, field, exc) from None
+
+        shared = section(None) if None in raw else self.spec.observer_initial
+        for v, variant in enumerate(self.scenario.variants):
+            own = section(variant.name) if variant.name in raw else self.spec.variants[variant.name].observer_initial
+            q_hat0, qd_hat0 = observer_estimates(own, shared, variant.name, self.n, self.file)
+            self.estimates[v][0][k] = q_hat0
+            self.estimates[v][1][k] = qd_hat0
+
+    def members(self) -> Members:
+        """The members' values stacked, member axis first."""
+        def stacked(path: str) -> GainConfig:
+            _, configs = self.gains[path]
+            try:
+                return stack(configs, self.n)
+            except ValueError as exc:
+                raise InputError(self.file, f"{path}.gains", f"members: {exc}") from None
+
+        variants = []
+        for variant, (q_hat0, qd_hat0) in zip(self.scenario.variants, self.estimates):
+            prefix = f"variants.{variant.name}"
+            try:
+                q_hat0_stacked = stack_states(q_hat0)
+            except ValueError as exc:
+                raise InputError(self.file, f"{prefix}.observer_initial.q_hat", f"members: {exc}") from None
+            variants.append(MemberVariant(
+                observer=stacked(f"{prefix}.observer"),
+                controller=stacked(f"{prefix}.controller"),
+                monitors=[stacked(f"{prefix}.monitors.{monitor.name}") for monitor in variant.monitors],
+                q_hat0=q_hat0_stacked,
+                qd_hat0=np.stack(qd_hat0),
+            ))
+        return Members(seeds=self.seeds, q0=self.q0, qd0=self.qd0, parameters=self.parameters,
+                       nominal_mass_scale=self.mass_scale["nominal"], plant_mass_scale=self.mass_scale["plant"],
+                       variants=variants)

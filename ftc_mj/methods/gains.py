@@ -9,7 +9,6 @@ plugin receives a NumPy vector.
 
 from __future__ import annotations
 
-from collections.abc import Sequence
 from typing import Annotated, Any
 
 import numpy as np
@@ -36,32 +35,3 @@ class GainConfig(BaseModel):
     """Base of every plugin's gains: strict keys, immutable, NumPy vectors allowed."""
 
     model_config = ConfigDict(extra="forbid", frozen=True, arbitrary_types_allowed=True)
-
-
-def stack(configs: Sequence[GainConfig], n_joints: int) -> GainConfig:
-    """One configuration for a batch of members from one validated configuration per member.
-
-    Per-joint gains and single numbers both become contiguous ``(members, n)`` arrays; a field that is None must be None for every member, and a
-    choice (a string such as ``compensation``) must be the same for every member, since it selects the law's
-    form rather than a value. The result is not validated again: each member's values were.
-    """
-    first = configs[0]
-    values: dict[str, Any] = {}
-    for name in type(first).model_fields:
-        column = [getattr(config, name) for config in configs]
-        if all(value is None for value in column):
-            values[name] = None
-        elif any(value is None for value in column):
-            raise ValueError(f"{name}: given for some members and not for others")
-        elif isinstance(column[0], np.ndarray):
-            values[name] = np.stack([np.asarray(value, dtype=float) for value in column])
-        elif isinstance(column[0], (bool, str)):
-            if any(value != column[0] for value in column):
-                raise ValueError(f"{name}: differs between members ({column[0]!r}, ...); it selects the law's form")
-            values[name] = column[0]
-        else:
-            # One per member and joint (not one column to broadcast): an exponent of one element would take
-            # NumPy's scalar fast paths (x ** 0.5 as sqrt), which differ in the last bit from the general power
-            # a batch of many members computes, and member k would not be its own run.
-            values[name] = np.repeat(np.asarray(column, dtype=float)[:, None], n_joints, axis=1)
-    return type(first).model_construct(**values)

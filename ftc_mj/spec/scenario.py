@@ -137,21 +137,30 @@ class ScenarioSpec(Strict):
 
     @model_validator(mode="after")
     def _rate_parameters(self) -> "ScenarioSpec":
-        """A term's rate given by a parameter: the parameter exists and is positive (checked for every member of
-        a batch, whose parameters are validated with this schema)."""
+        """A term's rate given by a parameter: the parameter exists and is positive (a member's own value of it
+        is checked by :func:`rate_parameter_problem` too)."""
         for index, term in enumerate(self.terms):
             if isinstance(term.rate, str):
                 if term.rate not in self.parameters:
                     raise ValueError(f"terms.{index}.rate: {term.rate!r} is not one of the parameters")
-                if self.parameters[term.rate] <= 0:
-                    raise ValueError(f"parameters.{term.rate} is the rate of terms.{index}: it must be positive, "
-                                     f"not {self.parameters[term.rate]:g}")
+                problem = rate_parameter_problem(self.terms, term.rate, self.parameters[term.rate])
+                if problem is not None:
+                    raise ValueError(f"parameters.{term.rate} {problem}")
         return self
 
     @field_validator("variants")
     @classmethod
     def _variant_names(cls, variants: dict[str, VariantSpec]) -> dict[str, VariantSpec]:
         return _plain_names(variants, "variant")
+
+
+def rate_parameter_problem(terms: list[TermSpec], name: str, value: float) -> str | None:
+    """What is wrong with ``value`` for the parameter ``name`` where a term's rate is that parameter (a rate
+    must be positive); None when nothing is."""
+    for index, term in enumerate(terms):
+        if term.rate == name and value <= 0:
+            return f"is the rate of terms.{index}: it must be positive, not {value:g}"
+    return None
 
 
 @dataclass
@@ -202,7 +211,8 @@ class Scenario:
     diagnoser: Diagnoser | None = None
     #: The figures (the ``figures`` section, or the defaults) for the variants that run.
     figures: list[Figure] = field(default_factory=list)
-    #: The file's content after ``--set`` (YAML types), from which members are built with overrides.
+    #: The file's content after ``--set`` (YAML types): the fields as written, which a campaign's paths are
+    #: checked against, and every variant the file declares (``load_scenario``'s ``variants`` may run fewer).
     raw: dict[str, Any] = field(default_factory=dict)
 
     @property
@@ -290,8 +300,15 @@ def compile_variant_methods(file: str, name: str, variant: VariantSpec, n: int
 def observer_start(spec: ScenarioSpec, name: str, n: int, file: str) -> tuple[np.ndarray | None, np.ndarray]:
     """Variant ``name``'s observer initial estimate (its own ``observer_initial``, else the scenario's):
     q_hat(0) (None: the first reading) and qd_hat(0)."""
-    own = spec.variants[name].observer_initial
-    initial = own or spec.observer_initial
+    return observer_estimates(spec.variants[name].observer_initial, spec.observer_initial, name, n, file)
+
+
+def observer_estimates(own: ObserverInitial | None, shared: ObserverInitial, name: str, n: int, file: str
+                       ) -> tuple[np.ndarray | None, np.ndarray]:
+    """q_hat(0) (None: the first reading) and qd_hat(0) of variant ``name`` from its own ``observer_initial``
+    when it has one (all of it: a field it leaves out takes its default, not the scenario's), else from the
+    scenario's ``shared`` one."""
+    initial = own or shared
     field = f"variants.{name}.observer_initial" if own else "observer_initial"
     return (joint_values(initial.q_hat, n, file, f"{field}.q_hat", default=None),
             joint_values(initial.qd_hat, n, file, f"{field}.qd_hat"))

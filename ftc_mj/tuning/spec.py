@@ -30,7 +30,7 @@ from pydantic import Field, StrictBool, StrictInt, StrictStr, ValidationError, f
 
 from ftc_mj.analysis.metrics import METRICS
 from ftc_mj.campaign.spec import FieldPath, Name
-from ftc_mj.engine.members import BATCHABLE
+from ftc_mj.engine.batching import batchable
 from ftc_mj.config.errors import InputError, validation_error
 from ftc_mj.config.yaml import read_yaml_mapping
 from ftc_mj.config.types import NonNegativeFloat, PositiveFloat, Strict
@@ -116,7 +116,8 @@ class TuningSpec(Strict):
     @model_validator(mode="after")
     def _batchable_gains(self) -> "TuningSpec":
         for path in self.gains:
-            if BATCHABLE.fullmatch(path) is None or not path.startswith(f"variants.{self.variant}."):
+            field = batchable(path)
+            if field is None or field.kind != "gain" or field.role == "monitor" or field.variant != self.variant:
                 raise ValueError(f"gains: {path} is not a gain of variant {self.variant} "
                                  f"(variants.{self.variant}.observer.gains.* or .controller.gains.*)")
         return self

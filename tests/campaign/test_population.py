@@ -61,3 +61,11 @@ def test_run_ids_are_the_content():
     assert [r.run_id for r in a] == [r.run_id for r in again]
     other = population(spec(set={"sensors.position.noise_std": 1e-4}), base_seed=0)
     assert not {r.run_id for r in a} & {r.run_id for r in other}
+
+
+def test_the_split_follows_the_declared_batchable_fields():
+    grid = {"variants.hs.observer_initial.qd_hat.0": [0.0], "plant.mass_scale": [1.1], "initial.q.2": [0.1],
+            "variants.hs.observer.type": ["eso"], "initial.q.x": [0.0], "sensors.position.noise_std": [0.1]}
+    run = population(spec(grid=grid, samples=None, cases=[]), base_seed=0)[0]
+    assert run.member.keys() == {"seed", "variants.hs.observer_initial.qd_hat.0", "plant.mass_scale", "initial.q.2"}
+    assert run.structure == {"variants.hs.observer.type": "eso", "initial.q.x": 0.0, "sensors.position.noise_std": 0.1}

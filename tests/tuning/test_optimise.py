@@ -101,6 +101,8 @@ def test_costs_and_constraints():
 
 @pytest.mark.parametrize("changes, field, message", [
     ({"gains": {"seed": {"low": 0, "high": 1}}}, "", "is not a gain of variant hs"),
+    ({"gains": {"variants.hs.observer_initial.qd_hat.0": {"low": 0, "high": 1}}}, "", "is not a gain of variant hs"),
+    ({"gains": {"variants.tosmo.controller.gains.mu": {"low": 0.1, "high": 1}}}, "", "is not a gain of variant hs"),
     ({"gains": {"variants.hs.controller.gains.mu": {"low": 1.0, "high": 5.0}}}, "gains.variants.hs.controller.gains.mu",
      "the scenario's value 0.5 is outside [1, 5]"),
     ({"gains": {"variants.hs.controller.gains.mu": {"low": -1.0, "high": 5.0}}}, "gains",
