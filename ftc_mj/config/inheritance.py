@@ -98,18 +98,18 @@ def resolve_bases(path: str | Path, relative_fields: Sequence[str] = (), what: s
     """
     path = Path(path)
     provenance = Provenance(str(path))
-    raw = _resolve(path, PurePath(), [], relative_fields, what, provenance)
+    raw = _resolve(path, path.parent.resolve(), [], relative_fields, what, provenance)
     return Resolved(raw=raw, provenance=provenance)
 
 
-def _resolve(path: Path, folder: PurePath, chain: list[Path], relative_fields: Sequence[str], what: str,
+def _resolve(path: Path, folder: Path, chain: list[Path], relative_fields: Sequence[str], what: str,
              provenance: Provenance) -> dict:
-    """The merged content of ``path``; ``folder`` is its folder relative to the first file's (or absolute),
-    ``chain`` the resolved files that inherit from it."""
+    """The merged content of ``path``; ``folder`` is the first file's folder (resolved), ``chain`` the
+    resolved files that inherit from ``path``."""
     file = provenance.default if not chain else os.path.normpath(path)
     raw = unshared(read_yaml_mapping(path, what, file=file))
-    if chain:
-        _rebase_paths(raw, folder, relative_fields)
+    if chain and path.parent.resolve() != folder:
+        _rebase_paths(raw, path.parent, folder, relative_fields)
     if BASE not in raw:
         provenance.record((), raw, file)
         return raw
@@ -125,9 +125,7 @@ def _resolve(path: Path, folder: PurePath, chain: list[Path], relative_fields: S
                          "from it")
     if not base_path.is_file():
         raise InputError(file, BASE, f"base file {base_path.resolve()} not found")
-    relative = PurePath(base).parent
-    merged = _resolve(base_path, relative if relative.is_absolute() else folder / relative, chain,
-                      relative_fields, what, provenance)
+    merged = _resolve(base_path, folder, chain, relative_fields, what, provenance)
     return merge(merged, raw, file, provenance)
 
 
@@ -157,16 +155,21 @@ def merge(base: dict, override: dict, file: str, provenance: Provenance | None =
     return base
 
 
-def _rebase_paths(raw: dict, folder: PurePath, relative_fields: Sequence[str]) -> None:
-    """Rewrite the path fields of a base's content, relative to the base's folder, to be relative to the
-    first file's folder (``folder`` is the base's folder from there)."""
-    if folder == PurePath():
-        return
+def _rebase_paths(raw: dict, own: Path, folder: Path, relative_fields: Sequence[str]) -> None:
+    """Rewrite the path fields of a base's content, relative to its folder ``own``, to name the same files
+    relative to ``folder`` (the first file's, resolved). The file a relative name means is the one
+    :meth:`pathlib.Path.resolve` finds (symbolic links followed before ``..``), so the new name is made from
+    resolved paths and means the same file from ``folder``."""
     for dotted in relative_fields:
         *parents, last = dotted.split(".")
         node: Any = raw
         for part in parents:
             node = node.get(part) if isinstance(node, dict) else None
         value = node.get(last) if isinstance(node, dict) else None
-        if isinstance(value, str) and value and "://" not in value and not PurePath(value).is_absolute():
-            node[last] = str(folder / value)
+        if not isinstance(value, str) or not value or "://" in value or PurePath(value).is_absolute():
+            continue
+        target = (own / value).resolve()
+        try:
+            node[last] = os.path.relpath(target, folder)
+        except ValueError:  # another drive: no relative name
+            node[last] = str(target)
