@@ -6,11 +6,12 @@ A change that must keep results bit-identical is run before and after::
     ... change ...
     python benchmarks/series_hashes.py --out after.json --compare before.json
 
-Every scenario under ``scenarios/`` runs as written (one member, every variant and monitor, every series,
-extras and diagnosis arrays); a batch of five members of ``scenarios/puma_fault.yaml`` with per-member gains,
-seeds, parameters and mass scales is run through ``run_batch`` and its metrics hashed too, so the member path
-(overrides, stacking) is covered. ``--compare`` prints every series that moved and exits 1 if any did.
-Scenarios whose robot cannot be loaded here (the ``robots`` extra missing) are listed as skipped.
+Every scenario under ``scenarios/`` (not the fragments of ``scenarios/bases/``) runs as written (one member,
+every variant and monitor, every series, extras and diagnosis arrays); a batch of five members of
+``scenarios/puma_fault.yaml`` with per-member gains, seeds, parameters and mass scales is run through
+``run_batch`` and its metrics hashed too, so the member path (overrides, stacking) is covered. ``--compare``
+prints every series that moved and exits 1 if any did. Scenarios whose robot cannot be loaded here (the
+``robots`` extra missing) are listed as skipped.
 """
 
 from __future__ import annotations
@@ -25,6 +26,9 @@ from pathlib import Path
 import numpy as np
 
 ROOT = Path(__file__).resolve().parents[1]
+
+#: Shared fragments that scenarios name as their ``base``: not scenarios to run.
+FRAGMENTS = ROOT / "scenarios" / "bases"
 
 #: Per-member values of the batch check: one of each kind a campaign or a tuning sets.
 BATCH_MEMBERS = [
@@ -83,7 +87,8 @@ def main() -> int:
     parser.add_argument("--only", nargs="*", default=(), help="scenario files (default: every shipped one)")
     args = parser.parse_args()
 
-    files = [Path(f) for f in args.only] or sorted((ROOT / "scenarios").rglob("*.yaml"))
+    files = [Path(f) for f in args.only] or sorted(path for path in (ROOT / "scenarios").rglob("*.yaml")
+                                                   if FRAGMENTS not in path.parents)
     hashes: dict[str, dict] = {}
     for path in files:
         key = str(path.resolve().relative_to(ROOT))

@@ -1,4 +1,4 @@
-"""Helpers shared by the tests of faults, sensors, diagnosis and randomness: the issue-4 scenarios
+"""Helpers shared by the tests of faults, sensors, diagnosis and randomness: the fault scenarios
 (scenarios/faults/) as plain data, written to tmp_path, loaded and run."""
 
 from __future__ import annotations
@@ -13,6 +13,7 @@ import yaml
 from ftc_mj.engine.runner import simulate_variant
 from ftc_mj.results import VariantResult
 from ftc_mj.config.errors import InputError
+from ftc_mj.config.inheritance import resolve_bases
 from ftc_mj.spec.loading import load_scenario
 from ftc_mj.spec.scenario import Scenario
 
@@ -22,9 +23,9 @@ PUMA_MODEL = ROOT / "models" / "puma560.xml"
 
 
 def scenario_data(name: str = "puma_loss_of_effectiveness", variants: tuple[str, ...] = ("proposed",)) -> dict:
-    """A scenario of scenarios/faults/ as plain data (aliases unshared), with an absolute model path and only
-    the given variants."""
-    data = json.loads(json.dumps(yaml.safe_load((FAULTS / f"{name}.yaml").read_text(encoding="utf-8"))))
+    """A scenario of scenarios/faults/ as plain data (its bases merged in, aliases unshared), with an absolute
+    model path and only the given variants."""
+    data = json.loads(json.dumps(resolve_bases(FAULTS / f"{name}.yaml").raw))
     data["robot"]["model"] = str(PUMA_MODEL)
     data["variants"] = {key: data["variants"][key] for key in variants}
     data.pop("output", None)

@@ -4,6 +4,7 @@
 from __future__ import annotations
 
 import argparse
+from collections.abc import Callable
 from typing import Any
 
 from pydantic import ValidationError
@@ -34,9 +35,14 @@ def _is_union_tag(part: Any) -> bool:
     return isinstance(part, str) and ("[" in part or "-" in part or part in {"str", "int", "float", "bool", "list"})
 
 
-def validation_error(file: str, prefix: str, exc: ValidationError) -> InputError:
+def validation_error(file: str, prefix: str, exc: ValidationError,
+                     file_of: Callable[[tuple[str | int, ...]], str] | None = None) -> InputError:
     """The first problem of a pydantic validation failure as one :class:`InputError`, its field path under
-    ``prefix`` (union member tags dropped), with a count of the other problems."""
+    ``prefix`` (union member tags dropped), with a count of the other problems.
+
+    ``file_of`` picks the file to name from the field path (relative to the validated model): the file that
+    wrote the value, when a scenario inherits from a base (:mod:`ftc_mj.config.inheritance`); default ``file``.
+    """
     # Group the errors by the value they concern (the location up to the first union tag): a value that fits
     # no member of a union gives one error per member, and counts as one problem.
     groups: dict[tuple, list[dict]] = {}
@@ -47,7 +53,8 @@ def validation_error(file: str, prefix: str, exc: ValidationError) -> InputError
     first_group = next(iter(groups.values()))
     # The member error that got furthest into the value (e.g. a bad list element) says the most.
     best = max(first_group, key=lambda error: len(error["loc"]))
-    loc = ".".join(str(part) for part in best["loc"] if not _is_union_tag(part))
+    parts = tuple(part for part in best["loc"] if not _is_union_tag(part))
+    loc = ".".join(str(part) for part in parts)
     field = ".".join(p for p in (prefix, loc) if p)
     message = best["msg"].removeprefix("Value error, ")
     if best["type"] == "extra_forbidden":
@@ -56,7 +63,7 @@ def validation_error(file: str, prefix: str, exc: ValidationError) -> InputError
         message = "required field is missing"
     if len(groups) > 1:
         message += f" (and {len(groups) - 1} more problem{'s' if len(groups) > 2 else ''})"
-    return InputError(file, field, message)
+    return InputError(file if file_of is None else file_of(parts), field, message)
 
 
 class ArgumentParser(argparse.ArgumentParser):

@@ -35,9 +35,10 @@ def _construct_mapping(loader: yaml.SafeLoader, node: yaml.MappingNode, deep: bo
 _UniqueKeyLoader.add_constructor(yaml.resolver.BaseResolver.DEFAULT_MAPPING_TAG, _construct_mapping)
 
 
-def read_yaml_mapping(path: Path, what: str) -> dict:
-    """A YAML file that must hold a mapping (duplicate keys are errors), for ``what`` ("a scenario")."""
-    file = str(path)
+def read_yaml_mapping(path: Path, what: str, file: str | None = None) -> dict:
+    """A YAML file that must hold a mapping (duplicate keys are errors), for ``what`` ("a scenario"); errors
+    name it ``file`` (default: ``path`` as given)."""
+    file = str(path) if file is None else file
     try:
         text = path.read_text(encoding="utf-8")
     except (OSError, UnicodeDecodeError) as exc:

@@ -1,11 +1,12 @@
-"""Reading a scenario file: the YAML loader (duplicate keys are errors), the ``--set`` override language, and
-:func:`load_scenario`, which reads, overrides, validates (:class:`~ftc_mj.spec.scenario.ScenarioSpec`) and
-compiles (:func:`~ftc_mj.spec.scenario.compile_scenario`) a scenario.
+"""Reading a scenario file: :func:`load_scenario`, which reads a scenario and its bases
+(:mod:`ftc_mj.config.inheritance`), applies the overrides, validates
+(:class:`~ftc_mj.spec.scenario.ScenarioSpec`) and compiles (:func:`~ftc_mj.spec.scenario.compile_scenario`).
 
 A scenario is untrusted input. It is read with a ``yaml.SafeLoader``, checked against a strict pydantic schema
 (unknown keys are errors), its expressions are parsed by :mod:`ftc_mj.config.expressions` (never evaluated as
 Python), and every plugin's gains are validated by the plugin's own schema. Any problem raises
-:class:`~ftc_mj.config.errors.InputError` naming the file, the field path and what is wrong.
+:class:`~ftc_mj.config.errors.InputError` naming the file, the field path and what is wrong; the file is the
+one that wrote the value (the scenario or one of its bases).
 """
 
 from __future__ import annotations
@@ -17,8 +18,13 @@ from typing import Any
 from pydantic import ValidationError
 
 from ftc_mj.config.errors import InputError, validation_error
-from ftc_mj.config.yaml import apply_override, read_yaml_mapping, set_path, unshared
+from ftc_mj.config.inheritance import resolve_bases
+from ftc_mj.config.yaml import apply_override, set_path, unshared
 from ftc_mj.spec.scenario import Scenario, ScenarioSpec, compile_scenario
+
+#: The scenario fields that hold a path relative to the scenario file (:func:`ftc_mj.robot.model.load_robot`):
+#: written in a base in another folder, they are rewritten to keep naming the same file.
+FILE_RELATIVE_FIELDS = ("robot.model",)
 
 
 def load_scenario(
@@ -40,23 +46,33 @@ def load_scenario(
     """
     path = Path(path)
     file = str(path)
-    raw = read_yaml_mapping(path, "a scenario")
-    raw = unshared(raw)
+    resolved = resolve_bases(path, FILE_RELATIVE_FIELDS)
+    raw, provenance = resolved.raw, resolved.provenance
     for item in overrides:
         apply_override(raw, item, file)
+        provenance.claim(tuple(item.partition("=")[0].strip().split(".")), file)
     for key, value in (assignments or {}).items():
         set_path(raw, key, unshared(value), file)
+        provenance.claim(tuple(key.split(".")), file)
     if duration is not None:
         raw["duration"] = duration
+        provenance.claim(("duration",), file)
     try:
         spec = ScenarioSpec.model_validate(raw)
     except ValidationError as exc:
-        raise validation_error(file, "", exc) from None
+        raise validation_error(file, "", exc, provenance.file_of) from None
     if variants:
         unknown = [v for v in variants if v not in spec.variants]
         if unknown:
             raise InputError(file, "variants", f"unknown variant {unknown[0]!r} (known: {', '.join(spec.variants)})")
         spec.variants = {name: spec.variants[name] for name in variants}
-    scenario = compile_scenario(path, spec)
+    try:
+        scenario = compile_scenario(path, spec)
+    except InputError as exc:
+        # The compiler names the scenario file; a value it refuses may have been written by a base.
+        writer = provenance.file_of(exc.field.split(".")) if exc.file == file and exc.field else file
+        if writer == file:
+            raise
+        raise InputError(writer, exc.field, exc.problem) from None
     scenario.raw = raw
     return scenario

@@ -108,16 +108,10 @@ def test_puma_urdf_reproduces_mjcf_poses(puma_pair):
         np.testing.assert_allclose(dm.xpos[m.body("flange").id], dx.site_xpos[mjcf.site("flange").id], atol=1e-12)
 
 
-def test_puma_urdf_scenario_is_puma_fault_but_for_the_robot():
-    """puma_fault_urdf.yaml is a copy of puma_fault.yaml except its robot, name, description and output."""
-    differing = {"robot", "name", "description", "output"}
-    mjcf, urdf = (yaml.safe_load(p.read_text(encoding="utf-8")) for p in (PUMA_YAML, PUMA_URDF_YAML))
-    def common(data: dict) -> dict:
-        return {key: value for key, value in data.items() if key not in differing}
-
-    assert common(urdf) == common(mjcf)
-    assert urdf["robot"]["lock"] == PUMA_LOCK
-    assert urdf["robot"]["armature"] == PUMA_ARMATURE
+def test_puma_urdf_scenario_locks_and_loads_the_wrist_as_the_model_tests_do():
+    """puma_fault_urdf.yaml inherits puma_fault.yaml (base:) and sets the robot the model tests above check."""
+    robot = load_scenario(PUMA_URDF_YAML, duration=0.1).spec.robot
+    assert (robot.lock, robot.armature) == (PUMA_LOCK, PUMA_ARMATURE)
 
 
 def test_puma_fault_same_metrics_on_both_models():
