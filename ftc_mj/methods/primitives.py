@@ -39,17 +39,36 @@ def scalar(value: float) -> np.ndarray:
     operation as it converts a Python float. It is still a number for Python: ``float()``, ``math``,
     comparisons and formatting work on it.
     """
-    key = float(value)
-    found = _SCALARS.get(key)
-    if found is None:
-        found = np.array(key)
+    try:
+        return _SCALARS[value]
+    except KeyError:
+        found = np.array(float(value))
         found.setflags(write=False)
-        _SCALARS[key] = found
-    return found
+        if value != value or value == 0:  # NaN is no key, and -0.0 would find 0.0: made afresh each time
+            return found
+        return _SCALARS.setdefault(value, found)
+    except TypeError:  # unhashable: a 0-d array
+        return scalar(float(value))
 
 
-def power(x: ArrayOrNumber, p: ArrayOrNumber, out: np.ndarray | None = None) -> np.ndarray:
-    """x^p element-wise, with ``p`` a Python number (the same for every element) or an array of exponents.
+def _operand(x: ArrayOrNumber, exponent: ArrayOrNumber) -> np.ndarray:
+    """``exponent`` as :func:`power` hands it to NumPy: a number as its 0-d array, an array of exponents with
+    the result's full shape."""
+    if not isinstance(exponent, np.ndarray) or not exponent.ndim:
+        return scalar(exponent)
+    x_shape = np.shape(x)
+    if exponent.shape != x_shape:
+        key = (x_shape, exponent.shape)
+        shape = _RESULT_SHAPES.get(key)
+        if shape is None:
+            shape = _RESULT_SHAPES[key] = np.broadcast_shapes(x_shape, exponent.shape)
+        if exponent.shape != shape:
+            return np.ascontiguousarray(np.broadcast_to(exponent, shape))
+    return exponent
+
+
+def power(x: ArrayOrNumber, exponent: ArrayOrNumber, out: np.ndarray | None = None) -> np.ndarray:
+    """x^p element-wise, with the exponent p a Python number (the same for every element) or an array.
 
     A number is one exponent for every element: -1, 0, 0.5, 1, 2 are computed exactly (1/x, 1, sqrt(x), x,
     x*x), every other value by pow, in every shape (it is NumPy's own ``x ** p``, without converting ``p`` on
@@ -57,36 +76,41 @@ def power(x: ArrayOrNumber, p: ArrayOrNumber, out: np.ndarray | None = None) -> 
     pow's x^0.5, not sqrt: the gains a plugin receives are such arrays). An array with fewer elements than the
     result (a column, a row) is first expanded to the result's shape, so that NumPy never sees it with stride
     0 in some shapes and not in others; pass exponents of the result's shape (the engine's gains are
-    ``(members, n)``, as the states are) to avoid that copy.
+    ``(members, n)``, as the states are) to avoid that copy. In place (``out`` is ``x``) with an array exponent
+    the result is computed apart and copied: NumPy's in-place loop over one element sees the exponent with
+    stride 0.
     """
-    if isinstance(p, np.ndarray) and p.ndim:
-        x_shape = np.shape(x)
-        if p.shape != x_shape:
-            key = (x_shape, p.shape)
-            shape = _RESULT_SHAPES.get(key)
-            if shape is None:
-                shape = _RESULT_SHAPES[key] = np.broadcast_shapes(x_shape, p.shape)
-            if p.shape != shape:
-                p = np.ascontiguousarray(np.broadcast_to(p, shape))
-        return np.power(x, p, out=out)
-    return np.power(x, scalar(p), out=out)
+    operand = _SCALARS.get(exponent) if isinstance(exponent, float) else None  # the common case, without a call
+    if operand is None:
+        operand = _operand(x, exponent)
+        if operand.ndim and out is x:
+            out[...] = np.power(x, operand)
+            return out
+    return np.power(x, operand, out)
 
 
-def signed_power(x: np.ndarray, p: ArrayOrNumber, out: np.ndarray | None = None) -> np.ndarray:
+def signed_power(x: ArrayOrNumber, exponent: ArrayOrNumber, out: np.ndarray | None = None) -> np.ndarray:
     """|x|^p sign(x), the building block of every sliding-mode term in the dissertation; sign(0) = 0 (|0|^p = 0
     for p > 0).
 
-    ``p`` as for :func:`power` (a number: exact for 0.5 and the other special exponents; an array: pow per
-    element). The result is written into ``out`` if given (it must not be ``x``, whose signs it needs), else
-    into one new array: no temporary beyond the result.
+    The exponent p as for :func:`power` (a number: exact for 0.5 and the other special exponents; an array:
+    pow per element). The result is written into ``out`` if given (it must not be ``x``, whose signs it
+    needs), else into a new array. With a number no temporary is made beyond the result (|x| is raised in
+    place); with an array exponent |x| is one temporary, since NumPy's in-place loop over a single element sees
+    the exponent with stride 0 (and would take sqrt for 0.5 where a batch takes pow).
     """
     if out is x:
         raise ValueError("signed_power: out must not be x (the signs of x are read after |x|^p is written)")
-    if isinstance(p, np.ndarray) and p.ndim and p.shape != np.shape(x):  # the result has another shape than x
-        return np.copysign(power(np.abs(x), p), x, out=out)
-    magnitude = np.abs(x, out=out)
-    power(magnitude, p, out=magnitude)
-    return np.copysign(magnitude, x, out=magnitude)
+    operand = _SCALARS.get(exponent) if isinstance(exponent, float) else None  # the common case, without a call
+    if operand is None:
+        operand = _operand(x, exponent)
+    if operand.ndim or not isinstance(x, np.ndarray) or not x.ndim:
+        # An array exponent, or a number x: |x| apart, the power into the result.
+        result = np.power(np.abs(x), operand, out)
+        return np.copysign(result, x, result) if isinstance(result, np.ndarray) else np.copysign(result, x)
+    magnitude = np.abs(x, out)
+    np.power(magnitude, operand, magnitude)
+    return np.copysign(magnitude, x, magnitude)
 
 
 def exp(x: ArrayOrNumber, out: np.ndarray | None = None) -> np.ndarray:
