@@ -7,12 +7,13 @@ position and in any layout; what can differ between a member alone and in a batc
 picks, and that is decided by the operands' types and strides:
 
 * ``power``'s loop, when it sees the exponent with stride 0, replaces pow by exact operations for the
-  exponents -1, 0, 0.5, 1, 2 (1/x, 1, sqrt, x, x*x), which differ from pow in the last bit of about one value
-  in twenty. A Python number is always seen with stride 0; an exponent array broadcast from fewer elements
+  exponents -1, 0, 0.5, 1, 2 (1/x, 1, sqrt, x, x*x), which differ from pow in the last bit for some values.
+  A Python number is always seen with stride 0; an exponent array broadcast from fewer elements
   (one per member, ``(members, 1)``; one per joint; ``(1, 1)``) is seen so in some shapes and not in others:
   with one exponent per member, a member alone takes sqrt and the same member among five takes pow.
 * the C library (``math.exp``, ``math.pow``, NumPy scalars such as ``x[0, 1] ** p``) and NumPy's array
-  kernels differ in the last bit of about one value in twenty for pow, exp, tanh, expm1, log1p.
+  kernels differ in the last bit for some values of pow, exp, tanh, expm1, log1p;
+* a one-element array raised in place is seen with stride 0 by ``power``'s loop, as a number is.
 
 These functions take each case one way whatever the shapes, and avoid NumPy's conversion of a Python number
 on every call (a per-step cost) by keeping the number as a cached 0-d array, which NumPy treats exactly as the
@@ -117,8 +118,8 @@ def exp(x: ArrayOrNumber, out: np.ndarray | None = None) -> np.ndarray:
     """e^x element-wise, by NumPy's array kernel: each element's bits depend on that element alone (in a batch
     or alone, at any position, contiguous or strided).
 
-    Never ``math.exp`` on a member's value instead: the C library's exp differs from NumPy's in the last bit of
-    about one value in twenty, so a constant computed per member in Python would not equal the one a batch
-    computes as an array.
+    Never ``math.exp`` on a member's value instead: the C library's exp differs from NumPy's in the last bit
+    for some values, so a constant computed per member in Python would not equal the one a batch computes as
+    an array.
     """
     return np.exp(x, out=out)

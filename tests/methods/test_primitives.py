@@ -134,6 +134,19 @@ def test_exp_is_position_free():
     assert_position_free(in_place(exp), ARGUMENTS)
 
 
+def test_sums_over_the_joints_do_not_depend_on_the_member_count():
+    """What the page promises for plain NumPy: a sum over the joint axis (e^T e of a coupled law) gives each
+    member the bits it has alone, for every member count and joint count (short and long rows alike)."""
+    for n in (1, 2, 3, 6, 7, 8, 9, 16, 17):
+        values = RNG.standard_normal((9, n))
+        together = np.sum(values * values, axis=-1, keepdims=True)
+        for members in (1, 2, 5, 9):
+            part = np.sum(values[:members] * values[:members], axis=-1, keepdims=True)
+            np.testing.assert_array_equal(bits(part), bits(together[:members]), err_msg=f"{members} x {n}")
+        for k in range(9):
+            np.testing.assert_array_equal(bits(np.sum(values[k:k + 1] ** 2, axis=-1)), bits(together[k]))
+
+
 @pytest.mark.parametrize("exponent", NUMBERS)
 def test_power_values(exponent):
     """Within one unit in the last place of the C library's pow; the special exponents exactly as NumPy's own

@@ -26,7 +26,7 @@ from ftc_mj.methods.plugin import Method
 from ftc_mj.methods.primitives import signed_power
 from ftc_mj.robot.nominal import StepModel
 
-__all__ = ["Observer", "signed_power"]  # signed_power: importable here too, where plugins have found it
+__all__ = ["Observer", "signed_power"]  # signed_power re-exported: plugins import it from here
 
 
 class Observer(Method):
