@@ -19,6 +19,7 @@ import numpy as np
 
 from ftc_mj.methods.controllers.base import BoundedSwitchingConfig, Compensation, SlidingModeController
 from ftc_mj.methods.gains import Exponent, PositiveFloat, PositiveJoints
+from ftc_mj.methods.primitives import exp, power
 
 
 class NTSMCConfig(BoundedSwitchingConfig):
@@ -42,7 +43,7 @@ class NTSMC(SlidingModeController):
         squared = np.sum(e * e, axis=-1, keepdims=True)
         nonzero = squared > 0.0
         safe = np.where(nonzero, squared, 1.0)
-        weight = np.where(nonzero, np.exp(-c.decay * t) * safe ** (-c.alpha), 0.0)
+        weight = np.where(nonzero, exp(-c.decay * t) * power(safe, -c.alpha), 0.0)
         inner = np.sum(e * e_dot, axis=-1, keepdims=True)
         a = weight * (-c.decay * e - 2.0 * c.alpha * (inner / safe) * e + e_dot)
         self.sliding[:] = e_dot + c.beta1 * e + c.beta2 * weight * e

@@ -40,6 +40,7 @@ from pydantic import model_validator
 
 from ftc_mj.methods.controllers.base import BoundedSwitchingConfig, SlidingModeController
 from ftc_mj.methods.gains import Exponent, PositiveJoints
+from ftc_mj.methods.primitives import exp, power
 
 
 class SigmoidNFTSMCConfig(BoundedSwitchingConfig):
@@ -61,7 +62,7 @@ class SigmoidNFTSMCConfig(BoundedSwitchingConfig):
     def phi(self) -> np.ndarray:
         """The crossover |e| of (3.18), where kappa1 |e| = kappa2 |e|^alpha."""
         with np.errstate(over="ignore"):
-            return (self.kappa2 / self.kappa1) ** (1.0 / (1.0 - self.alpha))
+            return power(self.kappa2 / self.kappa1, 1.0 / (1.0 - self.alpha))
 
 
 class SigmoidNFTSMC(SlidingModeController):
@@ -84,15 +85,15 @@ class SigmoidNFTSMC(SlidingModeController):
     def surface(self, t: float, e: np.ndarray, e_dot: np.ndarray) -> np.ndarray:
         c = self.config
         magnitude = np.abs(e)
-        e1 = np.exp(-c.mu1 * (magnitude - self.phi))
-        e2 = np.exp(np.minimum(c.mu2 * (magnitude - self.phi), 700.0))  # large |e|: b -> 0 without overflow
+        e1 = exp(-c.mu1 * (magnitude - self.phi))
+        e2 = exp(np.minimum(c.mu2 * (magnitude - self.phi), 700.0))  # large |e|: b -> 0 without overflow
         a = 2.0 * c.kappa1 / (1.0 + e1)
         b = 2.0 * c.kappa2 / (1.0 + e2)
-        terminal = magnitude**c.alpha
+        terminal = power(magnitude, c.alpha)
         self.sliding[:] = e_dot + a * e + b * np.copysign(terminal, e)
         nonzero = magnitude > 0.0
         # |e|^(alpha - 1), set to 0 at e = 0 (unbounded there); computed on a safe copy to avoid 0^(negative).
-        steep = np.where(nonzero, np.where(nonzero, magnitude, 1.0) ** (c.alpha - 1.0), 0.0)
+        steep = np.where(nonzero, power(np.where(nonzero, magnitude, 1.0), c.alpha - 1.0), 0.0)
         singular = b * c.alpha * steep
         slope = (
             a

@@ -23,12 +23,10 @@ import numpy as np
 
 from ftc_mj.methods.gains import GainConfig
 from ftc_mj.methods.plugin import Method
+from ftc_mj.methods.primitives import signed_power
 from ftc_mj.robot.nominal import StepModel
 
-
-def signed_power(x: np.ndarray, exponent: float) -> np.ndarray:
-    """|x|^exponent sign(x), the building block of every sliding-mode term in the dissertation."""
-    return np.copysign(np.abs(x) ** exponent, x)  # sign(0) = 0 still: |0|^p = 0
+__all__ = ["Observer", "signed_power"]  # signed_power re-exported: plugins import it from here
 
 
 class Observer(Method):

@@ -21,7 +21,8 @@ from typing import ClassVar
 import numpy as np
 
 from ftc_mj.methods.gains import GainConfig, PositiveJoints
-from ftc_mj.methods.observers.base import Observer, signed_power
+from ftc_mj.methods.observers.base import Observer
+from ftc_mj.methods.primitives import signed_power
 from ftc_mj.robot.nominal import StepModel
 
 

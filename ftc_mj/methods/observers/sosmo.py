@@ -16,14 +16,14 @@ observers alike.
 
 from __future__ import annotations
 
-import math
 from typing import ClassVar
 
 import numpy as np
 from pydantic import model_validator
 
 from ftc_mj.methods.gains import GainConfig, PositiveFloat, PositiveJoints
-from ftc_mj.methods.observers.base import Observer, signed_power
+from ftc_mj.methods.observers.base import Observer
+from ftc_mj.methods.primitives import exp, signed_power
 from ftc_mj.robot.nominal import StepModel
 
 
@@ -60,8 +60,7 @@ class SOSMO(Observer):
         super().__init__(config, n_joints, dt, members)
         self.k1, self.k2 = config.gains()
         # Exact discretisation of d(luaf)/dt = (injection - luaf) / T over one period.
-        # math.exp per member and joint (not np.exp, whose last bit can differ): a constant of the run.
-        self._filter_weight = 1.0 - np.vectorize(math.exp)(-dt / config.filter_time_constant)
+        self._filter_weight = 1.0 - exp(-self.dt / config.filter_time_constant)
         self._q_hat_rate = np.zeros(self.shape)
 
     def update(self, t: float, q_meas: np.ndarray, model: StepModel) -> None:

@@ -23,7 +23,8 @@ import numpy as np
 from pydantic import model_validator
 
 from ftc_mj.methods.gains import GainConfig, NonNegativeFloat, PositiveJoints
-from ftc_mj.methods.observers.base import Observer, signed_power
+from ftc_mj.methods.observers.base import Observer
+from ftc_mj.methods.primitives import signed_power
 from ftc_mj.robot.nominal import StepModel
 
 
@@ -66,11 +67,9 @@ class TOSMO(Observer):
     def __init__(self, config: TOSMOConfig, n_joints: int, dt: float, members: int | None = None):
         super().__init__(config, n_joints, dt, members)
         self.k1, self.k2, self.k3 = config.gains()
-        # The exponents as arrays: NumPy's power with an array exponent gives the same bits at less cost.
-        self._two_thirds, self._one_third = np.full(self.shape, 2 / 3), np.full(self.shape, 1 / 3)
-        self._luaf_step = self.dt_array * self.k3  # dt k3: the LUaF estimate's change per period, times sign(x1~)
+        self._luaf_step = self.dt * self.k3  # dt k3: the LUaF estimate's change per period, times sign(x1~)
         self._error = np.zeros(self.shape)
-        self._magnitude = np.zeros(self.shape)
+        self._power = np.zeros(self.shape)  # |x1~|^p sign(x1~), for each fractional power in turn
         self._sign = np.zeros(self.shape)
         self._q_hat_rate = np.zeros(self.shape)
         self._qdd_hat = np.zeros(self.shape)
@@ -78,12 +77,11 @@ class TOSMO(Observer):
     def update(self, t: float, q_meas: np.ndarray, model: StepModel) -> None:
         error = np.subtract(q_meas, self.q_hat, out=self._error)
         np.sign(error, out=self._sign)
-        magnitude = np.abs(error, out=self._magnitude)  # |x1~|, for both fractional powers (signed_power's steps)
         # dx1_hat/dt - x2_hat: k1 |x1~|^(2/3) sign(x1~) (+ Gamma x1~), reused in the second line of (5.6).
-        position_correction = self._linear(self.k1 * np.copysign(magnitude ** self._two_thirds, error), error)
+        position_correction = self._linear(self.k1 * signed_power(error, 2 / 3, out=self._power), error)
         np.add(self.qd_hat, position_correction, out=self._q_hat_rate)
         # The injection: k2 |x1~|^(1/3) sign(x1~) (+ Gamma (dx1_hat/dt - x2_hat)) + the LUaF estimate.
-        velocity_correction = self._linear(self.k2 * np.copysign(magnitude ** self._one_third, error),
+        velocity_correction = self._linear(self.k2 * signed_power(error, 1 / 3, out=self._power),
                                            position_correction)
         np.add(velocity_correction, self.luaf_hat, out=self.injection)
 
@@ -94,8 +92,8 @@ class TOSMO(Observer):
     def advance(self, tau: np.ndarray, model: StepModel) -> None:
         qdd_hat = np.add(model.psi_hat, model.command_acceleration(tau), out=self._qdd_hat)
         qdd_hat += self.injection
-        self.q_hat += self.dt_array * self._q_hat_rate
-        self.qd_hat += self.dt_array * qdd_hat
+        self.q_hat += self.dt * self._q_hat_rate
+        self.qd_hat += self.dt * qdd_hat
         self.luaf_hat += self._luaf_step * self._sign
 
 
