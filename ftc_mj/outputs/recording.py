@@ -32,7 +32,6 @@ the file opens the viewer on the same figures, one tab each, per-joint plots sta
 from __future__ import annotations
 
 import contextlib
-import os
 import uuid
 from collections.abc import Sequence
 from pathlib import Path
@@ -43,7 +42,9 @@ import rerun as rr
 import rerun.blueprint as rrb
 
 from ftc_mj.results import VariantResult
-from ftc_mj.outputs.layout import COLOR_NAMES, Figure, Layout, data_range, generic_figures, variant_styles, zoom_span
+from ftc_mj.outputs.files import atomic_path
+from ftc_mj.outputs.layout import Figure, Layout, data_range, generic_figures, variant_styles, zoom_span
+from ftc_mj.outputs.palette import colour_name
 
 TIMELINE = "sim_time"
 LAYOUT_PROPERTY = "ftc_mj_layout"
@@ -131,35 +132,32 @@ def write_recording(
     if not results:
         raise ValueError("no results to record")
     path = Path(path)
-    path.parent.mkdir(parents=True, exist_ok=True)
-    tmp = path.with_name(f"{path.name}.tmp-{os.getpid()}-{uuid.uuid4().hex[:8]}")
     posed = next((r for r in results if r.body_xpos.size > 0), None)
     t = _common_time(results)
     layout = _layout(scenario, model, results, t, fault_onsets, figures)
-    # A fresh stream per call (never the global one), so several recordings in one process do not mix.
-    rec = rr.RecordingStream("ftc_mj", recording_id=str(uuid.uuid4()))
-    try:
-        series = _series(results, len(t))
-        rec.save(tmp, default_blueprint=_blueprint(layout, series, t, posed.name if posed else None))
-        rec.send_recording_name(scenario)
-        rec.send_property(LAYOUT_PROPERTY, rr.AnyValues(json=layout.to_json()))
-        rec.log("/info", rr.TextDocument(_info_markdown(scenario, seed, results, fault_onsets),
-                                         media_type=rr.MediaType.MARKDOWN), static=True)
-        _log_events(rec, results, fault_onsets)
-        time = _time_column(t)
-        for entity, (values, names, colors, widths) in series.items():
-            rec.log(entity, rr.SeriesLines(names=names, colors=colors, widths=widths), static=True)
-            rec.send_columns(entity, indexes=[time], columns=rr.Scalars.columns(scalars=values))
-        if posed is not None:
-            _log_geometry(rec, model)
-            _log_poses(rec, model, posed, pose_stride)
+    with atomic_path(path) as tmp:
+        # A fresh stream per call (never the global one), so several recordings in one process do not mix.
+        rec = rr.RecordingStream("ftc_mj", recording_id=str(uuid.uuid4()))
+        try:
+            series = _series(results, len(t))
+            rec.save(tmp, default_blueprint=_blueprint(layout, series, t, posed.name if posed else None))
+            rec.send_recording_name(scenario)
+            rec.send_property(LAYOUT_PROPERTY, rr.AnyValues(json=layout.to_json()))
+            rec.log("/info", rr.TextDocument(_info_markdown(scenario, seed, results, fault_onsets),
+                                             media_type=rr.MediaType.MARKDOWN), static=True)
+            _log_events(rec, results, fault_onsets)
+            time = _time_column(t)
+            for entity, (values, names, colors, widths) in series.items():
+                rec.log(entity, rr.SeriesLines(names=names, colors=colors, widths=widths), static=True)
+                rec.send_columns(entity, indexes=[time], columns=rr.Scalars.columns(scalars=values))
+            if posed is not None:
+                _log_geometry(rec, model)
+                _log_poses(rec, model, posed, pose_stride)
+        except BaseException:
+            with contextlib.suppress(Exception):
+                rec.disconnect()  # release the file before it is removed
+            raise
         rec.disconnect()  # writes the footer; flush() alone would not
-        os.replace(tmp, path)
-    except BaseException:
-        with contextlib.suppress(Exception):
-            rec.disconnect()  # release the file before removing it
-        tmp.unlink(missing_ok=True)
-        raise
 
 
 def read_layout(path: Path) -> Layout:
@@ -357,7 +355,7 @@ def _info_markdown(scenario: str, seed: int | None, results: Sequence[VariantRes
              "| variant | colour | observer | controller | samples | status |", "|---|---|---|---|---|---|"]
     for r, style in zip(results, variant_styles([r.name for r in results])):
         status = r.status if r.diverged_at is None else f"{r.status} at t = {r.diverged_at:g} s"
-        colour = COLOR_NAMES.get(style.color, style.color)
+        colour = colour_name(style.color)
         lines.append(f"| {r.name} | {colour} | {r.observer} | {r.controller} | {len(r.t)} | {status} |")
     return "\n".join(lines) + "\n"
 
@@ -506,7 +504,7 @@ def _time_range(start: float, end: float) -> rrb.TimeRange:
 
 def _colour_key(layout: Layout, variants: Sequence[str], kind: str | None) -> str:
     """'red: proposed · blue: nftsmc_tosmo · ...' for a figure's variants, and what its second lines are."""
-    key = " · ".join(f"{COLOR_NAMES.get(layout.style(v).color, layout.style(v).color)}: {v}" for v in variants)
+    key = " · ".join(f"{colour_name(layout.style(v).color)}: {v}" for v in variants)
     companion = {"truth": "wide pale: truth", "reference": "grey: reference", "threshold": "second line: threshold",
                  "injected": "second line: injected fault"}.get(kind or "")
     return f"{key} · {companion}" if companion else key
