@@ -3,7 +3,6 @@
 
 from __future__ import annotations
 
-import argparse
 from typing import Any
 
 from pydantic import ValidationError
@@ -58,9 +57,3 @@ def validation_error(file: str, prefix: str, exc: ValidationError) -> InputError
         message += f" (and {len(groups) - 1} more problem{'s' if len(groups) > 2 else ''})"
     return InputError(file, field, message)
 
-
-class ArgumentParser(argparse.ArgumentParser):
-    """The command lines' parser: a bad option is one line and exit status 2, as for every other bad input."""
-
-    def error(self, message: str) -> None:
-        self.exit(2, f"{self.prog}: error: {message}\n")

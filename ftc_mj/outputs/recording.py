@@ -25,7 +25,7 @@ the size of float64). Time series are sent column-wise (``send_columns``): per-s
 slower.
 
 The figures (:class:`ftc_mj.outputs.layout.Layout`) are stored as a recording property
-(``/__properties/ftc_mj_layout``), from which ``python -m ftc_mj.figures`` draws them; a blueprint stored in
+(``/__properties/ftc_mj_layout``), from which ``ftc-mj figures`` draws them; a blueprint stored in
 the file opens the viewer on the same figures, one tab each, per-joint plots stacked, the zoom panels beside.
 """
 
@@ -122,7 +122,7 @@ def write_recording(
     """Write all ``results`` of ``scenario`` into one ``.rrd`` at ``path``, atomically.
 
     ``figures`` (a scenario's, :attr:`ftc_mj.spec.scenario.Scenario.figures`) lay out the viewer and are stored
-    for ``python -m ftc_mj.figures``; without them, one figure per core quantity. The file is written beside
+    for ``ftc-mj figures``; without them, one figure per core quantity. The file is written beside
     ``path`` under a temporary name and moved onto ``path`` only once complete, so ``path`` never holds a
     half-written recording; on any error the temporary file is removed and the error re-raised. Body poses (of
     the first variant that has them) are kept every ``pose_stride`` samples plus the last one.
