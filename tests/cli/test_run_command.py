@@ -202,7 +202,7 @@ def prepare(directory: Path, case: Case) -> Path:
 def run_case(directory: Path, case: Case) -> Outcome:
     scenario = prepare(directory, case)
     before = listing(directory)
-    env = {**os.environ, "PYTHONDONTWRITEBYTECODE": "1"}
+    env = {**os.environ, "PYTHONDONTWRITEBYTECODE": "1", "PYTHONPATH": str(ROOT)}  # this checkout's package
     process = subprocess.run(
         [sys.executable, "-m", "ftc_mj.cli", "run", str(scenario), *case.args],
         cwd=directory, capture_output=True, text=True, timeout=180, env=env,
