@@ -1,63 +1,8 @@
-"""Robust gain tuning: ``python -m ftc_mj.tune TUNING.yaml [options]``.
+"""``python -m ftc_mj.tune``: the command ``ftc-mj tune`` (:mod:`ftc_mj.cli.tune`) under its older name."""
 
-CMA-ES over a variant's gains on a campaign's population of conditions (faults, mismatches, noise), with the
-detector's false alarms and delays as constraints; then the tuned gains and the scenario's own on held-out
-conditions. Writes into DIR (default ``results/tuning/<name>/``): ``best.yaml``, ``history.parquet``,
-``report.md`` with ``convergence.png``, and ``report.json``. The same command on the same DIR resumes.
-
-Exit status: 0 on success, 2 on bad input (one line naming the file, the field and the problem).
-"""
-
-from __future__ import annotations
-
-import argparse
 import sys
-from pathlib import Path
 
-from ftc_mj.config.errors import ArgumentParser, InputError
-
-
-def build_parser() -> argparse.ArgumentParser:
-    parser = ArgumentParser(prog="python -m ftc_mj.tune", description=__doc__.split("\n\n")[1])
-    parser.add_argument("tuning", type=Path, help="tuning YAML file")
-    parser.add_argument("--out", type=Path, metavar="DIR", help="results directory (default: results/tuning/<name>/)")
-    parser.add_argument("--generations", type=int, metavar="G", help="override the optimizer's generations")
-    parser.add_argument("--workers", type=int, metavar="N", help="worker processes (default: all cores)")
-    parser.add_argument("--scheduler", metavar="ADDRESS", help="a Dask scheduler, e.g. tcp://127.0.0.1:8786")
-    parser.add_argument("--quiet", action="store_true", help="no progress and no summary")
-    return parser
-
-
-def main(argv: list[str] | None = None) -> int:
-    args = build_parser().parse_args(argv)
-    try:
-        from ftc_mj.tuning import optimise, report
-
-        if args.workers is not None and args.workers < 1:
-            raise InputError(str(args.tuning), "--workers", f"must be at least 1, not {args.workers}")
-        tuning = optimise.prepare(args.tuning, args.generations)
-        out = args.out or Path("results") / "tuning" / tuning.spec.name
-
-        def progress(generation: int, total: int, best: float) -> None:
-            if not args.quiet:
-                print(f"generation {generation}/{total}: best cost {best:.4g}", file=sys.stderr, flush=True)
-
-        result = optimise.optimise(tuning, out, workers=args.workers, scheduler=args.scheduler, progress=progress)
-        document = report.write(tuning, out, result)
-    except InputError as exc:
-        print(f"error: {exc}", file=sys.stderr)
-        return 2
-    except KeyboardInterrupt:
-        print("interrupted: finished generations are saved; run the same command again to go on", file=sys.stderr)
-        return 130
-    if not args.quiet:
-        held = document["held_out"]
-        diff = held["paired_difference"]
-        print(f"tuned gains in {out}/best.yaml; held-out cost {held['baseline']['cost']:.4g} -> "
-              f"{held['tuned']['cost']:.4g} (paired difference {diff['mean']:.3g} [{diff['ci95'][0]:.3g}, "
-              f"{diff['ci95'][1]:.3g}]); report: {out}/report.md")
-    return 0
-
+from ftc_mj.cli.tune import build_parser, main  # noqa: F401
 
 if __name__ == "__main__":
-    sys.exit(main())
+    sys.exit(main(prog="python -m ftc_mj.tune"))

@@ -1,122 +1,12 @@
-"""Campaigns: ``python -m ftc_mj.campaign run|report|replay``.
+"""``python -m ftc_mj.campaign``: the command ``ftc-mj campaign`` (:mod:`ftc_mj.cli.campaign`) under its older
+name.
 
-    python -m ftc_mj.campaign run CAMPAIGN.yaml [--out DIR] [--runs N] [--batch-size B] [--workers N]
-                                               [--scheduler ADDRESS] [--quiet]
-    python -m ftc_mj.campaign report DIR
-    python -m ftc_mj.campaign replay DIR RUN_ID [--variant NAME ...] [--out FILE.rrd] [--json FILE.json]
-
-``run`` simulates every run of the campaign's population for every variant (resuming what DIR already has),
-then writes ``runs.parquet``, ``campaign.json`` and the report. ``report`` writes the report again from DIR.
-``replay`` simulates one run alone, as ``python -m ftc_mj.run`` would, with a recording and its metrics.
-
-Exit status: 0 on success (diverged runs are results, not failures), 2 on bad input (one line naming the
-file, the field and the problem; nothing is written).
+A script only (nothing imports it): it reaches the command line by name, so that the campaign package holds no
+import of the layer above it.
 """
 
-from __future__ import annotations
-
-import argparse
+import importlib
 import sys
-import time
-from concurrent.futures.process import BrokenProcessPool
-from pathlib import Path
-
-from rich.console import Console
-from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn, TimeRemainingColumn
-
-from ftc_mj.config.errors import ArgumentParser, InputError
-
-
-def build_parser() -> argparse.ArgumentParser:
-    parser = ArgumentParser(prog="python -m ftc_mj.campaign", description="Monte Carlo, sweeps and fault-diagnosis "
-                             "statistics over populations of runs.")
-    commands = parser.add_subparsers(dest="command", required=True, parser_class=ArgumentParser)
-    run = commands.add_parser("run", help="run a campaign (resumes an interrupted one)")
-    run.add_argument("campaign", type=Path)
-    run.add_argument("--out", type=Path, metavar="DIR", help="results directory (default: results/<name>/)")
-    run.add_argument("--runs", type=int, metavar="N", help="number of sampled points (the first N of the population)")
-    run.add_argument("--batch-size", type=int, metavar="B", help="members stepped together per batch")
-    run.add_argument("--workers", type=int, metavar="N", help="worker processes (default: all cores)")
-    run.add_argument("--scheduler", metavar="ADDRESS", help="a Dask scheduler, e.g. tcp://127.0.0.1:8786")
-    run.add_argument("--quiet", action="store_true", help="no progress bar and no summary")
-    report = commands.add_parser("report", help="write the report of a results directory again")
-    report.add_argument("directory", type=Path)
-    replay = commands.add_parser("replay", help="simulate one run alone, with a recording")
-    replay.add_argument("directory", type=Path)
-    replay.add_argument("run_id")
-    replay.add_argument("--variant", nargs="+", default=[], metavar="NAME", help="only these variants")
-    replay.add_argument("--out", type=Path, metavar="FILE.rrd", help="recording (default: DIR/replay/<run_id>.rrd)")
-    replay.add_argument("--json", type=Path, metavar="FILE.json", help="write the run's metrics as JSON")
-    return parser
-
-
-def _positive(value: int | None, option: str) -> None:
-    if value is not None and value < 1:
-        raise InputError("command line", option, f"must be at least 1, not {value}")
-
-
-def _run(args: argparse.Namespace, console: Console) -> int:
-    from ftc_mj.campaign import execute
-    from ftc_mj.campaign.report import write_report
-
-    for value, option in ((args.batch_size, "--batch-size"), (args.workers, "--workers")):
-        _positive(value, option)
-    campaign = execute.load(args.campaign, args.runs)
-    out = args.out or Path("results") / campaign.spec.name
-    if args.quiet:
-        summary = execute.execute(campaign, out, batch_size=args.batch_size, workers=args.workers,
-                                  scheduler=args.scheduler)
-    else:
-        columns = (TextColumn(f"{campaign.spec.name:<20}"), BarColumn(), MofNCompleteColumn(), TextColumn("runs"),
-                   TextColumn("{task.fields[rate]}"), TimeElapsedColumn(), TextColumn("left"), TimeRemainingColumn())
-        with Progress(*columns, console=console) as display:
-            task = display.add_task("runs", total=len(campaign.runs), rate="")
-            start, first = time.perf_counter(), [None]
-
-            def update(done: int, total: int) -> None:
-                if first[0] is None:
-                    first[0] = done
-                elapsed = time.perf_counter() - start
-                rate = (done - first[0]) / elapsed if elapsed > 0 and done > first[0] else 0.0
-                display.update(task, completed=done, rate=f"{rate:.2f} runs/s" if rate else "")
-
-            summary = execute.execute(campaign, out, batch_size=args.batch_size, workers=args.workers,
-                                      scheduler=args.scheduler, progress=execute.Progress(update))
-    written = write_report(out)
-    if not args.quiet:
-        console.print(f"{summary['runs']} runs x {len(summary['variants'])} variants "
-                      f"({summary['status_counts']}); {summary['simulated_runs']} simulated in "
-                      f"{summary['wall_time']:.1f} s. Results in {out}/: runs.parquet, campaign.json, "
-                      f"{written[0].name} and {len(written) - 1} figures.")
-    return 0
-
-
-def main(argv: list[str] | None = None) -> int:
-    args = build_parser().parse_args(argv)
-    console = Console(stderr=False)
-    try:
-        if args.command == "run":
-            return _run(args, console)
-        if args.command == "report":
-            from ftc_mj.campaign.report import write_report
-
-            written = write_report(args.directory)
-            print(f"wrote {written[0]} and {len(written) - 1} figures")
-            return 0
-        from ftc_mj.campaign.execute import replay
-
-        return replay(args.directory, args.run_id, variants=args.variant, out=args.out, json_path=args.json)
-    except InputError as exc:
-        print(f"error: {exc}", file=sys.stderr)
-        return 2
-    except KeyboardInterrupt:
-        print("interrupted: what finished is saved; run the same command again to go on", file=sys.stderr)
-        return 130
-    except BrokenProcessPool:  # a worker killed (out of memory, a signal): not the campaign's fault
-        print("error: a worker process died (out of memory or killed); what finished is saved: run the same "
-              "command again to go on, with fewer --workers or a smaller --batch-size", file=sys.stderr)
-        return 1
-
 
 if __name__ == "__main__":
-    sys.exit(main())
+    sys.exit(importlib.import_module("ftc_mj.cli.campaign").main(prog="python -m ftc_mj.campaign"))

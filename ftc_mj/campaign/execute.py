@@ -39,6 +39,7 @@ from ftc_mj.engine.members import members_from_overrides
 from ftc_mj.results import VariantResult
 from ftc_mj.engine.runner import run_batch
 from ftc_mj.config.errors import InputError
+from ftc_mj.outputs.files import parquet_bytes, write_atomic
 from ftc_mj.spec.loading import load_scenario
 from ftc_mj.spec.scenario import Scenario, series_bytes
 
@@ -385,22 +386,6 @@ def _write_part(out: Path, task: Task, rows: list[dict]) -> None:
     write_atomic(out / "parts" / f"{name}.parquet", parquet_bytes(pa.Table.from_pylist(rows)))
 
 
-def parquet_bytes(table: pa.Table) -> bytes:
-    sink = pa.BufferOutputStream()
-    pq.write_table(table, sink)
-    return sink.getvalue().to_pybytes()
-
-
-def write_atomic(path: Path, content: bytes) -> None:
-    """Write a file so that it is whole or absent: a temporary beside it, flushed, then renamed."""
-    temporary = path.with_name(f".{path.name}.{os.getpid()}.tmp")
-    with open(temporary, "wb") as handle:
-        handle.write(content)
-        handle.flush()
-        os.fsync(handle.fileno())
-    os.replace(temporary, path)
-
-
 def collect(campaign: Campaign, out: Path) -> pa.Table:
     """Every run of the population from the parts, with its varied fields, in run order then variant order."""
     tables = [pq.read_table(part) for part in sorted((out / "parts").glob("*.parquet"))]
@@ -494,12 +479,11 @@ def find_run(directory: Path, run_id: str) -> tuple[dict[str, Any], Run]:
     raise InputError(str(directory), "RUN_ID", f"no run {run_id!r} in this campaign")
 
 
-def replay(directory: Path, run_id: str, *, variants: list[str] = (), out: Path | None = None,
-           json_path: Path | None = None) -> int:
-    """Simulate one run of a campaign alone through the command line ``python -m ftc_mj.run`` (its table,
-    recording and ``--json``), with every field the run set given as ``--set``; its exit status."""
-    from ftc_mj import run as run_command
-
+def replay_arguments(directory: Path, run_id: str, *, variants: Sequence[str] = (), out: Path | None = None,
+                     json_path: Path | None = None) -> list[str]:
+    """The arguments of the run command (``ftc-mj run``) that simulate one run of a campaign alone, with its
+    table, recording and ``--json``: every field the run set given as ``--set``, so that its metrics equal the
+    run's row bit for bit."""
     summary, run = find_run(directory, run_id)
     argv = [summary["scenario"], "--out", str(out or directory / "replay" / f"{run_id}.rrd")]
     for path, value in run.assignments().items():
@@ -515,4 +499,4 @@ def replay(directory: Path, run_id: str, *, variants: list[str] = (), out: Path 
     argv += ["--variant", *chosen]
     if json_path is not None:
         argv += ["--json", str(json_path)]
-    return run_command.main(argv)
+    return argv

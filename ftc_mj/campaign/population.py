@@ -63,7 +63,7 @@ class Run:
         return out
 
     def assignments(self) -> dict[str, Any]:
-        """Every field this run sets, for a scenario of its own (:func:`ftc_mj.campaign.execute.replay`)."""
+        """Every field this run sets, for a scenario of its own (:func:`ftc_mj.campaign.execute.replay_arguments`)."""
         return {**self.structure, **self.member}
 
 

@@ -3,7 +3,6 @@
 
 from __future__ import annotations
 
-import argparse
 from collections.abc import Callable
 from typing import Any
 
@@ -65,9 +64,3 @@ def validation_error(file: str, prefix: str, exc: ValidationError,
         message += f" (and {len(groups) - 1} more problem{'s' if len(groups) > 2 else ''})"
     return InputError(file if file_of is None else file_of(parts), field, message)
 
-
-class ArgumentParser(argparse.ArgumentParser):
-    """The command lines' parser: a bad option is one line and exit status 2, as for every other bad input."""
-
-    def error(self, message: str) -> None:
-        self.exit(2, f"{self.prog}: error: {message}\n")

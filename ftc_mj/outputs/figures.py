@@ -13,16 +13,13 @@ import io
 from collections.abc import Sequence
 from pathlib import Path
 
-import matplotlib
+import numpy as np
+from matplotlib.axes import Axes
+from matplotlib.figure import Figure as Drawing
+from matplotlib.lines import Line2D
+from matplotlib.ticker import ScalarFormatter
 
-matplotlib.use("Agg")  # no display: figures go to files
-
-import matplotlib.pyplot as plt  # noqa: E402
-import numpy as np  # noqa: E402
-from matplotlib.lines import Line2D  # noqa: E402
-from matplotlib.ticker import ScalarFormatter  # noqa: E402
-
-from ftc_mj.outputs.layout import Figure, Layout, data_range, zoom_span  # noqa: E402
+from ftc_mj.outputs.layout import Figure, Layout, data_range, zoom_span
 
 FORMATS = ("png", "svg", "pdf")
 #: Time bins of a drawn line's envelope: above twice this many samples a line is drawn as its envelope.
@@ -65,13 +62,13 @@ def _tex(unit: str) -> str:
     return unit.replace("^2", "$^2$").replace("^-1", "$^{-1}$")
 
 
-def draw(figure: Figure, layout: Layout, series: Series) -> plt.Figure:
+def draw(figure: Figure, layout: Layout, series: Series) -> Drawing:
     """One figure: a row per joint (overview, and the zoom panel when there is one), a legend above."""
     zoom = zoom_span(figure, layout.duration)
     columns = 2 if zoom else 1
     rows = len(figure.joints)
-    fig, axes = plt.subplots(rows, columns, figsize=(WIDTH, ROW_HEIGHT * rows + 1.0), squeeze=False,
-                             sharex="col", width_ratios=[3, 2][:columns], layout="constrained")
+    fig = Drawing(figsize=(WIDTH, ROW_HEIGHT * rows + 1.0), layout="constrained")
+    axes = fig.subplots(rows, columns, squeeze=False, sharex="col", width_ratios=[3, 2][:columns])
     companion, kind = figure.companion
     window = figure.window or (0.0, layout.duration)
     for row, joint in enumerate(figure.joints):
@@ -110,7 +107,7 @@ def draw(figure: Figure, layout: Layout, series: Series) -> plt.Figure:
     return fig
 
 
-def _panel(ax: plt.Axes, variants: Sequence[str], layout: Layout, main: tuple | None, extra: tuple | None,
+def _panel(ax: Axes, variants: Sequence[str], layout: Layout, main: tuple | None, extra: tuple | None,
            kind: str | None, span: tuple[float, float]) -> None:
     """One axes: each variant's companion line (truth wide and pale, or threshold dotted) and its own line; the
     legend's first variant drawn last, on top."""
@@ -163,7 +160,7 @@ def _legend(figure: Figure, layout: Layout, kind: str | None) -> list[Line2D]:
     return handles
 
 
-def save(fig: plt.Figure, stem: Path, formats: Sequence[str], dpi: int) -> list[Path]:
+def save(fig: Drawing, stem: Path, formats: Sequence[str], dpi: int) -> list[Path]:
     """Write ``fig`` as ``stem.<format>`` for each format, without time stamps (a regenerated figure is the same
     file). PNGs are stored with a 64-colour palette: line plots look the same at a third of the size."""
     from PIL import Image
@@ -181,5 +178,4 @@ def save(fig: plt.Figure, stem: Path, formats: Sequence[str], dpi: int) -> list[
             metadata = {"Date": None} if fmt == "svg" else {"CreationDate": None, "ModDate": None}
             fig.savefig(path, format=fmt, metadata=metadata)
         written.append(path)
-    plt.close(fig)
     return written

@@ -21,6 +21,7 @@ from pydantic import Field, model_validator
 
 from ftc_mj.config.errors import InputError
 from ftc_mj.config.types import FiniteFloat, JointSelection, NonNegativeFloat, Strict, joint_indices
+from ftc_mj.outputs.palette import RUN_ORDER
 
 #: The scenario's validated spec (:class:`ftc_mj.spec.scenario.ScenarioSpec`, which assembles this module's
 #: section): read for its variants, terms, metrics and diagnosis. Not imported, since the scenario is above.
@@ -193,17 +194,10 @@ class VariantStyle:
     dash: Literal["solid", "dashed"]
 
 
-#: The dissertation's colours first (the proposed method red, TOSMO blue, SOSMO green, black), then tab10's.
-COLOR_NAMES = {"#d62728": "red", "#1f77b4": "blue", "#2ca02c": "green", "#000000": "black", "#ff7f0e": "orange",
-               "#9467bd": "purple", "#8c564b": "brown", "#e377c2": "pink", "#17becf": "cyan", "#bcbd22": "olive",
-               "#7f7f7f": "grey"}
-PALETTE = tuple(COLOR_NAMES)
-
-
 def variant_styles(names: Sequence[str]) -> list[VariantStyle]:
     """One colour per variant in order; monitors (``variant.monitor``: an estimator beside the loop, feeding
     nothing) dashed, loops solid. The same in every figure and in the viewer."""
-    return [VariantStyle(name, PALETTE[i % len(PALETTE)], "dashed" if "." in name else "solid")
+    return [VariantStyle(name, RUN_ORDER[i % len(RUN_ORDER)], "dashed" if "." in name else "solid")
             for i, name in enumerate(names)]
 
 

@@ -25,14 +25,13 @@ the size of float64). Time series are sent column-wise (``send_columns``): per-s
 slower.
 
 The figures (:class:`ftc_mj.outputs.layout.Layout`) are stored as a recording property
-(``/__properties/ftc_mj_layout``), from which ``python -m ftc_mj.figures`` draws them; a blueprint stored in
+(``/__properties/ftc_mj_layout``), from which ``ftc-mj figures`` draws them; a blueprint stored in
 the file opens the viewer on the same figures, one tab each, per-joint plots stacked, the zoom panels beside.
 """
 
 from __future__ import annotations
 
 import contextlib
-import os
 import uuid
 from collections.abc import Sequence
 from pathlib import Path
@@ -43,7 +42,9 @@ import rerun as rr
 import rerun.blueprint as rrb
 
 from ftc_mj.results import VariantResult
-from ftc_mj.outputs.layout import COLOR_NAMES, Figure, Layout, data_range, generic_figures, variant_styles, zoom_span
+from ftc_mj.outputs.files import atomic_path
+from ftc_mj.outputs.layout import Figure, Layout, data_range, generic_figures, variant_styles, zoom_span
+from ftc_mj.outputs.palette import colour_name
 
 TIMELINE = "sim_time"
 LAYOUT_PROPERTY = "ftc_mj_layout"
@@ -121,7 +122,7 @@ def write_recording(
     """Write all ``results`` of ``scenario`` into one ``.rrd`` at ``path``, atomically.
 
     ``figures`` (a scenario's, :attr:`ftc_mj.spec.scenario.Scenario.figures`) lay out the viewer and are stored
-    for ``python -m ftc_mj.figures``; without them, one figure per core quantity. The file is written beside
+    for ``ftc-mj figures``; without them, one figure per core quantity. The file is written beside
     ``path`` under a temporary name and moved onto ``path`` only once complete, so ``path`` never holds a
     half-written recording; on any error the temporary file is removed and the error re-raised. Body poses (of
     the first variant that has them) are kept every ``pose_stride`` samples plus the last one.
@@ -131,35 +132,32 @@ def write_recording(
     if not results:
         raise ValueError("no results to record")
     path = Path(path)
-    path.parent.mkdir(parents=True, exist_ok=True)
-    tmp = path.with_name(f"{path.name}.tmp-{os.getpid()}-{uuid.uuid4().hex[:8]}")
     posed = next((r for r in results if r.body_xpos.size > 0), None)
     t = _common_time(results)
     layout = _layout(scenario, model, results, t, fault_onsets, figures)
-    # A fresh stream per call (never the global one), so several recordings in one process do not mix.
-    rec = rr.RecordingStream("ftc_mj", recording_id=str(uuid.uuid4()))
-    try:
-        series = _series(results, len(t))
-        rec.save(tmp, default_blueprint=_blueprint(layout, series, t, posed.name if posed else None))
-        rec.send_recording_name(scenario)
-        rec.send_property(LAYOUT_PROPERTY, rr.AnyValues(json=layout.to_json()))
-        rec.log("/info", rr.TextDocument(_info_markdown(scenario, seed, results, fault_onsets),
-                                         media_type=rr.MediaType.MARKDOWN), static=True)
-        _log_events(rec, results, fault_onsets)
-        time = _time_column(t)
-        for entity, (values, names, colors, widths) in series.items():
-            rec.log(entity, rr.SeriesLines(names=names, colors=colors, widths=widths), static=True)
-            rec.send_columns(entity, indexes=[time], columns=rr.Scalars.columns(scalars=values))
-        if posed is not None:
-            _log_geometry(rec, model)
-            _log_poses(rec, model, posed, pose_stride)
+    with atomic_path(path) as tmp:
+        # A fresh stream per call (never the global one), so several recordings in one process do not mix.
+        rec = rr.RecordingStream("ftc_mj", recording_id=str(uuid.uuid4()))
+        try:
+            series = _series(results, len(t))
+            rec.save(tmp, default_blueprint=_blueprint(layout, series, t, posed.name if posed else None))
+            rec.send_recording_name(scenario)
+            rec.send_property(LAYOUT_PROPERTY, rr.AnyValues(json=layout.to_json()))
+            rec.log("/info", rr.TextDocument(_info_markdown(scenario, seed, results, fault_onsets),
+                                             media_type=rr.MediaType.MARKDOWN), static=True)
+            _log_events(rec, results, fault_onsets)
+            time = _time_column(t)
+            for entity, (values, names, colors, widths) in series.items():
+                rec.log(entity, rr.SeriesLines(names=names, colors=colors, widths=widths), static=True)
+                rec.send_columns(entity, indexes=[time], columns=rr.Scalars.columns(scalars=values))
+            if posed is not None:
+                _log_geometry(rec, model)
+                _log_poses(rec, model, posed, pose_stride)
+        except BaseException:
+            with contextlib.suppress(Exception):
+                rec.disconnect()  # release the file before it is removed
+            raise
         rec.disconnect()  # writes the footer; flush() alone would not
-        os.replace(tmp, path)
-    except BaseException:
-        with contextlib.suppress(Exception):
-            rec.disconnect()  # release the file before removing it
-        tmp.unlink(missing_ok=True)
-        raise
 
 
 def read_layout(path: Path) -> Layout:
@@ -357,7 +355,7 @@ def _info_markdown(scenario: str, seed: int | None, results: Sequence[VariantRes
              "| variant | colour | observer | controller | samples | status |", "|---|---|---|---|---|---|"]
     for r, style in zip(results, variant_styles([r.name for r in results])):
         status = r.status if r.diverged_at is None else f"{r.status} at t = {r.diverged_at:g} s"
-        colour = COLOR_NAMES.get(style.color, style.color)
+        colour = colour_name(style.color)
         lines.append(f"| {r.name} | {colour} | {r.observer} | {r.controller} | {len(r.t)} | {status} |")
     return "\n".join(lines) + "\n"
 
@@ -506,7 +504,7 @@ def _time_range(start: float, end: float) -> rrb.TimeRange:
 
 def _colour_key(layout: Layout, variants: Sequence[str], kind: str | None) -> str:
     """'red: proposed · blue: nftsmc_tosmo · ...' for a figure's variants, and what its second lines are."""
-    key = " · ".join(f"{COLOR_NAMES.get(layout.style(v).color, layout.style(v).color)}: {v}" for v in variants)
+    key = " · ".join(f"{colour_name(layout.style(v).color)}: {v}" for v in variants)
     companion = {"truth": "wide pale: truth", "reference": "grey: reference", "threshold": "second line: threshold",
                  "injected": "second line: injected fault"}.get(kind or "")
     return f"{key} · {companion}" if companion else key

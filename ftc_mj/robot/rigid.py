@@ -22,15 +22,22 @@ that has one (their inertias combined once at construction), so the recursion ru
 The numbers equal MuJoCo's to rounding (about 1e-15 relative; tested on every shipped robot) but not bit for
 bit. Every point is computed by the same compiled code whatever the number of points, so a member of a batch
 still gets exactly the bits of its single run.
+
+**Required process setting.** Importing this module sets ``NUMBA_DISABLE_INTEL_SVML=1`` in the environment
+(unless already set), for this process and the worker processes it starts. Where Intel's SVML library is
+installed, Numba vectorises loops of ``sin``/``cos`` with it, and a vectorised sine may round differently
+from the scalar one: a point's bits would then depend on its neighbours in the batch. Numba offers no
+per-function switch: it reads the setting once, when ``numba`` is first imported, and configures LLVM for
+the whole process. The setting is therefore made here, where the kernels are built, before Numba is
+imported; a program that imports Numba before ftc_mj must set the variable itself (without SVML installed,
+``numba.config.USING_SVML`` is False and nothing changes).
 """
 
 from __future__ import annotations
 
 import os
 
-# Numba vectorises loops with Intel's SVML where it is installed: a vectorised sine may round differently from
-# the scalar one, and a point's bits must not depend on its neighbours. Set before Numba is imported.
-os.environ.setdefault("NUMBA_DISABLE_INTEL_SVML", "1")
+os.environ.setdefault("NUMBA_DISABLE_INTEL_SVML", "1")  # before Numba is imported: see the module docstring
 
 from dataclasses import dataclass  # noqa: E402
 

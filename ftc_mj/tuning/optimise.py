@@ -34,6 +34,7 @@ from ftc_mj.campaign.spec import load_campaign
 from ftc_mj.campaign.population import population_size
 from ftc_mj.engine.members import members_from_overrides
 from ftc_mj.config.errors import InputError
+from ftc_mj.outputs.files import parquet_bytes, write_atomic
 from ftc_mj.tuning.spec import TuningSpec, load_tuning
 
 #: A diverged condition's cost, as a multiple of the scenario's gains' cost (sum of the weights).
@@ -201,7 +202,7 @@ def violations(tuning: Tuning, evaluation: Evaluation) -> np.ndarray:
 
 
 def _save_parquet(path: Path, rows: list[dict]) -> None:
-    execute.write_atomic(path, execute.parquet_bytes(pa.Table.from_pylist(rows)))
+    write_atomic(path, parquet_bytes(pa.Table.from_pylist(rows)))
 
 
 def _load_rows(path: Path) -> list[dict]:
@@ -218,7 +219,7 @@ def _prepare_directory(tuning: Tuning, out: Path) -> None:
                              "changed); choose another --out or remove it")
     out.mkdir(parents=True, exist_ok=True)
     if not marker.is_file():
-        execute.write_atomic(marker, (tuning.fingerprint + "\n").encode())
+        write_atomic(marker, (tuning.fingerprint + "\n").encode())
 
 
 def _evaluation_rows(evaluation: Evaluation) -> list[dict]:
@@ -295,7 +296,7 @@ def optimise(tuning: Tuning, out: Path, *, workers: int | None = None, scheduler
                                for m, v in evaluation.metrics.items()}})
         _save_parquet(out / "history.parquet", history)
         state = {"optimizer": optimizer, "rng": optimizer._rng.get_state(), "generation": generation}
-        execute.write_atomic(out / "state.pkl", pickle.dumps(state))
+        write_atomic(out / "state.pkl", pickle.dumps(state))
         best = min(row["penalised"] for row in history)
         progress(generation + 1, spec.optimizer.generations, best)
     tuning_seconds = time.perf_counter() - start

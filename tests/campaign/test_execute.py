@@ -12,6 +12,7 @@ import pytest
 
 import small_campaign
 from ftc_mj.campaign import execute
+from ftc_mj.cli import run
 from ftc_mj.config.errors import InputError
 
 
@@ -115,7 +116,8 @@ def test_a_replayed_run_equals_its_row(reference_dir, tmp_path, capsys):
     table = rows(reference_dir)
     row = next(r for r in table if r["case"] == "joint2" and r["variant"] == "hs")
     document = tmp_path / "replay.json"
-    code = execute.replay(reference_dir, row["run_id"], out=tmp_path / "replay.rrd", json_path=document)
+    code = run.main(execute.replay_arguments(reference_dir, row["run_id"], out=tmp_path / "replay.rrd",
+                                             json_path=document))
     assert code == 0 and (tmp_path / "replay.rrd").is_file()
     replayed = json.loads(document.read_text())["variants"]
     for r in (r for r in table if r["run_id"] == row["run_id"]):

@@ -6,7 +6,7 @@ from __future__ import annotations
 import pytest
 
 import small_campaign
-from ftc_mj.campaign.__main__ import main
+from ftc_mj.cli.campaign import main
 from ftc_mj.campaign.spec import Distribution
 
 SAMPLES = small_campaign.campaign()["samples"]

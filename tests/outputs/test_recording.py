@@ -15,6 +15,7 @@ import rerun as rr
 from rerun.chunk import RrdReader
 
 from ftc_mj.results import VariantResult
+from ftc_mj.outputs.files import TEMPORARY
 from ftc_mj.outputs.layout import Figure, variant_styles
 from ftc_mj.outputs.recording import (DIAGNOSIS_SERIES, OPTIONAL_SERIES, SERIES, read_layout, read_series,
                                      write_recording)
@@ -109,7 +110,7 @@ def static_entities(chunks: list) -> set[str]:
 
 
 def no_temp_files(directory: Path) -> bool:
-    return not any(".tmp-" in p.name for p in directory.iterdir())
+    return not any(p.name.endswith(TEMPORARY) for p in directory.iterdir())
 
 
 def test_file_written_atomically(rrd: Path) -> None:

@@ -14,7 +14,7 @@ import yaml
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "campaign"))
 import small_campaign  # noqa: E402
-from ftc_mj.tune import main  # noqa: E402
+from ftc_mj.cli.tune import main  # noqa: E402
 from ftc_mj.tuning import optimise  # noqa: E402
 
 TUNING = {

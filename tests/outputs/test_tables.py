@@ -1,4 +1,4 @@
-"""ftc_mj.report: the Markdown tables of REPRODUCTION.md from a run's --json document."""
+"""ftc_mj.outputs.tables and ftc-mj report: the Markdown tables of REPRODUCTION.md from a run's --json document."""
 
 from __future__ import annotations
 
@@ -7,8 +7,8 @@ from pathlib import Path
 
 import pytest
 
-from ftc_mj.outputs.report import markdown_table
-from ftc_mj.report import main
+from ftc_mj.cli.report import main
+from ftc_mj.outputs.tables import markdown_table
 
 DOCUMENT = {
     "scenario": "demo",

@@ -8,17 +8,15 @@ import math
 from pathlib import Path
 from typing import Any
 
-import matplotlib
+from matplotlib.figure import Figure
+import numpy as np
+import yaml
 
-matplotlib.use("Agg")
-import matplotlib.pyplot as plt  # noqa: E402
-import numpy as np  # noqa: E402
-import yaml  # noqa: E402
-
-from ftc_mj.analysis.metrics import unit  # noqa: E402
-from ftc_mj.campaign import statistics as st  # noqa: E402
-from ftc_mj.campaign.execute import write_atomic  # noqa: E402
-from ftc_mj.tuning.optimise import Tuning, aggregate, condition_costs, violations  # noqa: E402
+from ftc_mj.analysis.metrics import unit
+from ftc_mj.campaign import statistics as st
+from ftc_mj.outputs.files import write_atomic
+from ftc_mj.outputs.palette import COLOURS
+from ftc_mj.tuning.optimise import Tuning, aggregate, condition_costs, violations
 
 
 def _nested(gains: dict[str, float]) -> dict:
@@ -83,7 +81,7 @@ def write(tuning: Tuning, out: Path, result: dict[str, Any]) -> dict[str, Any]:
     }
     document = _clean(document)
     write_atomic(out / "report.json", (json.dumps(document, indent=2) + "\n").encode())
-    best = {"# tuned by": f"python -m ftc_mj.tune {tuning.path}", **_nested(result["best_gains"])}
+    best = {"# tuned by": f"ftc-mj tune {tuning.path}", **_nested(result["best_gains"])}
     write_atomic(out / "best.yaml", yaml.safe_dump(best, sort_keys=False).encode())
     _convergence_figure(tuning, result["history"], out / "convergence.png")
     write_atomic(out / "report.md", _markdown(tuning, document, paired).encode())
@@ -101,12 +99,13 @@ def _convergence_figure(tuning: Tuning, history: list[dict], path: Path) -> None
         best_of.append(min(values))
         median.append(float(np.median(values)))
     x = np.array(generations) + 1
-    fig, ax = plt.subplots(figsize=(5.4, 3.6))
-    ax.plot(x, median, "o-", color="#9467bd", markersize=3, label="generation median")
-    ax.plot(x, best_of, "s-", color="#2ca02c", markersize=3, label="generation best")
-    ax.plot(x, best_so_far, "-", color="#1f77b4", linewidth=2, label="best so far")
+    fig = Figure(figsize=(5.4, 3.6))
+    ax = fig.subplots()
+    ax.plot(x, median, "o-", color=COLOURS["purple"], markersize=3, label="generation median")
+    ax.plot(x, best_of, "s-", color=COLOURS["green"], markersize=3, label="generation best")
+    ax.plot(x, best_so_far, "-", color=COLOURS["blue"], linewidth=2, label="best so far")
     baseline = aggregate(tuning, np.full((1, tuning.spec.conditions), sum(tuning.spec.cost.weights.values())))[0]
-    ax.axhline(baseline, color="#d62728", linestyle="--", label="the scenario's gains")
+    ax.axhline(baseline, color=COLOURS["red"], linestyle="--", label="the scenario's gains")
     ax.set_yscale("log")
     ax.set_xlabel("generation")
     ax.set_ylabel("cost (penalised)")
@@ -116,7 +115,6 @@ def _convergence_figure(tuning: Tuning, history: list[dict], path: Path) -> None
     fig.tight_layout()
     path.parent.mkdir(parents=True, exist_ok=True)
     fig.savefig(path, dpi=110)
-    plt.close(fig)
 
 
 def _markdown(tuning: Tuning, doc: dict, paired: st.Paired) -> str:

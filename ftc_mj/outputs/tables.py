@@ -1,5 +1,5 @@
-"""Markdown tables from the metrics JSON of ``python -m ftc_mj.run ... --json FILE`` (the command line is
-``python -m ftc_mj.report``, :mod:`ftc_mj.report`).
+"""Markdown tables from the metrics JSON of ``ftc-mj run ... --json FILE`` (the command line is
+``ftc-mj report``, :mod:`ftc_mj.cli.report`).
 
 One row per metric, one column per variant, the joints' values separated by " / " in each cell (the layout of
 REPRODUCTION.md). Undefined values (null in the JSON) print as "-".

@@ -1,4 +1,4 @@
-"""The report, from a results directory alone."""
+"""The report (ftc_mj.campaign.summary), from a results directory alone."""
 
 from __future__ import annotations
 
@@ -6,7 +6,7 @@ import pytest
 
 import small_campaign
 from ftc_mj.campaign import execute
-from ftc_mj.campaign.__main__ import main
+from ftc_mj.cli.campaign import main
 
 
 @pytest.fixture(scope="module")
@@ -46,7 +46,7 @@ def test_a_grid_of_two_numbers_gets_a_heat_map(tmp_path):
     })
     out = tmp_path / "out"
     execute.execute(execute.load(path), out, workers=1)
-    from ftc_mj.campaign.report import write_report
+    from ftc_mj.campaign.summary import write_report
 
     written = write_report(out)
     assert out / "figures" / "heatmap.png" in written

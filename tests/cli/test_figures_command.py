@@ -1,4 +1,4 @@
-"""The command line `python -m ftc_mj.figures`: one file per figure and format, bad input as one line, exit 2."""
+"""The command line ``ftc-mj figures`` (:mod:`ftc_mj.cli.figures`): one file per figure and format, bad input as one line, exit 2."""
 
 from __future__ import annotations
 
@@ -9,9 +9,9 @@ from pathlib import Path
 
 import pytest
 
-from ftc_mj.figures import main
+from ftc_mj.cli.figures import main
 
-ROOT = Path(__file__).parents[1]
+ROOT = Path(__file__).parents[2]
 ENV = {**os.environ, "PYTHONPATH": str(ROOT)}
 
 
@@ -22,14 +22,14 @@ def command(*args: str, cwd: Path) -> subprocess.CompletedProcess:
 @pytest.fixture(scope="module")
 def recording(tmp_path_factory: pytest.TempPathFactory) -> Path:
     folder = tmp_path_factory.mktemp("cli")
-    run = command("ftc_mj.run", str(ROOT / "scenarios" / "two_link_do.yaml"), "--duration", "0.5", "--quiet",
+    run = command("ftc_mj.cli", "run", str(ROOT / "scenarios" / "two_link_do.yaml"), "--duration", "0.5", "--quiet",
                   "--out", "two_link_do.rrd", cwd=folder)
     assert run.returncode == 0, run.stderr
     return folder / "two_link_do.rrd"
 
 
 def test_every_figure_in_every_format(recording: Path, tmp_path: Path) -> None:
-    done = command("ftc_mj.figures", str(recording), "--out", str(tmp_path / "out"), "--format", "png,pdf",
+    done = command("ftc_mj.cli", "figures", str(recording), "--out", str(tmp_path / "out"), "--format", "png,pdf",
                    "--dpi", "50", cwd=tmp_path)
     assert done.returncode == 0, done.stderr
     names = ["fig2_3_luaf", "fig2_4_luaf_error", "fig2_6_tracking_error", "fig2_7_torque", "fig2_8_switching_gain"]
@@ -38,7 +38,7 @@ def test_every_figure_in_every_format(recording: Path, tmp_path: Path) -> None:
 
 
 def test_default_folder_and_only(recording: Path) -> None:
-    done = command("ftc_mj.figures", str(recording), "--only", "fig2_8_switching_gain", "--dpi", "50",
+    done = command("ftc_mj.cli", "figures", str(recording), "--only", "fig2_8_switching_gain", "--dpi", "50",
                    cwd=recording.parent)
     assert done.returncode == 0, done.stderr
     assert [p.name for p in recording.with_suffix("").iterdir()] == ["fig2_8_switching_gain.png"]

@@ -1,4 +1,4 @@
-"""The command line ``python -m ftc_mj.run``, run as a subprocess in tmp_path.
+"""The command line ``ftc-mj run`` (:mod:`ftc_mj.cli.run`), run as a subprocess in tmp_path.
 
 * Bad input (malformed scenario files, bad ``--set``/``--variant``/``--duration``) exits 2 with exactly one
   line on stderr naming the file and the field, no traceback, and nothing written: ``--json out.json
@@ -28,9 +28,9 @@ import pytest
 import yaml
 
 from ftc_mj.analysis.metrics import METRICS
-from ftc_mj.run import main
+from ftc_mj.cli.run import main
 
-ROOT = Path(__file__).resolve().parents[1]
+ROOT = Path(__file__).resolve().parents[2]
 PUMA_YAML = ROOT / "scenarios" / "puma_fault.yaml"
 PUMA_MODEL = ROOT / "models" / "puma560.xml"
 VARIANTS = ["proposed", "nftsmc_tosmo", "nftsmc_sosmo", "nftsmc"]
@@ -112,7 +112,7 @@ BAD_INPUT = {
                                          file_in_message=False),
 }
 
-#: More bad input, checked in-process through ftc_mj.run.main (the same code path without the second of
+#: More bad input, checked in-process through ftc_mj.cli.run.main (the same code path without the second of
 #: interpreter start-up per case); an uncaught exception fails the test as a traceback would.
 BAD_INPUT_IN_PROCESS = {
     "yaml_is_a_list": Case(text("- name: a\n- name: b\n"), OUTPUTS, None),
@@ -202,9 +202,9 @@ def prepare(directory: Path, case: Case) -> Path:
 def run_case(directory: Path, case: Case) -> Outcome:
     scenario = prepare(directory, case)
     before = listing(directory)
-    env = {**os.environ, "PYTHONDONTWRITEBYTECODE": "1"}
+    env = {**os.environ, "PYTHONDONTWRITEBYTECODE": "1", "PYTHONPATH": str(ROOT)}  # this checkout's package
     process = subprocess.run(
-        [sys.executable, "-m", "ftc_mj.run", str(scenario), *case.args],
+        [sys.executable, "-m", "ftc_mj.cli", "run", str(scenario), *case.args],
         cwd=directory, capture_output=True, text=True, timeout=180, env=env,
     )
     return Outcome(directory, scenario, process.returncode, process.stdout, process.stderr, before,
@@ -406,7 +406,7 @@ def run_bug_case(name: str, tmp_path: Path, monkeypatch, capsys) -> Outcome:
     try:
         return run_in_process(tmp_path, BUGS[name], monkeypatch, capsys)
     except Exception as exc:  # what a user sees as a traceback
-        pytest.fail(f"BUG: ftc_mj.run.main raised {type(exc).__name__}: {exc}")
+        pytest.fail(f"BUG: ftc_mj.cli.run.main raised {type(exc).__name__}: {exc}")
 
 
 def test_regression_runtime_math_error_in_a_term_is_not_a_traceback(tmp_path, monkeypatch, capsys):
@@ -425,7 +425,7 @@ def test_regression_division_by_zero_in_an_expression_is_an_input_error(tmp_path
 
 
 def test_regression_failed_recording_leaves_no_json(tmp_path, monkeypatch, capsys):
-    """Was a bug (ftc_mj/run.py, main): with --out a_file/rec.rrd (a_file a regular file) the exit status was
+    """Was a bug (ftc_mj/cli/run.py, main): with --out a_file/rec.rrd (a_file a regular file) the exit status was
     2 but out.json had been written. Now the output paths are checked before the run, naming --out."""
     outcome = run_bug_case("recording_fails_after_json", tmp_path, monkeypatch, capsys)
     assert outcome.returncode == 2, outcome.stderr

@@ -18,23 +18,19 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
-import matplotlib
+from matplotlib.figure import Figure
+from matplotlib.patches import Rectangle
+import numpy as np
+import pyarrow.parquet as pq
 
-matplotlib.use("Agg")
-import matplotlib.pyplot as plt  # noqa: E402
-import numpy as np  # noqa: E402
-import pyarrow.parquet as pq  # noqa: E402
+from ftc_mj.analysis.diagnosis import scale_tag
+from ftc_mj.analysis.metrics import unit
+from ftc_mj.campaign import statistics as st
+from ftc_mj.campaign.spec import CampaignSpec
+from ftc_mj.config.errors import InputError
+from ftc_mj.outputs.files import write_atomic
+from ftc_mj.outputs.palette import CAMPAIGN_LINE_STYLES, CAMPAIGN_ORDER
 
-from ftc_mj.analysis.diagnosis import scale_tag  # noqa: E402
-from ftc_mj.analysis.metrics import unit  # noqa: E402
-from ftc_mj.campaign import statistics as st  # noqa: E402
-from ftc_mj.campaign.spec import CampaignSpec  # noqa: E402
-from ftc_mj.config.errors import InputError  # noqa: E402
-
-#: One colour and line style per variant, in the scenario's order, in every figure (styles tell overlapping
-#: curves apart).
-COLOURS = ["#1f77b4", "#d62728", "#2ca02c", "#9467bd", "#ff7f0e", "#8c564b", "#e377c2", "#7f7f7f"]
-STYLES = ["-", "--", "-.", ":"]
 #: Fine threshold multiples for ROC curves (the held residual peaks are continuous).
 ROC_SCALES = np.concatenate(([0.0], np.geomspace(0.05, 1000.0, 400)))
 
@@ -321,8 +317,8 @@ def _confusion(results: Results, variants: list[str], path: Path, written: list[
     for variant, matrix in matrices.items():
         lines += [f"`{variant}`", "", *_table(["true \\ isolated", *labels_pred],
                   [[labels_true[r], *map(str, matrix[r])] for r in keep_rows]), ""]
-    fig, axes = plt.subplots(1, len(matrices), figsize=(3.2 * len(matrices) + 0.6, 1.6 + 0.42 * len(keep_rows)),
-                             squeeze=False)
+    fig = Figure(figsize=(3.2 * len(matrices) + 0.6, 1.6 + 0.42 * len(keep_rows)))
+    axes = fig.subplots(1, len(matrices), squeeze=False)
     for ax, (variant, matrix) in zip(axes[0], matrices.items()):
         shown = matrix[keep_rows]
         share = shown / np.maximum(shown.sum(axis=1, keepdims=True), 1)
@@ -343,26 +339,27 @@ def _confusion(results: Results, variants: list[str], path: Path, written: list[
 # ------------------------------------------------------------------------------------------------ figures
 
 
-def _save(fig: plt.Figure, path: Path) -> Path:
+def _save(fig: Figure, path: Path) -> Path:
     path.parent.mkdir(parents=True, exist_ok=True)
     fig.savefig(path, dpi=110)
-    plt.close(fig)
     return path
 
 
 def _colour(results: Results, variant: str) -> str:
-    return COLOURS[results.variants.index(variant) % len(COLOURS)]
+    """One colour and line style per variant, in the scenario's order, the same in every figure."""
+    return CAMPAIGN_ORDER[results.variants.index(variant) % len(CAMPAIGN_ORDER)]
 
 
 def _style(results: Results, variant: str) -> str:
-    return STYLES[results.variants.index(variant) % len(STYLES)]
+    return CAMPAIGN_LINE_STYLES[results.variants.index(variant) % len(CAMPAIGN_LINE_STYLES)]
 
 
 def _box_figure(results: Results, metric: str, path: Path) -> Path | None:
     joints = [j for j, _ in _defined_columns(results, metric)]
     if not joints:
         return None
-    fig, axes = plt.subplots(1, len(joints), figsize=(3.3 * len(joints) + 0.5, 3.4), squeeze=False)
+    fig = Figure(figsize=(3.3 * len(joints) + 0.5, 3.4))
+    axes = fig.subplots(1, len(joints), squeeze=False)
     for ax, j in zip(axes[0], joints):
         data = [results.of(v, f"{metric}.{j}").astype(float) for v in results.variants]
         data = [d[np.isfinite(d)] for d in data]
@@ -387,7 +384,8 @@ def _box_figure(results: Results, metric: str, path: Path) -> Path | None:
 
 
 def _roc_figure(results: Results, curves: dict[str, tuple[np.ndarray, np.ndarray]], path: Path) -> Path:
-    fig, ax = plt.subplots(figsize=(4.6, 4.2))
+    fig = Figure(figsize=(4.6, 4.2))
+    ax = fig.subplots()
     one = int(np.argmin(np.abs(ROC_SCALES - 1.0)))
     for variant, (p_fa, p_d) in curves.items():
         colour = _colour(results, variant)
@@ -407,7 +405,8 @@ def _roc_figure(results: Results, curves: dict[str, tuple[np.ndarray, np.ndarray
 
 
 def _ecdf_figure(results: Results, delays: dict[str, np.ndarray], path: Path) -> Path:
-    fig, ax = plt.subplots(figsize=(5.0, 3.6))
+    fig = Figure(figsize=(5.0, 3.6))
+    ax = fig.subplots()
     for variant, d in delays.items():
         if d.size:
             x = np.sort(d)
@@ -461,8 +460,8 @@ def _pd_size_figure(results: Results, variants: list[str], curves: dict, size: s
         return None
     columns = min(3, len(panels))
     rows = math.ceil(len(panels) / columns)
-    fig, axes = plt.subplots(rows, columns, figsize=(3.6 * columns + 1.6, 3.0 * rows + 0.8), squeeze=False,
-                             sharey=True)
+    fig = Figure(figsize=(3.6 * columns + 1.6, 3.0 * rows + 0.8))
+    axes = fig.subplots(rows, columns, squeeze=False, sharey=True)
     for ax in axes.flat[len(panels):]:
         ax.set_visible(False)
     for ax, (kind, lines) in zip(axes.flat, panels):
@@ -493,7 +492,8 @@ def _heatmap(results: Results, figures: Path, written: list[Path]) -> list[str]:
     column = f"{metric}.{joint}"
     xs, ys = (sorted(set(results.columns[p].tolist())) for p in axes_fields)
     variants = results.variants
-    fig, axes = plt.subplots(1, len(variants), figsize=(4.6 * len(variants) + 1.2, 3.8), squeeze=False)
+    fig = Figure(figsize=(4.6 * len(variants) + 1.2, 3.8))
+    axes = fig.subplots(1, len(variants), squeeze=False)
     grids = []
     for variant in variants:
         x, y = results.of(variant, axes_fields[0]), results.of(variant, axes_fields[1])
@@ -523,7 +523,7 @@ def _heatmap(results: Results, figures: Path, written: list[Path]) -> list[str]:
                         color="black" if norm(value) > 0.6 else "white")
         best = np.unravel_index(np.nanargmin(grid), grid.shape) if np.isfinite(grid).any() else None
         if best is not None:  # a frame around the lowest cell
-            ax.add_patch(plt.Rectangle((best[1] - 0.5, best[0] - 0.5), 1, 1, fill=False, edgecolor="white",
+            ax.add_patch(Rectangle((best[1] - 0.5, best[0] - 0.5), 1, 1, fill=False, edgecolor="white",
                                        linewidth=2.5))
     axes[0][0].set_ylabel(axes_fields[1].rsplit(".", 1)[-1])
     fig.colorbar(image, ax=axes[0].tolist(), label=f"mean {column} [{unit(metric)}]")
@@ -563,5 +563,5 @@ def write_report(directory: Path) -> list[Path]:
     lines += _diagnosis(results, figures, written)
     lines += _heatmap(results, figures, written)
     report = directory / "report.md"
-    report.write_text("\n".join(lines) + "\n")
+    write_atomic(report, ("\n".join(lines) + "\n").encode())
     return [report, *written]

@@ -1,0 +1,211 @@
+"""Run a scenario: ``ftc-mj run SCENARIO [options]`` (also ``python -m ftc_mj.run``).
+
+Runs every controller-observer variant of the scenario, prints their metrics, and writes a Rerun recording
+(and optionally a JSON file of the metrics). Exit status: 0 on success, 1 if a variant diverged, 2 on bad
+input (one line on stderr naming the file, the field and the problem; nothing is written).
+
+A thin client of the library: :func:`ftc_mj.load_scenario`, :func:`ftc_mj.run_scenario` (given the progress
+bars), :func:`ftc_mj.analysis.metrics.compute_metrics`, :func:`ftc_mj.outputs.recording.write_recording`,
+:func:`ftc_mj.outputs.files.write_atomic`.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import math
+import os
+import sys
+from collections.abc import Sequence
+from pathlib import Path
+from typing import TYPE_CHECKING
+
+from ftc_mj.cli.parser import ArgumentParser
+
+if TYPE_CHECKING:
+    import numpy as np
+    from rich.console import Console
+    from rich.table import Table
+
+    from ftc_mj.results import VariantResult
+    from ftc_mj.spec.scenario import Scenario
+
+PROG = "ftc-mj run"
+
+
+def build_parser(prog: str = PROG) -> argparse.ArgumentParser:
+    parser = ArgumentParser(prog=prog, description=__doc__.split("\n\n")[1])
+    parser.add_argument("scenario", type=Path, help="scenario YAML file")
+    parser.add_argument("--out", type=Path, help="recording path (default: the scenario's output)")
+    parser.add_argument("--variant", nargs="+", default=[], metavar="NAME", help="run only these variants")
+    parser.add_argument("--duration", type=float, metavar="S", help="override the scenario's duration [s]")
+    parser.add_argument("--set", action="append", default=[], metavar="KEY=VALUE", dest="overrides",
+                        help="override a scenario field, e.g. variants.proposed.controller.gains.mu=1.0")
+    parser.add_argument("--json", type=Path, metavar="PATH", help="write the metrics as JSON")
+    parser.add_argument("--no-record", action="store_true", help="do not write a Rerun recording")
+    parser.add_argument("--quiet", action="store_true", help="no progress display and no table")
+    return parser
+
+
+def _run_with_progress(scenario: Scenario, console: Console | None) -> list[VariantResult]:
+    """:func:`run_scenario` with a progress bar on ``console`` (none when None): the variants step together."""
+    from ftc_mj.engine.runner import run_scenario
+
+    if console is None:
+        return run_scenario(scenario)
+    from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn
+
+    steps = len(scenario.times)
+    with Progress(
+        TextColumn("{task.description:<16}"), BarColumn(), MofNCompleteColumn(), TimeElapsedColumn(),
+        console=console, transient=False,
+    ) as display:
+        tasks = {}
+
+        def start(variants: str):
+            tasks[variants] = task = display.add_task(variants, total=steps)
+            return lambda advance: display.advance(task, advance)
+
+        results = run_scenario(scenario, progress=start)
+    return results
+
+
+def metrics_table(scenario: Scenario, results: Sequence[VariantResult], metrics: dict[str, dict]) -> Table:
+    """One line per metric and variant (the metric named on its first), one column per joint: a 7-joint arm
+    fits a screen."""
+    from rich.table import Table
+
+    from ftc_mj.analysis.metrics import METRICS, unit
+
+    n = scenario.n_joints
+    table = Table(title=f"{scenario.name}: metrics, one column per joint", show_lines=False)
+    table.add_column("metric", no_wrap=True)
+    table.add_column("unit", no_wrap=True)
+    table.add_column("variant", no_wrap=True)
+    for joint in range(n):
+        table.add_column(scenario.model.joint(joint).name or f"joint {joint + 1}", justify="right")
+    names = {r.name: r.name if r.status == "ok" else f"{r.name} [red](diverged at {r.diverged_at:.3f} s)[/red]"
+             for r in results}
+    space = scenario.diagnoser.space if scenario.diagnoser is not None else None
+    for metric in METRICS:
+        for k, result in enumerate(results):
+            first = k == 0
+            table.add_row(metric if first else "", unit(metric, space) if first else "", names[result.name],
+                          *(_format(v) for v in metrics[result.name][metric]))
+    return table
+
+
+def _format(value: float) -> str:
+    return "-" if not math.isfinite(value) else f"{value:.3g}"
+
+
+def metrics_document(scenario: Scenario, results: Sequence[VariantResult], metrics: dict[str, dict]) -> dict:
+    """The ``--json`` document; NaN (undefined) values become null."""
+    import numpy as np
+
+    def clean(values: np.ndarray) -> list[float | None]:
+        return [float(v) if math.isfinite(v) else None for v in values]
+
+    first_onset = min(scenario.fault_onsets, default=math.inf)
+
+    def diagnosis(result: VariantResult) -> dict | None:
+        found = result.diagnosis
+        if found is None:
+            return None
+        return {
+            "space": found.space,
+            "alarms": found.alarm_times(),
+            "isolated_joints": [int(j) + 1 for j in np.flatnonzero(found.isolated(first_onset))],
+            "baseline_mean": clean(found.mean),
+            "baseline_std": clean(found.std),
+        }
+
+    velocity = {variant.name: variant.controller_velocity for variant in scenario.variants}
+    return {
+        "scenario": scenario.name,
+        "seed": scenario.spec.seed,
+        "variants": {
+            r.name: {
+                "status": r.status,
+                "diverged_at": r.diverged_at,
+                "controller_velocity": velocity[r.name.split(".")[0]],  # a monitor's: its host's
+                "metrics": {name: clean(values) for name, values in metrics[r.name].items()},
+                "diagnosis": diagnosis(r),
+            }
+            for r in results
+        },
+    }
+
+
+def _check_writable(file: str, option: str, target: Path) -> None:
+    """Refuse, before running, an output path that cannot become a file: a directory, or below a file."""
+    from ftc_mj.config.errors import InputError
+
+    if target.is_dir():
+        raise InputError(file, option, f"{str(target)!r} is a directory")
+    for parent in target.parents:
+        if parent.exists():
+            if not parent.is_dir():
+                raise InputError(file, option, f"{str(parent)!r} is not a directory")
+            if not os.access(parent, os.W_OK):
+                raise InputError(file, option, f"{str(parent)!r} is not writable")
+            return
+
+
+def main(argv: Sequence[str] | None = None, prog: str = PROG) -> int:
+    args = build_parser(prog).parse_args(argv)
+    from rich.console import Console
+
+    from ftc_mj.analysis.metrics import compute_metrics
+    from ftc_mj.config.errors import InputError
+    from ftc_mj.outputs.files import write_atomic
+    from ftc_mj.spec.loading import load_scenario
+
+    try:
+        scenario = load_scenario(args.scenario, overrides=args.overrides, duration=args.duration, variants=args.variant)
+        recording_path = args.out or scenario.output_path
+        for label, target in (("--out", None if args.no_record else recording_path), ("--json", args.json)):
+            if target is not None:
+                _check_writable(str(args.scenario), label, target)
+    except InputError as error:
+        print(f"error: {error}", file=sys.stderr)
+        return 2
+
+    console = None if args.quiet else Console(stderr=True)
+    results = _run_with_progress(scenario, console)
+    onsets = scenario.fault_onsets
+    metrics = {r.name: compute_metrics(r, scenario.spec.metrics, onsets, scenario.joint_fault_onsets) for r in results}
+    if not args.quiet:
+        # Wide enough for four variant columns even when the output is piped (rich then assumes 80).
+        table_console = Console()
+        table_console.width = max(table_console.width, 120)
+        table_console.print(metrics_table(scenario, results, metrics))
+
+    # Recording first, JSON second; if the JSON cannot be written, the new recording goes too (exit 2 writes
+    # nothing). Both are written whole or not at all (write_atomic).
+    written: list[Path] = []
+    try:
+        if not args.no_record:
+            from ftc_mj.outputs.recording import write_recording  # rerun is heavy to import; only when recording
+
+            write_recording(recording_path, scenario=scenario.name, model=scenario.model, results=results,
+                            fault_onsets=onsets, seed=scenario.spec.seed, figures=scenario.figures)
+            written.append(recording_path)
+        if args.json is not None:
+            document = metrics_document(scenario, results, metrics)
+            write_atomic(args.json, (json.dumps(document, indent=2) + "\n").encode("utf-8"))
+    except OSError as error:
+        for path in written:
+            path.unlink(missing_ok=True)
+        print(f"error: cannot write {error.filename}: {error.strerror}", file=sys.stderr)
+        return 2
+    if written and not args.quiet:
+        print(f"recording: {recording_path}  (open with: rerun {recording_path})", file=sys.stderr)
+    diverged = [r for r in results if r.status != "ok" and "." not in r.name]  # monitors share their host's run
+    for r in diverged:  # said whatever --quiet: an exit 1 explains itself
+        print(f"diverged: variant {r.name!r} at t = {r.diverged_at:.6g} s", file=sys.stderr)
+    return 1 if diverged else 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
