@@ -14,6 +14,7 @@ from __future__ import annotations
 
 from collections.abc import Sequence
 from dataclasses import dataclass
+from functools import cached_property
 
 import numpy as np
 
@@ -66,8 +67,9 @@ class Layout:
             blocks.append(BlockLayout(rows, observer, watching, take(rows) if readings else None))
         return cls(members, tuple(blocks), point, np.concatenate(point_rows) if point_rows else np.zeros(0, int))
 
-    @property
+    @cached_property
     def rows(self) -> int:
+        """How many rows the plant has."""
         return self.members * len(self.blocks)
 
     def per_row(self, values: np.ndarray) -> np.ndarray:

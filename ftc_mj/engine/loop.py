@@ -133,12 +133,6 @@ class Stops:
     done: np.ndarray
     diverged_at: np.ndarray
 
-    def stop(self, stopped: np.ndarray | None, k: int, t: float) -> None:
-        """Rows stopped at sample k (a mask, or None): their recording ends before it."""
-        if stopped is not None:
-            self.done[stopped] = k
-            self.diverged_at[stopped] = t
-
 
 def simulate(
     scenario: Scenario,
@@ -284,8 +278,10 @@ class _Run:
                    reference, series, poses, truths, Stops(np.full(rows, steps), np.full(rows, np.nan)))
 
     def stop(self, stopped: np.ndarray | None, k: int) -> None:
-        """Rows stopped at sample k: their recording ends before it."""
-        self.stops.stop(stopped, k, self.times[k])
+        """Rows stopped at sample k (a mask, or None): their recording ends before it."""
+        if stopped is not None:
+            self.stops.done[stopped] = k
+            self.stops.diverged_at[stopped] = self.times[k]
 
     def sense(self, k: int) -> None:
         """1. The readings of sample k, corrupted by the sensor effects."""

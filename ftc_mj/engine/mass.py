@@ -35,7 +35,7 @@ class MassAtReadings(Protocol):
         """The plant's M(q) at the sample instant (for the terms in acceleration space), after :meth:`evaluate`."""
 
 
-class PlantMass:
+class PlantMass(MassAtReadings):
     """M(x1) is the plant's M(q): the readings are the true positions and the models are the same."""
 
     def __init__(self, plant: Plant):
@@ -50,7 +50,7 @@ class PlantMass:
         return self.M  # this period's, and the plant has not moved since
 
 
-class NominalMass:
+class NominalMass(MassAtReadings):
     """M(x1) evaluated by the nominal model at the readings, one point per row."""
 
     def __init__(self, batch: NominalBatch, plant: Plant):

@@ -85,7 +85,7 @@ class Plant(Protocol):
         ``acceleration`` ``(rows, n)``; the newly stopped rows (a mask), or None."""
 
 
-class MuJoCoPlant:
+class MuJoCoPlant(Plant):
     """:class:`Plant` simulated by MuJoCo: one simulation of a persistent :class:`mujoco.batch.Batch` per row."""
 
     def __init__(self, model: mujoco.MjModel, rows: int, substeps: int, nthread: int,

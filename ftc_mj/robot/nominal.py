@@ -311,7 +311,7 @@ def nominal_batch(model: mujoco.MjModel, mass_scale: np.ndarray, nthread: int,
     return CompiledNominal(tree, rigid, mass_scale, mass_only)
 
 
-class CompiledNominal:
+class CompiledNominal(NominalBatch):
     """:class:`NominalBatch` by the compiled algorithms of :mod:`ftc_mj.robot.rigid`: about a quarter of
     MuJoCo's forward pass per point and equal to it to rounding (1e-15), not bit for bit."""
 
@@ -340,7 +340,7 @@ class CompiledNominal:
         return self._dense.update(self._sparse_M)
 
 
-class MuJoCoNominal:
+class MuJoCoNominal(NominalBatch):
     """:class:`NominalBatch` on a private :class:`mujoco.batch.Batch`, one simulation per point, evaluated by
     MuJoCo itself (its forward pass up to the acceleration, or the position stage for a ``mass_only`` batch)."""
 
