@@ -1,7 +1,7 @@
 """The closed loop of a batch: every variant of a scenario and every member, stepped together.
 
 Rows and points: the plant has a row per (variant, member), variant-major; the nominal model is evaluated at
-points laid out per variant (:mod:`ftc_mj.engine.layout`). A single run is one member.
+points laid out per variant (:mod:`ftc_mj.engine.rows`). A single run is one member.
 
 Per control period k (time t_k = k * control_dt, zero-order hold on the command):
 
@@ -39,7 +39,7 @@ from ftc_mj.effects import randomness
 from ftc_mj.effects.faults import ActuatorFaults
 from ftc_mj.effects.sensors import Measurement
 from ftc_mj.effects.terms import PlantTerms
-from ftc_mj.engine.layout import Layout
+from ftc_mj.engine.rows import Layout
 from ftc_mj.engine.mass import MassAtReadings, mass_at_readings
 from ftc_mj.engine.members import Members
 from ftc_mj.engine.plant import MuJoCoPlant, Plant

@@ -1,10 +1,10 @@
-"""Rows and nominal evaluation points of a batch run (ftc_mj.engine.layout)."""
+"""Rows and nominal evaluation points of a batch run (ftc_mj.engine.rows)."""
 
 from __future__ import annotations
 
 import numpy as np
 
-from ftc_mj.engine.layout import Layout
+from ftc_mj.engine.rows import Layout
 
 
 def test_points_follow_each_variant_observer_monitors_then_readings():
