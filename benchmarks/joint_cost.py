@@ -8,7 +8,7 @@ Per arm and mode it measures, alternating rounds and keeping the fastest of each
   members (:func:`ftc_mj.engine.runner.run_batch`), per member and control period;
 * physics: a bare ``mujoco.batch.Batch`` of the same model, substeps and B that only writes ``ctrl``;
 * nominal model: one evaluation (M, C qd + G, M^-1) of the nominal batch
-  (:class:`ftc_mj.robot.nominal.NominalBatch`) on B points, as the loop does once per period;
+  (:func:`ftc_mj.robot.nominal.nominal_batch`) on B points, as the loop does once per period;
 * the rest (methods' math, sensors, terms, bookkeeping) is the closed loop minus the two.
 
 Prints a table and writes ``benchmarks/joint_cost.png`` (needs matplotlib) and ``benchmarks/joint_cost.json``.
@@ -31,7 +31,7 @@ from batch_cost import bare  # the bare physics batch, measured as batch_cost.py
 
 from ftc_mj.engine.members import replicates
 from ftc_mj.engine.runner import run_batch, simulate_variant
-from ftc_mj.robot.nominal import NominalBatch
+from ftc_mj.robot.nominal import nominal_batch
 from ftc_mj.spec.loading import load_scenario
 
 HERE = Path(__file__).resolve().parent
@@ -42,7 +42,7 @@ SCENARIOS = {3: HERE.parent / "scenarios" / "puma_fault.yaml",
 
 def nominal_evaluation(model: mujoco.MjModel, members: int, periods: int, threads: int) -> float:
     """Seconds per point of one evaluation of the nominal batch (M, C qd + G and the solve)."""
-    nominal = NominalBatch(model, np.ones(members), nthread=threads)
+    nominal = nominal_batch(model, np.ones(members), nthread=threads)
     nominal.qpos[:] = 0.1
     start = time.perf_counter()
     for _ in range(periods):

@@ -4,8 +4,9 @@ The first batch of a campaign (default ``campaigns/ch5_monte_carlo.yaml``), cut 
 run`` cuts it (its default batch size on this machine's workers), is run on one core the way a worker runs it,
 with a timer around each phase of the loop (:mod:`ftc_mj.engine.loop`):
 
-* physics: the plant's substeps (``Plant.step``), the campaign's only share of bare physics;
-* nominal model: Psi at every estimate and M at every measured position (MuJoCo, :class:`NominalBatch`);
+* physics: the plant's substeps (``MuJoCoPlant.step``), the campaign's only share of bare physics;
+* nominal model: Psi at every estimate and M at every measured position (:func:`nominal_batch`,
+  :mod:`ftc_mj.engine.mass`);
 * methods: observers' and controllers' laws (``update``, ``compute``, ``advance``), the recorded series;
 * plant terms: friction, disturbance and fault terms on the true state, the truths' bookkeeping;
 * readings: sensor effects and the divergence check;
@@ -13,7 +14,7 @@ with a timer around each phase of the loop (:mod:`ftc_mj.engine.loop`):
 * metrics: every member's results, diagnosis, metrics and detection statistics, as a worker computes them.
 
 Each phase is printed per row (variant x member) and control period, and as a share of the physics. The
-campaign's goal (issue 10) is at most 1.5 times the bare physics, so everything but the physics must stay
+campaign's goal is at most 1.5 times the bare physics, so everything but the physics must stay
 within half of it; the printed cumulative ratios say how far each phase brings it. The bare physics of the
 same rows on one core (``benchmarks/batch_cost.py``'s batch) is measured before and after as a check that the
 physics phase is the bare physics' cost.
@@ -46,7 +47,7 @@ def phase_seconds(campaign: execute.Campaign, task: execute.Task) -> tuple[dict[
     seconds = dict.fromkeys(PHASES, 0.0)
     clock = time.perf_counter
     start = clock()
-    run = loop._Run(scenario, members, record_poses=False, nthread=1)
+    run = loop._Run.set_up(scenario, members, record_poses=False, nthread=1)
     seconds["set-up and truths"] += clock() - start
     with np.errstate(all="ignore"):
         for k in range(run.steps):
@@ -63,7 +64,7 @@ def phase_seconds(campaign: execute.Campaign, task: execute.Task) -> tuple[dict[
             e = clock()
             run.integrate_observers()  # advance(), split: the observers (methods), then the plant (physics)
             f = clock()
-            run.stop(run.plant.step(run.series["qdd_true"][k]), k)
+            run.step_plant(k)
             g = clock()
             seconds["readings"] += b - a
             seconds["nominal model"] += c - b

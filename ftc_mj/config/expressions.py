@@ -201,7 +201,9 @@ class TimeFunctions:
 
 
 #: Up to this many rows a state function is evaluated row by row on Python floats (much cheaper than NumPy
-#: on tiny arrays), beyond it on whole columns; both give the same bits (:class:`StateFunction`).
+#: on tiny arrays), beyond it on whole columns; both give the same bits (:class:`StateFunction`). A crossover
+#: of this evaluation's own costs (one row is a whole expression on floats, a column one NumPy call per
+#: operation); the engine's other small-batch paths have their own.
 SCALAR_ROWS = 16
 
 

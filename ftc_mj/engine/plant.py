@@ -1,9 +1,11 @@
-"""The true robots of a run: every row (variant x member) one simulation of a :class:`mujoco.batch.Batch`.
+"""The true robots of a run, one row per (variant, member): what the loop needs of them (:class:`Plant`) and
+the simulated robots that give it, every row one simulation of a :class:`mujoco.batch.Batch`
+(:class:`MuJoCoPlant`).
 
 Per control period the engine reads the sensors (current: the batch computes the position and velocity
-stages at the new state after each step), writes ``ctrl`` and ``qfrc_applied``, and calls :meth:`Plant.step`:
-one substep whose acceleration is the period's ground truth (the acceleration at the sampled state under the
-period's inputs), then the remaining substeps with the inputs held (zero-order hold).
+stages at the new state after each step), writes ``ctrl`` and ``qfrc_applied``, and calls
+:meth:`MuJoCoPlant.step`: one substep whose acceleration is the period's ground truth (the acceleration at the
+sampled state under the period's inputs), then the remaining substeps with the inputs held (zero-order hold).
 
 A row that diverges stops: NaN or inf, a state beyond ``divergence`` limits, or any of MuJoCo's bad-qacc,
 bad-qpos and bad-qvel warnings (MuJoCo resets such a simulation to its initial state; here that reset is a
@@ -13,6 +15,7 @@ divergence, never a silent restart). The other rows go on.
 from __future__ import annotations
 
 from collections.abc import Callable
+from typing import Protocol
 
 import mujoco
 import numpy as np
@@ -20,26 +23,74 @@ from mujoco.batch import Batch, SimulationError
 
 from ftc_mj.robot.model import position_sensor_addresses, velocity_sensor_addresses
 from ftc_mj.robot.nominal import DenseMass, scale_masses
-from ftc_mj.config.expressions import SCALAR_ROWS
 
 _POSITION_VELOCITY_STAGE = int(mujoco.mjtStage.mjSTAGE_VEL)
+_NO_STAGE = int(mujoco.mjtStage.mjSTAGE_NONE)
 #: MuJoCo warnings after which it resets a simulation: that is a divergence here.
 _RESET_WARNINGS = slice(int(mujoco.mjtWarning.mjWARN_BADQPOS), int(mujoco.mjtWarning.mjWARN_BADQACC) + 1)
 assert _RESET_WARNINGS.stop - _RESET_WARNINGS.start == 3  # bad qpos, bad qvel, bad qacc: adjacent in mjtWarning
+#: Up to this many rows :meth:`MuJoCoPlant.check` compares Python floats, beyond it NumPy's reductions: a
+#: crossover of its own (a few comparisons per row against half a dozen array calls), not the expressions'.
+CHECK_SCALAR_ROWS = 16
 
 
-class Plant:
-    """The simulated robots, one row per variant and member.
+class Plant(Protocol):
+    """What the loop needs of the true robots, ``rows`` of them (a row per variant and member).
 
-    Attributes (live ``(rows, ...)`` arrays of the batch):
-        qpos, qvel: the true state at the current sample instant.
+    The arrays are live ``(rows, ...)`` buffers, current at the sample instant of the period: the loop reads
+    them after :meth:`reset` and after each :meth:`step`, and writes ``ctrl`` and ``applied`` before the step.
+    A row that diverges stops (:meth:`check`, :meth:`step` return it); the others go on.
+
+    Attributes:
+        qpos, qvel: the true state.
         ctrl, applied: the command and the generalized force (terms, actuator faults) of this period.
-        alive: rows still running.
+        bias: C(q, qd) qd + G(q) of the true robot.
+        factor, diagonal_inverse: the factorisation of the true M(q) in MuJoCo's sparse layout (``qLD``,
+            ``qLDiagInv``; solved by :class:`~ftc_mj.robot.nominal.SparseSolver`).
+        alive: rows still running (a mask); running: how many.
+        reads_state_exactly: whether the encoders read the joint positions exactly.
     """
 
-    def __init__(self, model: mujoco.MjModel, q0: np.ndarray, qd0: np.ndarray, substeps: int, nthread: int,
+    qpos: np.ndarray
+    qvel: np.ndarray
+    ctrl: np.ndarray
+    applied: np.ndarray
+    bias: np.ndarray
+    factor: np.ndarray
+    diagonal_inverse: np.ndarray
+    alive: np.ndarray
+    running: int
+    reads_state_exactly: bool
+
+    def reset(self, q0: np.ndarray, qd0: np.ndarray) -> None:
+        """Every row at its initial state ``(rows, n)``, running, its readings and M(q) current."""
+
+    def read_positions(self, out: np.ndarray) -> None:
+        """The encoders' true readings into ``out``, ``(rows, n)``."""
+
+    def read_velocities(self, out: np.ndarray) -> None:
+        """The tachometers' true readings into ``out``."""
+
+    def mass_matrices(self) -> np.ndarray:
+        """The true M(q) of every row, ``(rows, n, n)`` (an internal buffer)."""
+
+    def poses(self) -> tuple[np.ndarray, np.ndarray]:
+        """Live ``(rows, bodies, 3)`` positions and ``(rows, bodies, 4)`` quaternions of the bodies."""
+
+    def check(self) -> np.ndarray | None:
+        """Stop the rows whose state left the plausible range; the newly stopped rows (a mask), or None."""
+
+    def step(self, acceleration: np.ndarray) -> np.ndarray | None:
+        """Advance one control period under ``ctrl`` and ``applied``, the period's true acceleration into
+        ``acceleration`` ``(rows, n)``; the newly stopped rows (a mask), or None."""
+
+
+class MuJoCoPlant(Plant):
+    """:class:`Plant` simulated by MuJoCo: one simulation of a persistent :class:`mujoco.batch.Batch` per row."""
+
+    def __init__(self, model: mujoco.MjModel, rows: int, substeps: int, nthread: int,
                  mass_scale: np.ndarray | None = None, max_position: float = np.inf, max_velocity: float = np.inf):
-        rows = len(q0)
+        """``mass_scale``: one per row, scales masses, inertias and armature of that row's model."""
         self.batch = Batch(model, rows, nthread=nthread, persistent=True)
         if mass_scale is not None and np.any(mass_scale != 1.0):
             scale_masses(self.batch.expand, mass_scale)
@@ -48,48 +99,51 @@ class Plant:
         self.qpos, self.qvel = self.batch.bind("qpos"), self.batch.bind("qvel")
         self.ctrl, self.applied = self.batch.bind("ctrl"), self.batch.bind("qfrc_applied")
         self.qacc = self.batch.bind("qacc")
+        self.bias = self.batch.bind("qfrc_bias")
         self._sensordata = self.batch.bind("sensordata")
         self._sparse_M = self.batch.bind("M")
-        #: MuJoCo's factorisation of M(q) at the sample instant (``qLD``, ``qLDiagInv``).
         self.factor, self.diagonal_inverse = self.batch.bind("qLD"), self.batch.bind("qLDiagInv")
         self._dense = DenseMass(model, rows)
         self._position_readings = _columns(self._sensordata, position_sensor_addresses(model))
         self._velocity_readings = _columns(self._sensordata, velocity_sensor_addresses(model))
-        #: Whether the encoders read the joint positions exactly (no sensor cutoff clips them).
         self.reads_state_exactly = bool(np.all(model.sensor_cutoff[self._sensor_ids(model)] == 0))
         self.max_position, self.max_velocity = max_position, max_velocity
         self.alive = np.ones(rows, dtype=bool)
         self._position, self._velocity = np.zeros_like(self.qpos), np.zeros_like(self.qvel)
         self._ids: np.ndarray | None = None  # None: all rows step
-        #: How many rows still run.
         self.running = rows
         #: The bad-state warning counts of every row (a live view of the batch's warnings).
         self._reset_counts = self.batch.warning[:, _RESET_WARNINGS, 1]
+
+    def reset(self, q0: np.ndarray, qd0: np.ndarray) -> None:
+        self.batch.reset(stage=_NO_STAGE)  # MuJoCo's defaults, warnings cleared; the state is written next
+        self.alive[:] = True
+        self._ids, self.running = None, len(self.alive)
         self.qpos[:] = q0
         self.qvel[:] = qd0
         self.batch.forward(stage=_POSITION_VELOCITY_STAGE)
+
+    def poses(self) -> tuple[np.ndarray, np.ndarray]:
+        return self.batch.bind("xpos"), self.batch.bind("xquat")
 
     @staticmethod
     def _sensor_ids(model: mujoco.MjModel) -> np.ndarray:
         return np.flatnonzero(model.sensor_type == mujoco.mjtSensor.mjSENS_JOINTPOS)
 
     def read_positions(self, out: np.ndarray) -> None:
-        """The encoders' true readings (``jointpos`` sensors) into ``out``, ``(rows, n)``."""
+        """The ``jointpos`` sensors."""
         self._position_readings(out)
 
     def read_velocities(self, out: np.ndarray) -> None:
-        """The tachometers' true readings (``jointvel`` sensors) into ``out``."""
+        """The ``jointvel`` sensors."""
         self._velocity_readings(out)
 
     def mass_matrices(self) -> np.ndarray:
-        """The true M(q) of every row at the current sample instant, ``(rows, n, n)`` (an internal buffer)."""
         return self._dense.update(self._sparse_M)
 
     def check(self) -> np.ndarray | None:
-        """Stop the rows whose state left the plausible range; returns the newly stopped rows (a mask), or
-        None."""
         # NaN fails every comparison, so it stops its row too (the engine runs under np.errstate(all="ignore")).
-        if len(self.alive) <= SCALAR_ROWS:  # a few rows: Python floats (NaN fails every comparison)
+        if len(self.alive) <= CHECK_SCALAR_ROWS:  # a few rows: Python floats (NaN fails every comparison)
             if all(abs(x) <= self.max_position for row in self.qpos.tolist() for x in row) and all(
                     abs(x) <= self.max_velocity for row in self.qvel.tolist() for x in row):
                 return None
@@ -101,7 +155,7 @@ class Plant:
         return self._stop(~within & self.alive)
 
     def step(self, acceleration: np.ndarray) -> np.ndarray | None:
-        """Advance one control period; returns the rows stopped by MuJoCo (a mask), or None.
+        """MuJoCo's errors and bad-state warnings stop their rows.
 
         The first substep alone, whose acceleration goes into ``acceleration`` ``(rows, n)``: the true qdd at
         the sampled state under this period's inputs; then the others, ending with the position and velocity

@@ -1,14 +1,19 @@
-"""The controller's nominal model: M(q) and Psi(q, qd) = -M^-1 (C qd + G) from the MJCF (eq. (5.2)).
+"""The controller's nominal model: M(q) and Psi(q, qd) = -M^-1 (C qd + G) from the MJCF (eq. (5.2)), at many
+evaluation points at once (:class:`NominalBatch`), and what one control period hands the plugins
+(:class:`StepModel`).
 
-It owns a private copy of the MjModel and its own MjData, so evaluating it at an estimated state never
-touches the simulation. ``mass_scale`` scales every body's mass and inertia (and the joint armature) of the
-copy, which gives a controlled model mismatch (the scenario's ``nominal`` section, :class:`NominalSpec`).
+The model is a private rigid-body copy of the robot's MjModel (:func:`rigid_body_model`), so evaluating it at
+an estimated state never touches the simulation. ``mass_scale`` scales every body's mass and inertia (and the
+joint armature) of the copy, which gives a controlled model mismatch (the scenario's ``nominal`` section,
+:class:`NominalSpec`). Two implementations evaluate it, chosen once by :func:`nominal_batch`: the compiled
+rigid-body algorithms (:class:`CompiledNominal`) and MuJoCo's own batch (:class:`MuJoCoNominal`).
 """
 
 from __future__ import annotations
 
 import copy
 from collections.abc import Callable
+from typing import Protocol
 
 import mujoco
 import numpy as np
@@ -18,7 +23,9 @@ from ftc_mj.robot.rigid import RigidTree
 from ftc_mj.config.types import PositiveFloat, Strict
 
 
-try:  # the C function np.einsum calls (with optimize=False), without its Python dispatch: half the cost on a few rows
+# np.einsum (optimize=False) calls this same C function, so the same bits, after a Python dispatch that costs
+# about as much again on a few rows; the public np.matmul and np.matvec sum in other orders (other bits).
+try:
     from numpy._core.multiarray import c_einsum as _einsum
 except ImportError:  # pragma: no cover - another NumPy layout
     _einsum = np.einsum
@@ -33,66 +40,6 @@ def matvec(matrices: np.ndarray, vectors: np.ndarray, out: np.ndarray) -> np.nda
 class NominalSpec(Strict):
     #: Scales masses, inertias and armature of the controller's model (1 = exact model).
     mass_scale: PositiveFloat = 1.0
-
-
-class NominalModel:
-    """Rigid-body terms of a robot model, evaluated on a private MjData."""
-
-    def __init__(self, model: mujoco.MjModel, mass_scale: float = 1.0):
-        self.model = copy.deepcopy(model)
-        if mass_scale != 1.0:
-            self.model.body_mass[:] *= mass_scale
-            self.model.body_inertia[:] *= mass_scale
-            self.model.dof_armature[:] *= mass_scale
-        self.data = mujoco.MjData(self.model)
-        self.n = self.model.nv
-        self._zeros = np.zeros(self.n)
-        self._rhs = np.zeros((1, self.n))
-        self._solution = np.zeros((1, self.n))
-
-    def _set_state(self, q: np.ndarray, qd: np.ndarray) -> None:
-        self.data.qpos[:] = q
-        self.data.qvel[:] = qd
-        # Position and velocity stages only: no control callback, no constraint solver.
-        mujoco.mj_fwdPosition(self.model, self.data)
-        mujoco.mj_fwdVelocity(self.model, self.data)
-
-    def mass_matrix(self, q: np.ndarray, out: np.ndarray | None = None) -> np.ndarray:
-        """Joint-space inertia M(q), dense ``(n, n)``."""
-        out = np.empty((self.n, self.n)) if out is None else out
-        self.data.qpos[:] = q
-        mujoco.mj_fwdPosition(self.model, self.data)
-        mujoco.mj_fullM(self.model, self.data, out)
-        return out
-
-    def bias(self, q: np.ndarray, qd: np.ndarray) -> np.ndarray:
-        """C(q, qd) qd + G(q) (a copy)."""
-        self._set_state(q, qd)
-        return self.data.qfrc_bias.copy()
-
-    def gravity(self, q: np.ndarray) -> np.ndarray:
-        """G(q)."""
-        return self.bias(q, self._zeros)
-
-    def solve_M(self, vector: np.ndarray) -> np.ndarray:
-        """M(q)^-1 vector at the last position evaluated, with MuJoCo's factorisation from mj_fwdPosition
-        (no explicit inverse). Returns a view of an internal buffer, valid until the next call."""
-        self._rhs[0] = vector
-        mujoco.mj_solveM(self.model, self.data, self._solution, self._rhs)
-        return self._solution[0]
-
-    def lumped(self, q: np.ndarray, qd: np.ndarray, qdd: np.ndarray, tau: np.ndarray) -> np.ndarray:
-        """qdd - (Psi(q, qd) + M(q)^-1 tau) = qdd + M^-1 (C qd + G - tau): the lumped uncertainty (5.2)
-        that explains an observed acceleration, in this model's terms."""
-        self._set_state(q, qd)
-        return qdd + self.solve_M(self.data.qfrc_bias - tau)
-
-    def psi(self, q: np.ndarray, qd: np.ndarray, out: np.ndarray | None = None) -> np.ndarray:
-        """Psi(q, qd) = -M(q)^-1 (C(q, qd) qd + G(q)), eq. (5.2)."""
-        out = np.empty(self.n) if out is None else out
-        self._set_state(q, qd)
-        np.negative(self.solve_M(self.data.qfrc_bias), out=out)
-        return out
 
 
 class StepModel:
@@ -121,21 +68,6 @@ class StepModel:
         self._factor, self._diagonal_inverse, self._solver = factor, diagonal_inverse, solver
         self._solution = np.zeros(psi_hat.shape)
         self._command = command
-
-    @classmethod
-    def evaluate(cls, nominal: NominalModel, q_meas: np.ndarray, q_hat: np.ndarray, qd_hat: np.ndarray,
-                 qd_meas: np.ndarray | None = None) -> "StepModel":
-        """One member's quantities from a single-state :class:`NominalModel` (tests, studies); with ``qd_meas``
-        the controller's Psi and velocity are the readings'."""
-        def row(x: np.ndarray) -> np.ndarray:
-            return np.asarray(x, dtype=float).reshape(-1)
-
-        psi = nominal.psi(row(q_hat), row(qd_hat))[None].copy()
-        psi_control = None if qd_meas is None else nominal.psi(row(q_meas), row(qd_meas))[None].copy()
-        M = nominal.mass_matrix(row(q_meas))[None].copy()  # last: its factorisation stays in the MjData
-        data = nominal.data
-        return cls(M, data.qLD[None].copy(), data.qLDiagInv[None].copy(), psi, SparseSolver(nominal.model),
-                   psi_control, None if qd_meas is None else row(qd_meas)[None])
 
     def control_velocity(self, observer_qd_hat: np.ndarray) -> np.ndarray:
         """The velocity x2 the controller uses: the tachometer reading or the observer's x2_hat."""
@@ -268,8 +200,10 @@ class DenseMass:
         return self.out
 
 
-#: Up to this many rows :class:`SparseSolver` calls ``mj_solveM`` row by row (its column path's dozen array
-#: operations cost more; measured on the 3-joint PUMA). Either path gives the same bits.
+#: Up to this many rows :class:`SparseSolver` calls ``mj_solveM`` row by row, beyond it works on columns (a
+#: dozen array operations whatever the rows). Either path gives the same bits. A crossover of this solve's own
+#: costs, not the state functions' (:data:`ftc_mj.config.expressions.SCALAR_ROWS`: Python floats against
+#: NumPy on a few rows, where one row is a whole lambdified expression, far dearer than one mj_solveM).
 SOLVER_ROWS = 4
 
 
@@ -327,68 +261,119 @@ class SparseSolver:
         return out
 
 
-class NominalBatch:
-    """The controller side's model of many points at once.
+class NominalBatch(Protocol):
+    """The controller side's model of many evaluation points at once (eq. (5.2)).
 
     Each point is an evaluation point: set its ``qpos``, ``qvel`` and ``applied`` (``(points, n)``), call
     :meth:`evaluate`, and its ``qacc`` is M(q)^-1 (applied - C(q, qd) qd - G(q)) and :meth:`mass_matrices` is
     M(q), with M's factorisation in MuJoCo's sparse layout (``factor``, ``diagonal_inverse``; solved by
-    :class:`SparseSolver`). With ``applied`` = 0 the acceleration is Psi(q, qd) of eq. (5.2). ``mass_scale``
-    (one per point) scales masses, inertias and armature: the controlled model mismatch of
-    ``nominal.mass_scale``. A ``mass_only`` batch holds points where only M(q) is wanted: no velocity terms,
-    no ``qacc``.
-
-    The model is the robot's rigid-body model (:func:`rigid_body_model`). Where it is a tree of hinge and slide
-    joints (the robot of every shipped scenario; not Menagerie's Panda with its coupled fingers), the compiled
-    algorithms of :mod:`ftc_mj.robot.rigid` evaluate it, at about a quarter of MuJoCo's forward pass per point
-    and equal to it to rounding (1e-15). Otherwise the points are the simulations of a private
-    :class:`mujoco.batch.Batch` (``nthread`` threads), evaluated by MuJoCo itself. Either way a point's numbers
-    do not depend on the number of points, so a batch member gets its single run's bits.
+    :class:`SparseSolver`). With ``applied`` = 0 the acceleration is Psi(q, qd) of eq. (5.2). A point's mass
+    scale is its own. A ``mass_only`` batch holds points where only M(q) is wanted: no velocity terms, no
+    ``qacc``. A point's numbers do not depend on the number of points, so a batch member gets its single run's
+    bits. Made by :func:`nominal_batch`.
     """
 
-    def __init__(self, model: mujoco.MjModel, mass_scale: np.ndarray, nthread: int, mass_only: bool = False):
-        model = rigid_body_model(model)
-        mass_scale = np.asarray(mass_scale, dtype=float)
-        points, n = len(mass_scale), model.nv
-        self._with_velocity = not mass_only
-        self.tree = RigidTree.from_model(model)
-        if self.tree is not None:
-            self.batch = None
-            self._inertias = self.tree.scaled(mass_scale)
-            self.qpos, self.qvel, self.applied = np.zeros((points, n)), np.zeros((points, n)), np.zeros((points, n))
-            self._qacc, self._bias = np.zeros((points, n)), np.zeros((points, n))
-            self._sparse_M = np.zeros((points, model.nM))
-            self.factor, self.diagonal_inverse = np.zeros((points, model.nM)), np.ones((points, n))
-        else:
-            self.batch = Batch(model, points, nthread=nthread)
-            if np.any(mass_scale != 1.0):
-                scale_masses(self.batch.expand, mass_scale)
-                self.batch.set_const()
-            self.qpos = self.batch.bind("qpos")
-            self.qvel = self.batch.bind("qvel")
-            self.applied = self.batch.bind("qfrc_applied")
-            self._qacc = self.batch.bind("qacc")
-            self._sparse_M = self.batch.bind("M")
-            #: MuJoCo's factorisation of M at each point (for :class:`SparseSolver`), from the last evaluate().
-            self.factor, self.diagonal_inverse = self.batch.bind("qLD"), self.batch.bind("qLDiagInv")
-            self._stage = _ACCELERATION_STAGE if self._with_velocity else _POSITION_STAGE
-        self._dense = DenseMass(model, points)
+    qpos: np.ndarray
+    qvel: np.ndarray
+    applied: np.ndarray
+    #: MuJoCo's factorisation of M at each point (``qLD``, ``qLDiagInv``), from the last :meth:`evaluate`.
+    factor: np.ndarray
+    diagonal_inverse: np.ndarray
 
-    def evaluate(self) -> None:
-        """Forward dynamics at every point (positions, velocities and applied forces as set), or M alone in a
-        ``mass_only`` batch."""
-        if self.tree is None:
-            self.batch.forward(stage=self._stage)
-        else:
-            self.tree.evaluate(*self._inertias, self.qpos, self.qvel, self.applied, self._sparse_M, self.factor,
-                               self.diagonal_inverse, self._qacc, self._bias, self._with_velocity)
+    @property
+    def mass_from_plant(self) -> bool:
+        """Whether M(q) of a MuJoCo plant of the same model at the same position is this model's M(q) and
+        factorisation bit for bit, so that a caller may take it from the plant instead of evaluating it."""
 
     @property
     def qacc(self) -> np.ndarray:
         """``(points, n)``: M^-1 (applied - C qd - G) at each point, from the last :meth:`evaluate` (not in a
         ``mass_only`` batch)."""
-        return self._qacc
+
+    def evaluate(self) -> None:
+        """Forward dynamics at every point (positions, velocities and applied forces as set), or M alone in a
+        ``mass_only`` batch."""
 
     def mass_matrices(self) -> np.ndarray:
         """``(points, n, n)``: M(q) at each point, from the last :meth:`evaluate` (an internal buffer)."""
+
+
+def nominal_batch(model: mujoco.MjModel, mass_scale: np.ndarray, nthread: int,
+                  mass_only: bool = False) -> NominalBatch:
+    """The nominal model of ``model`` at ``len(mass_scale)`` points, one mass scale each: the compiled
+    rigid-body algorithms where the robot is a tree of hinge and slide joints (every shipped scenario's; not
+    Menagerie's Panda with its coupled fingers), MuJoCo's own batch (``nthread`` threads) otherwise."""
+    rigid = rigid_body_model(model)
+    mass_scale = np.asarray(mass_scale, dtype=float)
+    tree = RigidTree.from_model(rigid)
+    if tree is None:
+        return MuJoCoNominal(rigid, mass_scale, nthread, mass_only)
+    return CompiledNominal(tree, rigid, mass_scale, mass_only)
+
+
+class CompiledNominal(NominalBatch):
+    """:class:`NominalBatch` by the compiled algorithms of :mod:`ftc_mj.robot.rigid`: about a quarter of
+    MuJoCo's forward pass per point and equal to it to rounding (1e-15), not bit for bit."""
+
+    #: It rounds otherwise than MuJoCo: it evaluates its own M.
+    mass_from_plant = False
+
+    def __init__(self, tree: RigidTree, model: mujoco.MjModel, mass_scale: np.ndarray, mass_only: bool = False):
+        """``model``: the rigid-body model whose tree ``tree`` is (for M's sparse layout)."""
+        points, n = len(mass_scale), model.nv
+        self._tree, self._inertias, self._with_velocity = tree, tree.scaled(mass_scale), not mass_only
+        self.qpos, self.qvel, self.applied = np.zeros((points, n)), np.zeros((points, n)), np.zeros((points, n))
+        self._qacc, self._bias = np.zeros((points, n)), np.zeros((points, n))
+        self._sparse_M = np.zeros((points, model.nM))
+        self.factor, self.diagonal_inverse = np.zeros((points, model.nM)), np.ones((points, n))
+        self._dense = DenseMass(model, points)
+
+    def evaluate(self) -> None:
+        self._tree.evaluate(*self._inertias, self.qpos, self.qvel, self.applied, self._sparse_M, self.factor,
+                            self.diagonal_inverse, self._qacc, self._bias, self._with_velocity)
+
+    @property
+    def qacc(self) -> np.ndarray:
+        return self._qacc
+
+    def mass_matrices(self) -> np.ndarray:
         return self._dense.update(self._sparse_M)
+
+
+class MuJoCoNominal(NominalBatch):
+    """:class:`NominalBatch` on a private :class:`mujoco.batch.Batch`, one simulation per point, evaluated by
+    MuJoCo itself (its forward pass up to the acceleration, or the position stage for a ``mass_only`` batch)."""
+
+    #: MuJoCo's own numbers: a plant of the same model at the same position has the same M, bit for bit.
+    mass_from_plant = True
+
+    def __init__(self, model: mujoco.MjModel, mass_scale: np.ndarray, nthread: int, mass_only: bool = False):
+        """``model``: the rigid-body model (:func:`rigid_body_model`)."""
+        self.batch = Batch(model, len(mass_scale), nthread=nthread)
+        if np.any(mass_scale != 1.0):
+            scale_masses(self.batch.expand, mass_scale)
+            self.batch.set_const()
+        self.qpos, self.qvel = self.batch.bind("qpos"), self.batch.bind("qvel")
+        self.applied = self.batch.bind("qfrc_applied")
+        self._qacc, self._sparse_M = self.batch.bind("qacc"), self.batch.bind("M")
+        self.factor, self.diagonal_inverse = self.batch.bind("qLD"), self.batch.bind("qLDiagInv")
+        self._stage = _POSITION_STAGE if mass_only else _ACCELERATION_STAGE
+        self._dense = DenseMass(model, len(mass_scale))
+
+    def evaluate(self) -> None:
+        self.batch.forward(stage=self._stage)
+
+    @property
+    def qacc(self) -> np.ndarray:
+        return self._qacc
+
+    def mass_matrices(self) -> np.ndarray:
+        return self._dense.update(self._sparse_M)
+
+
+def at_rest(batch: NominalBatch, points: np.ndarray) -> None:
+    """Put ``points`` (a mask or indices) of ``batch`` at rest, q = qd = 0 with no applied force: where a
+    stopped row's estimate may hold NaN or inf."""
+    batch.qpos[points] = 0.0
+    batch.qvel[points] = 0.0
+    batch.applied[points] = 0.0

@@ -16,13 +16,13 @@ from pathlib import Path
 import numpy as np
 import pytest
 from fault_scenarios import FAULTS, assert_input_error, run, scenario_data, write
+from nominal_oracle import NominalModel
 from rerun.chunk import RrdReader
 
 from ftc_mj.analysis.diagnosis import Diagnoser, low_pass, persistent
 from ftc_mj.analysis.diagnosis import diagnosis_metrics
 from ftc_mj.analysis.metrics import compute_metrics
 from ftc_mj.outputs.recording import read_series
-from ftc_mj.robot.nominal import NominalModel
 from ftc_mj.run import main
 from ftc_mj.config.expressions import StateFunction, parse, state_variables
 from ftc_mj.spec.loading import load_scenario

@@ -10,10 +10,10 @@ from pathlib import Path
 import numpy as np
 import pytest
 from fault_scenarios import assert_input_error, load, run, scenario_data, write
+from nominal_oracle import NominalModel
 
 from ftc_mj.effects.faults import ActuatorFault, ActuatorFaults
 from ftc_mj.effects.profiles import Profile
-from ftc_mj.robot.nominal import NominalModel
 from ftc_mj.config.errors import InputError
 from ftc_mj.spec.loading import load_scenario
 

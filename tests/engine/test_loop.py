@@ -486,13 +486,13 @@ def test_plugins_never_receive_the_simulation(tmp_path: Path, spies, monkeypatch
     from ftc_mj.engine import plant as plant_module
 
     plants: list = []
-    real_plant = plant_module.Plant
+    real_plant = plant_module.MuJoCoPlant
 
     def tracking_plant(*args, **kwargs):
         plants.append(real_plant(*args, **kwargs))
         return plants[-1]
 
-    monkeypatch.setattr("ftc_mj.engine.loop.Plant", tracking_plant)
+    monkeypatch.setattr("ftc_mj.engine.loop.MuJoCoPlant", tracking_plant)
     spec = scenario_dict(variants={"spy": {"observer": {"type": "spy_observer", "gains": {"D": 22.0, "gamma": 5.0}},
                                            "controller": {"type": "spy_controller", "gains": NFTSMC_GAINS}}})
     scenario, result = run(tmp_path, spec)

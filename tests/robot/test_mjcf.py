@@ -22,7 +22,7 @@ import pytest
 import yaml
 
 from ftc_mj.robot import mjcf
-from ftc_mj.robot.nominal import NominalBatch
+from ftc_mj.robot.nominal import nominal_batch
 from ftc_mj.run import main
 from ftc_mj.config.errors import InputError
 from ftc_mj.spec.loading import load_scenario
@@ -115,7 +115,7 @@ def test_damping_acts_on_the_plant_not_the_nominal_model():
     scenario = load_scenario(UR5E_YAML)
     model = scenario.model
     assert np.all(model.dof_damping > 0)
-    nominal = NominalBatch(model, np.ones(4), nthread=1)
+    nominal = nominal_batch(model, np.ones(4), nthread=1)
     rng = np.random.default_rng(5)
     q, qd = rng.uniform(-1.5, 1.5, (4, model.nv)), rng.uniform(-1.0, 1.0, (4, model.nv))
     nominal.qpos[:], nominal.qvel[:], nominal.applied[:] = q, qd, 0.0

@@ -1,4 +1,5 @@
-"""The controller's nominal model (``NominalModel``) and the per-period quantities (``StepModel``) on the PUMA560.
+"""The controller's nominal model (its batches, :func:`~ftc_mj.robot.nominal.nominal_batch`; the tests' single-state
+oracle ``NominalModel``) and the per-period quantities (``StepModel``) on the PUMA560.
 
 The reference values are computed independently, each on a fresh MjData with ``mj_forward`` and ``mj_fullM``:
 M(q), and C(q, qd) qd + G(q) = qfrc_bias. The check values of shared/reference/puma560.md give Psi at the
@@ -12,8 +13,9 @@ from pathlib import Path
 import mujoco
 import numpy as np
 import pytest
+from nominal_oracle import NominalModel, step_model
 
-from ftc_mj.robot.nominal import NominalBatch, NominalModel, StepModel
+from ftc_mj.robot.nominal import CompiledNominal, StepModel, nominal_batch
 
 PUMA = Path(__file__).resolve().parents[2] / "models" / "puma560.xml"
 CHECK_QD = np.array([0.4, -0.3, 0.9])
@@ -120,11 +122,11 @@ def test_nominal_never_modifies_the_callers_model():
 
     before = snapshot()
     nominal = NominalModel(m, mass_scale=2.0)
-    batch = NominalBatch(m, np.array([2.0, 0.5]), nthread=1)
+    batch = nominal_batch(m, np.array([2.0, 0.5]), nthread=1)
     for q, qd in random_states(3, seed=2):
         nominal.psi(q, qd)
         nominal.mass_matrix(q)
-        StepModel.evaluate(nominal, q, q + 0.1, qd).solve_M(qd[None])
+        step_model(nominal, q, q + 0.1, qd).solve_M(qd[None])
         batch.qpos[:], batch.qvel[:] = q, qd
         batch.evaluate()
     assert nominal.model is not m
@@ -145,7 +147,7 @@ def test_step_model_solves_with_M_at_the_measured_position(model):
     for _ in range(5):
         q_meas, q_hat = rng.uniform(-np.pi, np.pi, 3), rng.uniform(-np.pi, np.pi, 3)
         qd_hat = rng.uniform(-2.0, 2.0, 3)
-        step = StepModel.evaluate(nominal, q_meas, q_hat, qd_hat)
+        step = step_model(nominal, q_meas, q_hat, qd_hat)
         M_meas, _ = reference_dynamics(model, q_meas, np.zeros(3))
         M_hat, bias_hat = reference_dynamics(model, q_hat, qd_hat)
         assert np.abs(M_meas - M_hat).max() > 1e-2  # the two states really differ
@@ -161,8 +163,8 @@ def test_nominal_batch_is_the_single_state_model_at_every_point(model):
     with no applied force is Psi of NominalModel (MuJoCo on one MjData) to rounding, M its dense M; with an
     applied force f, M^-1 (f - bias); a point's mass scale is its own. Five points, three joints."""
     scales = np.array([1.0, 1.0, 2.0, 0.5, 1.0])
-    batch = NominalBatch(model, scales, nthread=2)
-    assert batch.tree is not None  # compiled, not MuJoCo's batch
+    batch = nominal_batch(model, scales, nthread=2)
+    assert isinstance(batch, CompiledNominal) and not batch.mass_from_plant  # not MuJoCo's batch
     rng = np.random.default_rng(9)
     q, qd, applied = rng.uniform(-np.pi, np.pi, (5, 3)), rng.uniform(-2.0, 2.0, (5, 3)), rng.normal(size=(5, 3))
     applied[:2] = 0.0
@@ -236,7 +238,7 @@ def test_step_model_on_measured_velocity_evaluates_the_controllers_psi_at_the_re
     rng = np.random.default_rng(7)
     q_meas, q_hat = rng.uniform(-np.pi, np.pi, 3), rng.uniform(-np.pi, np.pi, 3)
     qd_meas, qd_hat = rng.uniform(-2.0, 2.0, 3), rng.uniform(-2.0, 2.0, 3)
-    measured = StepModel.evaluate(NominalModel(model), q_meas, q_hat, qd_hat, qd_meas)
+    measured = step_model(NominalModel(model), q_meas, q_hat, qd_hat, qd_meas)
     M_hat, bias_hat = reference_dynamics(model, q_hat, qd_hat)
     M_meas, bias_meas = reference_dynamics(model, q_meas, qd_meas)
     np.testing.assert_allclose(measured.psi_hat[0], -np.linalg.solve(M_hat, bias_hat), rtol=0, atol=1e-10)
@@ -244,7 +246,7 @@ def test_step_model_on_measured_velocity_evaluates_the_controllers_psi_at_the_re
     assert np.abs(measured.psi_control - measured.psi_hat).max() > 1e-2
     np.testing.assert_array_equal(measured.control_velocity(qd_hat[None]), qd_meas[None])
     np.testing.assert_allclose(measured.M[0], M_meas, rtol=0, atol=1e-10)  # M(x1) kept for solve_M
-    estimated = StepModel.evaluate(NominalModel(model), q_meas, q_hat, qd_hat)
+    estimated = step_model(NominalModel(model), q_meas, q_hat, qd_hat)
     assert estimated.psi_control is estimated.psi_hat
     assert estimated.control_velocity(qd_hat) is qd_hat
 
@@ -296,7 +298,7 @@ def test_a_mass_only_batch_gives_M_and_its_factorisation_as_a_whole_evaluation(m
     rng = np.random.default_rng(3)
     q, qd = rng.uniform(-np.pi, np.pi, (5, 3)), rng.uniform(-2.0, 2.0, (5, 3))
     scales = np.array([1.0, 1.5, 0.8, 1.5, 0.8])
-    mass_only, whole = NominalBatch(model, scales, nthread=1, mass_only=True), NominalBatch(model, scales, nthread=1)
+    mass_only, whole = nominal_batch(model, scales, nthread=1, mass_only=True), nominal_batch(model, scales, nthread=1)
     for batch in (mass_only, whole):
         batch.qpos[:], batch.qvel[:] = q, qd
         batch.evaluate()
@@ -312,7 +314,7 @@ def test_command_acceleration_is_solved_on_demand_or_read_from_the_engines_buffe
     nominal = NominalModel(model)
     rng = np.random.default_rng(8)
     q, qd, tau = rng.uniform(-1.0, 1.0, 3), rng.uniform(-1.0, 1.0, 3), rng.normal(size=(1, 3)) * 20
-    step = StepModel.evaluate(nominal, q, q, qd)
+    step = step_model(nominal, q, q, qd)
     np.testing.assert_array_equal(step.command_acceleration(tau), step.solve_M(tau).copy())
     buffer = np.full((1, 3), 7.0)
     shared = StepModel(step.M, step._factor, step._diagonal_inverse, step.psi_hat, step._solver, command=buffer)

@@ -8,7 +8,7 @@ import mujoco
 import numpy as np
 import pytest
 
-from ftc_mj.robot.nominal import NominalBatch, rigid_body_model, scale_masses
+from ftc_mj.robot.nominal import MuJoCoNominal, nominal_batch, rigid_body_model, scale_masses
 from ftc_mj.robot.rigid import RigidTree
 
 MODELS = Path(__file__).resolve().parents[2] / "models"
@@ -145,8 +145,8 @@ def test_what_the_kernels_do_not_cover_is_declined_and_the_nominal_batch_uses_mu
     points on MuJoCo's own batch, and still gives Psi."""
     model = mujoco.MjModel.from_xml_string(f"<mujoco><worldbody>{xml}</worldbody></mujoco>")
     assert RigidTree.from_model(rigid_body_model(model)) is None
-    batch = NominalBatch(model, np.ones(2), nthread=1)
-    assert batch.tree is None and batch.batch is not None
+    batch = nominal_batch(model, np.ones(2), nthread=1)
+    assert isinstance(batch, MuJoCoNominal) and batch.mass_from_plant
     batch.qvel[:] = 0.5
     batch.evaluate()
     assert np.isfinite(batch.qacc).all()

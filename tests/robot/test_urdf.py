@@ -27,11 +27,11 @@ import numpy as np
 import pytest
 import yaml
 from rerun.chunk import RrdReader
+from nominal_oracle import NominalModel
 from test_models import dynamics  # M(q), G(q), C(q, qd) qd on fresh MjData, as the MJCF models are checked
 
 from ftc_mj.analysis.metrics import compute_metrics
 from ftc_mj.engine.runner import simulate_variant
-from ftc_mj.robot.nominal import NominalModel
 from ftc_mj.robot.urdf import load_model, read_urdf, resolve_mesh
 from ftc_mj.run import main
 from ftc_mj.config.errors import InputError

@@ -16,10 +16,10 @@ import pytest
 from pydantic import ValidationError
 
 from double_integrator import DT, MASS, FakeStepModel, simulate
+from nominal_oracle import NominalModel, step_model
 
 from ftc_mj.methods.observers import HighSpeedTOSMO, TOSMO
 from ftc_mj.methods.observers.base import signed_power
-from ftc_mj.robot.nominal import NominalModel, StepModel
 
 D_BOUND = 10.0
 GAMMA = 5.0  # the scenario's Gamma (scenarios/puma_fault.yaml)
@@ -194,7 +194,7 @@ class _RealStepModel:
         self.nominal = nominal
 
     def update(self, q_meas, q_hat, qd_hat) -> None:
-        self._step = StepModel.evaluate(self.nominal, q_meas, q_hat, qd_hat)
+        self._step = step_model(self.nominal, q_meas, q_hat, qd_hat)
         self.M, self.psi_hat = self._step.M[0], self._step.psi_hat[0]
 
     def solve_M(self, vector):

@@ -1,0 +1,80 @@
+"""M(x1) at every row's measured position, the M of the period's :class:`~ftc_mj.robot.nominal.StepModel`, and
+where it comes from, decided once per run (:func:`mass_at_readings`).
+
+Where the nominal model may take M from a plant of the same model (MuJoCo evaluates it:
+:attr:`~ftc_mj.robot.nominal.NominalBatch.mass_from_plant`), the nominal model is the plant's (no mass scale
+on either) and the encoders read the state exactly (no sensor effects, no sensor cutoff), M at the measured
+position is the plant's own M(q) and its factorisation, bit for bit, at no extra evaluation
+(:class:`PlantMass`). Otherwise the nominal model evaluates M at the readings, one point per row, without the
+velocity terms (:class:`NominalMass`).
+"""
+
+from __future__ import annotations
+
+from typing import Protocol
+
+import mujoco
+import numpy as np
+
+from ftc_mj.engine.plant import Plant
+from ftc_mj.robot.nominal import NominalBatch, at_rest, nominal_batch
+
+
+class MassAtReadings(Protocol):
+    """M(x1) of every row, ``(rows, n, n)``, and its factorisation in MuJoCo's sparse layout: buffers that
+    :meth:`evaluate` refreshes once per period."""
+
+    M: np.ndarray
+    factor: np.ndarray
+    diagonal_inverse: np.ndarray
+
+    def evaluate(self, q_meas: np.ndarray, stopped: np.ndarray | None) -> None:
+        """M at the readings ``q_meas`` ``(rows, n)``; ``stopped`` (a mask, or None) rows at rest instead."""
+
+    def true_mass(self) -> np.ndarray:
+        """The plant's M(q) at the sample instant (for the terms in acceleration space), after :meth:`evaluate`."""
+
+
+class PlantMass(MassAtReadings):
+    """M(x1) is the plant's M(q): the readings are the true positions and the models are the same."""
+
+    def __init__(self, plant: Plant):
+        self._plant = plant
+        self.M = plant.mass_matrices()  # the plant's buffer, refreshed by each mass_matrices() call
+        self.factor, self.diagonal_inverse = plant.factor, plant.diagonal_inverse
+
+    def evaluate(self, q_meas: np.ndarray, stopped: np.ndarray | None) -> None:
+        self._plant.mass_matrices()
+
+    def true_mass(self) -> np.ndarray:
+        return self.M  # this period's, and the plant has not moved since
+
+
+class NominalMass(MassAtReadings):
+    """M(x1) evaluated by the nominal model at the readings, one point per row."""
+
+    def __init__(self, batch: NominalBatch, plant: Plant):
+        self._batch, self._plant = batch, plant
+        self.M, self.factor, self.diagonal_inverse = batch.mass_matrices(), batch.factor, batch.diagonal_inverse
+
+    def evaluate(self, q_meas: np.ndarray, stopped: np.ndarray | None) -> None:
+        batch = self._batch
+        np.copyto(batch.qpos, q_meas)
+        if stopped is not None:  # they may hold NaN or inf
+            at_rest(batch, stopped)
+        batch.evaluate()
+        batch.mass_matrices()
+
+    def true_mass(self) -> np.ndarray:
+        return self._plant.mass_matrices()
+
+
+def mass_at_readings(plant: Plant, nominal: NominalBatch, model: mujoco.MjModel, nominal_scale: np.ndarray,
+                     plant_scale: np.ndarray, sensor_effects: bool, nthread: int) -> MassAtReadings:
+    """Where M(x1) comes from (the module docstring): the plant's or the nominal model's (a batch of ``model``
+    with the rows' ``nominal_scale``). ``nominal``: the run's Psi batch, which answers whether the nominal
+    model's M may be the plant's; ``sensor_effects``: whether the encoders' readings are corrupted."""
+    same_model = bool(np.all(nominal_scale == 1.0) and np.all(plant_scale == 1.0))
+    if nominal.mass_from_plant and same_model and not sensor_effects and plant.reads_state_exactly:
+        return PlantMass(plant)
+    return NominalMass(nominal_batch(model, nominal_scale, nthread, mass_only=True), plant)

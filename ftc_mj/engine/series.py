@@ -1,0 +1,106 @@
+"""The series a batch run records, allocated once, and what the run leaves behind (:class:`BatchRun`).
+
+Every sample of every series is written before the run ends, or lies past its row's stop, where
+:meth:`Series.cut` writes NaN: no fill beforehand (a pass over gigabytes in a campaign's batch). The fault
+series are written only while a fault may be on, so they start at zero.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from dataclasses import dataclass
+
+import numpy as np
+
+#: The per-row series a run keeps, each ``(steps, rows, n)``.
+SERIES = ("q_meas", "q_true", "qd_true", "qdd_true", "qd_hat", "luaf_hat", "luaf_true", "tau", "sliding",
+          "fault", "tau_delivered", "fault_torque", "fault_acceleration")
+#: Of :data:`SERIES`, those written only while a fault may be on.
+_FAULT_SERIES = ("fault", "fault_torque", "fault_acceleration")
+
+
+@dataclass
+class BatchRun:
+    """What a batch leaves behind: series ``(steps, rows, n)`` (NaN after a row stopped), per-row status."""
+
+    times: np.ndarray
+    members: int
+    variants: list[str]
+    series: dict[str, np.ndarray]
+    #: q_d, its first and second derivatives: ``(steps, n)``, or ``(steps, members, n)`` with parameters.
+    reference: tuple[np.ndarray, np.ndarray, np.ndarray]
+    #: Per variant: monitor name -> {"qd_hat", "luaf_hat", "luaf_torque"} series ``(steps, members, n)``.
+    monitor_series: dict[str, dict[str, dict[str, np.ndarray]]]
+    #: Plugin signals per variant: name -> ``(steps, members, n)``.
+    extras: dict[str, dict[str, np.ndarray]]
+    fault_active: np.ndarray  # (steps, rows)
+    qd_measured: np.ndarray | None
+    luaf_torque: np.ndarray | None
+    body_xpos: np.ndarray | None
+    body_xquat: np.ndarray | None
+    #: Per row: the number of samples recorded (``steps`` unless it diverged) and the time it diverged.
+    done: np.ndarray
+    diverged_at: np.ndarray
+
+
+@dataclass(frozen=True)
+class BlockSeries:
+    """What one variant records beside the per-row series: its rows, its monitors' names, its plugins'
+    signals."""
+
+    name: str
+    rows: slice
+    monitors: Sequence[str]
+    signals: Sequence[str]
+
+
+@dataclass
+class Series:
+    """The buffers of a run (the fields of :class:`BatchRun` of the same names) and the variants they are for."""
+
+    blocks: Sequence[BlockSeries]
+    rows: dict[str, np.ndarray]
+    qd_measured: np.ndarray | None
+    luaf_torque: np.ndarray | None
+    monitors: dict[str, dict[str, dict[str, np.ndarray]]]
+    extras: dict[str, dict[str, np.ndarray]]
+    fault_active: np.ndarray
+    body_xpos: np.ndarray | None
+    body_xquat: np.ndarray | None
+
+    @classmethod
+    def allocate(cls, steps: int, rows: int, n: int, members: int, blocks: Sequence[BlockSeries],
+                 fault_on: np.ndarray, measures_velocity: bool, torque_space: bool,
+                 poses: tuple[np.ndarray, np.ndarray] | None) -> Series:
+        """Buffers for ``steps`` samples. ``fault_on`` ``(steps,)``: whether a fault is on (the same for
+        every row); ``torque_space``: the diagnoser's residuals are torques (each estimate times M);
+        ``poses``: the plant's body positions and quaternions to record, or None."""
+        series = {name: np.zeros((steps, rows, n)) if name in _FAULT_SERIES else np.empty((steps, rows, n))
+                  for name in SERIES}
+        monitors = {block.name: {name: {key: np.empty((steps, members, n)) for key in ("qd_hat", "luaf_hat")}
+                                 | ({"luaf_torque": np.empty((steps, members, n))} if torque_space else {})
+                                 for name in block.monitors}
+                    for block in blocks}
+        extras = {block.name: {name: np.empty((steps, members, n)) for name in block.signals} for block in blocks}
+        return cls(blocks, series, np.empty((steps, rows, n)) if measures_velocity else None,
+                   np.empty((steps, rows, n)) if torque_space else None, monitors, extras,
+                   np.repeat(fault_on[:, None], rows, axis=1),
+                   None if poses is None else np.zeros((steps,) + poses[0].shape),
+                   None if poses is None else np.zeros((steps,) + poses[1].shape))
+
+    def cut(self, done: np.ndarray) -> None:
+        """NaN in every series from each row's stop on (``done``: its samples recorded)."""
+        for rows_series in (*self.rows.values(), self.qd_measured, self.luaf_torque):
+            if rows_series is not None:
+                _cut(rows_series, done)
+        for block in self.blocks:
+            block_done = done[block.rows]
+            for name_series in (*self.monitors[block.name].values(), self.extras[block.name]):
+                for values in name_series.values():
+                    _cut(values, block_done)
+
+
+def _cut(values: np.ndarray, done: np.ndarray) -> None:
+    """NaN from each row's stop on (``values`` is ``(steps, rows, ...)``)."""
+    for row in np.flatnonzero(done < len(values)):
+        values[done[row]:, row] = np.nan
