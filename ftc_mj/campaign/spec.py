@@ -32,10 +32,10 @@ from pathlib import Path
 from typing import Annotated, Any, Literal
 
 import yaml
-from pydantic import Field, StrictInt, StrictStr, ValidationError, field_validator, model_validator
+from pydantic import Field, StrictInt, StrictStr, field_validator, model_validator
 
 from ftc_mj.analysis.metrics import METRICS
-from ftc_mj.config.errors import InputError, validation_error
+from ftc_mj.config.errors import InputError, validate
 from ftc_mj.config.yaml import read_yaml_mapping
 from ftc_mj.config.types import FiniteFloat, PositiveFloat, Strict
 
@@ -218,10 +218,7 @@ def load_campaign(path: str | Path, runs: int | None = None) -> CampaignSpec:
     """
     file = str(path)
     raw = read_yaml_mapping(Path(path), "a campaign")
-    try:
-        spec = CampaignSpec.model_validate(raw)
-    except ValidationError as exc:
-        raise validation_error(file, "", exc) from None
+    spec = validate(CampaignSpec, raw, file)
     if runs is not None:
         if spec.samples is None:
             raise InputError(file, "--runs", "the campaign samples nothing: its population is its grid, cases "

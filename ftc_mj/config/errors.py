@@ -1,12 +1,15 @@
-"""Errors that reach the user as one line, without a traceback: :class:`InputError`, and
-:func:`validation_error`, which turns a pydantic validation failure into one."""
+"""Errors that reach the user as one line, without a traceback: :class:`InputError`; :func:`validation_error`,
+which turns a pydantic validation failure into one; and :func:`validate`, which validates a section with its
+schema and raises that error."""
 
 from __future__ import annotations
 
 from collections.abc import Callable
-from typing import Any
+from typing import Any, TypeVar
 
-from pydantic import ValidationError
+from pydantic import BaseModel, TypeAdapter, ValidationError
+
+Model = TypeVar("Model", bound=BaseModel)
 
 
 class InputError(Exception):
@@ -64,3 +67,15 @@ def validation_error(file: str, prefix: str, exc: ValidationError,
         message += f" (and {len(groups) - 1} more problem{'s' if len(groups) > 2 else ''})"
     return InputError(file if file_of is None else file_of(parts), field, message)
 
+
+
+def validate(schema: type[Model] | TypeAdapter, raw: Any, file: str, field: str = "",
+             context: dict[str, Any] | None = None, file_of: Callable[[tuple], str] | None = None) -> Any:
+    """``raw`` validated by ``schema`` (a pydantic model or a :class:`~pydantic.TypeAdapter`), or the one-line
+    :class:`InputError` of its first problem, its field path under ``field`` (see :func:`validation_error`)."""
+    try:
+        if isinstance(schema, TypeAdapter):
+            return schema.validate_python(raw, context=context)
+        return schema.model_validate(raw, context=context)
+    except ValidationError as exc:
+        raise validation_error(file, field, exc, file_of) from None

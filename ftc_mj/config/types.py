@@ -16,7 +16,17 @@ from typing import Annotated, Any, Union
 
 import mujoco
 import numpy as np
-from pydantic import BaseModel, ConfigDict, Discriminator, Field, StrictFloat, StrictInt, StrictStr, Tag, model_validator
+from pydantic import (
+    BaseModel,
+    ConfigDict,
+    Discriminator,
+    Field,
+    StrictFloat,
+    StrictInt,
+    StrictStr,
+    Tag,
+    model_validator,
+)
 
 from ftc_mj.config import expressions
 from ftc_mj.config.errors import InputError
@@ -68,13 +78,26 @@ def tagged_union(key: str, members: Mapping[str, type[BaseModel]], default: str 
 # ------------------------------------------------------------------------------ compiling the building blocks
 
 
-def per_joint(values: float | list[float], n: int, file: str, field: str) -> np.ndarray:
-    """One number for every joint, or a list with one per joint."""
+def joint_vector(values: float | list[float], n: int) -> np.ndarray:
+    """"A number or one per joint", the one rule of every such field (gains, thresholds, initial states): one
+    number for every joint, or a list with one value per joint, as a float vector of ``n``.
+
+    Raises:
+        ValueError: a list whose length is not ``n`` (its message names both lengths).
+    """
     if not isinstance(values, list):
         return np.full(n, float(values))
     if len(values) != n:
-        raise InputError(file, field, f"has {len(values)} values, the robot has {n} joints")
+        raise ValueError(f"has {len(values)} values, the robot has {n} joints")
     return np.asarray(values, dtype=float)
+
+
+def per_joint(values: float | list[float], n: int, file: str, field: str) -> np.ndarray:
+    """:func:`joint_vector` of a compiled section's field, its problem an :class:`InputError` naming it."""
+    try:
+        return joint_vector(values, n)
+    except ValueError as exc:
+        raise InputError(file, field, str(exc)) from None
 
 
 def per_selected(values: Any, indices: list[int], file: str, field: str) -> list:

@@ -6,8 +6,8 @@ Every problem is an :class:`~ftc_mj.config.errors.InputError` naming the file an
 
 from __future__ import annotations
 
-from typing import Any
 from pathlib import Path
+from typing import Any
 
 import yaml
 

@@ -25,14 +25,15 @@ rate), a state as one finite number per joint, a seed as an integer >= 0, a mass
 from __future__ import annotations
 
 from collections.abc import Mapping, Sequence
-from dataclasses import dataclass, field
+from dataclasses import dataclass
+from dataclasses import field as dataclass_field
 from functools import cache
 from typing import Annotated, Any
 
 import numpy as np
-from pydantic import BaseModel, TypeAdapter, ValidationError
+from pydantic import BaseModel, TypeAdapter
 
-from ftc_mj.config.errors import InputError, validation_error
+from ftc_mj.config.errors import InputError, validate
 from ftc_mj.config.types import FiniteFloat
 from ftc_mj.config.yaml import set_path, unshared
 from ftc_mj.engine.batching import MemberField, member_field, stack, stack_select, stack_states
@@ -66,7 +67,7 @@ class Members:
     plant_mass_scale: np.ndarray  # (B,)
     variants: list[MemberVariant]  # in the scenario's order
     #: Per member, the overrides it was built from (for reports); empty for replicates.
-    overrides: list[dict[str, Any]] = field(default_factory=list)
+    overrides: list[dict[str, Any]] = dataclass_field(default_factory=list)
 
     @property
     def count(self) -> int:
@@ -170,10 +171,7 @@ _PARAMETER = TypeAdapter(FiniteFloat)
 
 
 def _validated(adapter: TypeAdapter, value: Any, file: str, path: str) -> Any:
-    try:
-        return adapter.validate_python(value)
-    except ValidationError as exc:
-        raise validation_error(file, path, exc) from None
+    return validate(adapter, value, file, path)
 
 
 def _set_element(values: list | None, field: MemberField, value: Any, file: str) -> list:
@@ -260,10 +258,7 @@ class _Columns:
             self._estimates(k, estimates)
         for path, section in gains.items():
             plugin, configs = self.gains[path]
-            try:
-                configs[k] = plugin.Config.model_validate(section, context={"n_joints": self.n})
-            except ValidationError as exc:
-                raise validation_error(file, f"{path}.gains", exc) from None
+            configs[k] = validate(plugin.Config, section, file, f"{path}.gains", context={"n_joints": self.n})
 
     def _method(self, field: MemberField) -> Any:
         """The :class:`~ftc_mj.methods.registry.MethodSpec` a gain field belongs to."""
@@ -273,10 +268,7 @@ class _Columns:
         return variant.observer if field.role == "observer" else variant.controller
 
     def _initial(self, k: int, raw: dict[str, Any]) -> None:
-        try:
-            state = InitialState.model_validate(raw)
-        except ValidationError as exc:
-            raise validation_error(self.file, "initial", exc) from None
+        state = validate(InitialState, raw, self.file, "initial")
         self.q0[k] = joint_values(state.q, self.n, self.file, "initial.q")
         self.qd0[k] = joint_values(state.qd, self.n, self.file, "initial.qd")
 
@@ -285,10 +277,7 @@ class _Columns:
         ``observer_initial`` or a variant's own (``raw``, by variant; None for the scenario's)."""
         def section(variant: str | None) -> ObserverInitial | None:
             field = "observer_initial" if variant is None else f"variants.{variant}.observer_initial"
-            try:
-                return ObserverInitial.model_validate(raw[variant])
-            except ValidationError as exc:
-                raise validation_error(self.file, field, exc) from None
+            return validate(ObserverInitial, raw[variant], self.file, field)
 
         shared = section(None) if None in raw else self.spec.observer_initial
         for v, variant in enumerate(self.scenario.variants):

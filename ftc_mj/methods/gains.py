@@ -14,18 +14,18 @@ from typing import Annotated, Any
 import numpy as np
 from pydantic import AfterValidator, BaseModel, ConfigDict, Field, ValidationInfo
 
+from ftc_mj.config.types import NonNegativeFloat, PositiveFloat, joint_vector
+
 
 def _joint_vector(value: Any, info: ValidationInfo) -> np.ndarray:
+    """:func:`~ftc_mj.config.types.joint_vector` for the robot of the validation context (``n_joints``);
+    without one, a list as given and a number as one element."""
     n_joints = (info.context or {}).get("n_joints")
-    if isinstance(value, list):
-        if n_joints is not None and len(value) != n_joints:
-            raise ValueError(f"has {len(value)} values, the robot has {n_joints} joints")
-        return np.asarray(value, dtype=float)
-    return np.full(n_joints if n_joints is not None else 1, float(value))
+    if n_joints is None:
+        n_joints = len(value) if isinstance(value, list) else 1
+    return joint_vector(value, n_joints)
 
 
-PositiveFloat = Annotated[float, Field(gt=0, allow_inf_nan=False)]
-NonNegativeFloat = Annotated[float, Field(ge=0, allow_inf_nan=False)]
 PositiveJoints = Annotated[PositiveFloat | list[PositiveFloat], AfterValidator(_joint_vector)]
 NonNegativeJoints = Annotated[NonNegativeFloat | list[NonNegativeFloat], AfterValidator(_joint_vector)]
 Exponent = Annotated[float, Field(gt=0, lt=1, allow_inf_nan=False)]

@@ -22,11 +22,10 @@ from functools import cache
 from importlib.metadata import EntryPoint, entry_points
 from typing import Any
 
-from pydantic import ValidationError
 
 from ftc_mj.methods import controllers, observers
 from ftc_mj.methods.gains import GainConfig
-from ftc_mj.config.errors import InputError, validation_error
+from ftc_mj.config.errors import InputError, validate
 from ftc_mj.config.types import Strict
 
 OBSERVER_GROUP = "ftc_mj.observers"
@@ -97,8 +96,4 @@ def compile_method(file: str, field: str, method: MethodSpec, known: Mapping[str
         plugin = known[method.type]
     except PluginError as exc:
         raise InputError(file, f"{field}.type", str(exc)) from None
-    try:
-        config = plugin.Config.model_validate(method.gains, context={"n_joints": n})
-    except ValidationError as exc:
-        raise validation_error(file, f"{field}.gains", exc) from None
-    return plugin, config
+    return plugin, validate(plugin.Config, method.gains, file, f"{field}.gains", context={"n_joints": n})

@@ -19,7 +19,6 @@ import mujoco
 import numpy as np
 from pydantic import Field, model_validator
 
-from ftc_mj.config.errors import InputError
 from ftc_mj.config.types import FiniteFloat, JointSelection, NonNegativeFloat, Strict, joint_indices
 from ftc_mj.outputs.palette import RUN_ORDER
 

@@ -15,9 +15,7 @@ from collections.abc import Mapping
 from pathlib import Path
 from typing import Any
 
-from pydantic import ValidationError
-
-from ftc_mj.config.errors import InputError, validation_error
+from ftc_mj.config.errors import InputError, validate
 from ftc_mj.config.inheritance import resolve_bases
 from ftc_mj.config.yaml import apply_override, set_path, unshared
 from ftc_mj.spec.scenario import Scenario, ScenarioSpec, compile_scenario
@@ -57,10 +55,7 @@ def load_scenario(
     if duration is not None:
         raw["duration"] = duration
         provenance.claim(("duration",), file)
-    try:
-        spec = ScenarioSpec.model_validate(raw)
-    except ValidationError as exc:
-        raise validation_error(file, "", exc, provenance.file_of) from None
+    spec = validate(ScenarioSpec, raw, file, file_of=provenance.file_of)
     if variants:
         unknown = [v for v in variants if v not in spec.variants]
         if unknown:

@@ -28,17 +28,38 @@ from pydantic import Field, field_validator, model_validator
 
 from ftc_mj.analysis.diagnosis import Diagnoser, DiagnosisSpec, compile_diagnoser
 from ftc_mj.analysis.metrics import MetricsSpec
-from ftc_mj.effects.faults import ActuatorFault, ActuatorFaultSpec, compile_actuator_fault
+from ftc_mj.config import expressions
+from ftc_mj.config.errors import InputError
+from ftc_mj.config.types import (
+    ExpressionText,
+    FiniteFloat,
+    PositiveFloat,
+    Strict,
+    parse_expression,
+    per_joint,
+)
+from ftc_mj.effects.faults import (
+    ActuatorFault,
+    ActuatorFaultSpec,
+    compile_actuator_fault,
+)
 from ftc_mj.effects.sensors import Channel, SensorsSpec, compile_channel
 from ftc_mj.effects.terms import CompiledTerm, TermSpec, compile_terms, terms_function
 from ftc_mj.methods.gains import GainConfig
-from ftc_mj.methods.registry import MethodSpec, compile_method, controller_types, observer_types
-from ftc_mj.outputs.layout import Figure, FigureSpec, check_figure_names, compile_figures
+from ftc_mj.methods.registry import (
+    MethodSpec,
+    compile_method,
+    controller_types,
+    observer_types,
+)
+from ftc_mj.outputs.layout import (
+    Figure,
+    FigureSpec,
+    check_figure_names,
+    compile_figures,
+)
 from ftc_mj.robot.model import PlantSpec, RobotSpec, load_robot
 from ftc_mj.robot.nominal import NominalSpec
-from ftc_mj.config import expressions
-from ftc_mj.config.errors import InputError
-from ftc_mj.config.types import ExpressionText, FiniteFloat, PositiveFloat, Strict, parse_expression
 
 
 class InitialState(Strict):
@@ -320,9 +341,7 @@ def joint_values(values: list[float] | None, n: int, file: str, field: str,
     every joint when absent (None: stays None)."""
     if values is None:
         return None if default is None else np.full(n, default)
-    if len(values) != n:
-        raise InputError(file, field, f"has {len(values)} values, the robot has {n} joints")
-    return np.asarray(values, dtype=float)
+    return per_joint(list(values), n, file, field)
 
 
 def time_grid(duration: float, control_dt: float) -> np.ndarray:

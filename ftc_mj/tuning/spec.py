@@ -26,12 +26,12 @@ import math
 from pathlib import Path
 from typing import Annotated, Literal
 
-from pydantic import Field, StrictBool, StrictInt, StrictStr, ValidationError, field_validator, model_validator
+from pydantic import Field, StrictBool, StrictInt, StrictStr, field_validator, model_validator
 
 from ftc_mj.analysis.metrics import METRICS
 from ftc_mj.campaign.spec import FieldPath, Name
 from ftc_mj.engine.batching import batchable
-from ftc_mj.config.errors import InputError, validation_error
+from ftc_mj.config.errors import InputError, validate
 from ftc_mj.config.yaml import read_yaml_mapping
 from ftc_mj.config.types import NonNegativeFloat, PositiveFloat, Strict
 
@@ -127,10 +127,7 @@ def load_tuning(path: Path, generations: int | None = None) -> TuningSpec:
     """Read and validate a tuning file; ``generations`` overrides the optimizer's."""
     file = str(path)
     raw = read_yaml_mapping(path, "a tuning")
-    try:
-        spec = TuningSpec.model_validate(raw)
-    except ValidationError as exc:
-        raise validation_error(file, "", exc) from None
+    spec = validate(TuningSpec, raw, file)
     if generations is not None:
         if generations < 1:
             raise InputError(file, "--generations", f"must be at least 1, not {generations}")
