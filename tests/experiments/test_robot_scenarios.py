@@ -1,4 +1,4 @@
-"""Six and seven joints (issue 13): the shipped UR5e- and Panda-like scenarios (scenarios/robots/, MJCF in
+"""Six and seven joints: the shipped UR5e- and Panda-like scenarios (scenarios/robots/, MJCF in
 Menagerie form rebuilt as testbed robots) run in full through the command line, and the README's results hold
 with margins: each bound sits between the measured value (in a comment) and what a broken method gives. The
 example-robot-data URDF scenarios run for 1 s and record their COLLADA meshes where that package is installed.

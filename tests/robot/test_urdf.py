@@ -471,7 +471,7 @@ def test_recording_draws_the_urdf_meshes_and_primitives(outcomes):
     assert len(bracket["Mesh3D:triangle_indices"]) == 12
 
 
-# ------------------------------------------------------------- URDF as ROS packages ship it (issue 13)
+# ------------------------------------------------------------------------ URDF as ROS packages ship it
 
 MESH_DATA = ROOT / "tests" / "data" / "meshes"
 #: Two fingers on the test arm's hand, the second mimicking the first (as the Panda's gripper), and the
