@@ -131,6 +131,9 @@ class VariantResult:
     #: The results of the variant's monitors (``variants.NAME.monitors``): the same trajectory with each
     #: monitor's estimates, named ``<variant>.<monitor>``.
     monitors: list["VariantResult"] = field(default_factory=list)
+    #: For a monitor's result, the variant whose closed loop it observes (its tracking series are the host's);
+    #: None for a variant's own result.
+    host: str | None = None
 
     @property
     def tracking_error(self) -> np.ndarray:

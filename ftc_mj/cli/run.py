@@ -128,7 +128,7 @@ def metrics_document(scenario: Scenario, results: Sequence[VariantResult], metri
             r.name: {
                 "status": r.status,
                 "diverged_at": r.diverged_at,
-                "controller_velocity": velocity[r.name.split(".")[0]],  # a monitor's: its host's
+                "controller_velocity": velocity[r.host or r.name],  # a monitor's: its host's
                 "metrics": {name: clean(values) for name, values in metrics[r.name].items()},
                 "diagnosis": diagnosis(r),
             }

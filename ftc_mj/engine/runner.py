@@ -154,7 +154,7 @@ def variant_result(scenario: Scenario, run: BatchRun, v: int, m: int, poses: boo
     for name, series in run.monitor_series[variant.name].items():
         monitor = next(mon for mon in variant.monitors if mon.name == name)
         view = dataclasses.replace(
-            result, name=f"{variant.name}.{name}", observer=monitor.observer_type.name,
+            result, name=f"{variant.name}.{name}", host=variant.name, observer=monitor.observer_type.name,
             qd_hat=series["qd_hat"][kept, m], luaf_hat=series["luaf_hat"][kept, m],
             body_xpos=result.body_xpos[:0], body_xquat=result.body_xquat[:0], extras={}, diagnosis=None,
             monitors=[],

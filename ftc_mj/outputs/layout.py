@@ -11,7 +11,7 @@ from __future__ import annotations
 
 import json
 import re
-from collections.abc import Sequence
+from collections.abc import Collection, Sequence
 from dataclasses import asdict, dataclass, field
 from typing import Annotated, Any, Literal
 
@@ -193,10 +193,11 @@ class VariantStyle:
     dash: Literal["solid", "dashed"]
 
 
-def variant_styles(names: Sequence[str]) -> list[VariantStyle]:
-    """One colour per variant in order; monitors (``variant.monitor``: an estimator beside the loop, feeding
-    nothing) dashed, loops solid. The same in every figure and in the viewer."""
-    return [VariantStyle(name, RUN_ORDER[i % len(RUN_ORDER)], "dashed" if "." in name else "solid")
+def variant_styles(names: Sequence[str], monitors: Collection[str] = ()) -> list[VariantStyle]:
+    """One colour per variant in order; ``monitors`` (the names of estimators beside a loop, feeding nothing:
+    :attr:`ftc_mj.results.VariantResult.host` is set) dashed, loops solid. The same in every figure and in the
+    viewer."""
+    return [VariantStyle(name, RUN_ORDER[i % len(RUN_ORDER)], "dashed" if name in monitors else "solid")
             for i, name in enumerate(names)]
 
 

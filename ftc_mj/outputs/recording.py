@@ -237,6 +237,11 @@ def _common_time(results: Sequence[VariantResult]) -> np.ndarray:
     return t
 
 
+def _monitors(results: Sequence[VariantResult]) -> set[str]:
+    """The names of the results that are monitors (an estimator beside a variant's loop)."""
+    return {r.name for r in results if r.host is not None}
+
+
 def _layout(scenario: str, model: mujoco.MjModel, results: Sequence[VariantResult], t: np.ndarray,
             fault_onsets: Sequence[float], figures: Sequence[Figure] | None) -> Layout:
     names = [r.name for r in results]
@@ -247,7 +252,7 @@ def _layout(scenario: str, model: mujoco.MjModel, results: Sequence[VariantResul
     else:  # a figure's variants that did not run are left out
         chosen = [f for f in (_with_variants(f, names) for f in figures) if f.variants]
     return Layout(scenario=scenario, duration=float(t[-1]) + dt if len(t) else 0.0,
-                  fault_onsets=[float(x) for x in fault_onsets], joints=joints, variants=variant_styles(names),
+                  fault_onsets=[float(x) for x in fault_onsets], joints=joints, variants=variant_styles(names, _monitors(results)),
                   samples={r.name: len(r.t) for r in results}, figures=chosen)
 
 
@@ -285,7 +290,7 @@ Series = dict[str, tuple[np.ndarray, list[str], list[list[int]], list[float]]]
 
 def _series(results: Sequence[VariantResult], n_samples: int) -> Series:
     """Every entity to log: (N, V) float32 values (NaN where a variant has none), line names, colours, widths."""
-    styles = variant_styles([r.name for r in results])
+    styles = variant_styles([r.name for r in results], _monitors(results))
     rgb = [_hex_rgb(s.color) for s in styles]
     sources: list[tuple[str, str, str, list]] = []  # (prefix, attribute, kind, per-variant source or None)
     for prefix, attr, kind in SERIES:
@@ -353,7 +358,7 @@ def _info_markdown(scenario: str, seed: int | None, results: Sequence[VariantRes
     lines = [f"# {scenario}", "", f"- seed: {seed if seed is not None else 'not set'}",
              f"- fault onsets [s]: {', '.join(f'{t:g}' for t in fault_onsets) or 'none'}", "",
              "| variant | colour | observer | controller | samples | status |", "|---|---|---|---|---|---|"]
-    for r, style in zip(results, variant_styles([r.name for r in results])):
+    for r, style in zip(results, variant_styles([r.name for r in results], _monitors(results))):
         status = r.status if r.diverged_at is None else f"{r.status} at t = {r.diverged_at:g} s"
         colour = colour_name(style.color)
         lines.append(f"| {r.name} | {colour} | {r.observer} | {r.controller} | {len(r.t)} | {status} |")

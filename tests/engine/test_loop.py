@@ -556,6 +556,7 @@ def test_monitors_become_columns_of_the_run(tmp_path: Path) -> None:
     spec["variants"]["second"] = copy.deepcopy(PROPOSED)
     results = run_scenario(load_scenario(write_scenario(tmp_path, spec)))
     assert [r.name for r in results] == ["proposed", "proposed.tosmo", "second"]
+    assert [r.host for r in results] == [None, "proposed", None]  # a monitor says whose loop it observes
 
 
 # ------------------------------------------------------------------------------ controller velocity

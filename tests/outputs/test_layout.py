@@ -89,7 +89,8 @@ def test_layout_round_trip_and_styles() -> None:
     scenario = load_scenario(SCENARIO)
     names = ["proposed", "nftsmc_tosmo", "proposed.sosmo"]
     layout = Layout(scenario="s", duration=3.0, fault_onsets=[1.0], joints=["a", "b", "c"],
-                    variants=variant_styles(names), samples={n: 3000 for n in names}, figures=scenario.figures)
+                    variants=variant_styles(names, monitors={"proposed.sosmo"}), samples={n: 3000 for n in names},
+                    figures=scenario.figures)
     again = Layout.from_json(layout.to_json())
     assert again == layout
     assert [s.dash for s in again.variants] == ["solid", "solid", "dashed"]  # monitors dashed
