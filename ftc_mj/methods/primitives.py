@@ -81,7 +81,13 @@ def power(x: ArrayOrNumber, exponent: ArrayOrNumber, out: np.ndarray | None = No
     the result is computed apart and copied: NumPy's in-place loop over one element sees the exponent with
     stride 0.
     """
-    operand = _SCALARS.get(exponent) if isinstance(exponent, float) else None  # the common case, without a call
+    if type(exponent) is np.ndarray and type(x) is np.ndarray and x.ndim and exponent.shape == x.shape:
+        # The engine's gains: one exponent per element, pow for each (the cheapest test first).
+        if out is x:
+            out[...] = np.power(x, exponent)
+            return out
+        return np.power(x, exponent, out)
+    operand = _SCALARS.get(exponent) if isinstance(exponent, float) else None  # a number, without a call
     if operand is None:
         operand = _operand(x, exponent)
         if operand.ndim and out is x:
@@ -102,7 +108,11 @@ def signed_power(x: ArrayOrNumber, exponent: ArrayOrNumber, out: np.ndarray | No
     """
     if out is x:
         raise ValueError("signed_power: out must not be x (the signs of x are read after |x|^p is written)")
-    operand = _SCALARS.get(exponent) if isinstance(exponent, float) else None  # the common case, without a call
+    if type(exponent) is np.ndarray and type(x) is np.ndarray and x.ndim and exponent.shape == x.shape:
+        # The engine's gains: |x| apart (see above), pow per element into the result (the cheapest test first).
+        result = np.power(np.abs(x), exponent, out)
+        return np.copysign(result, x, result)
+    operand = _SCALARS.get(exponent) if isinstance(exponent, float) else None  # a number, without a call
     if operand is None:
         operand = _operand(x, exponent)
     if operand.ndim or not isinstance(x, np.ndarray) or not x.ndim:
