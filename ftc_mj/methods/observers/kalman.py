@@ -41,6 +41,7 @@ from __future__ import annotations
 from typing import ClassVar
 
 import numpy as np
+from pydantic import Field
 
 from ftc_mj.methods.gains import GainConfig, NonNegativeJoints, PositiveJoints
 from ftc_mj.methods.observers.base import Observer
@@ -51,17 +52,17 @@ class KalmanConfig(GainConfig):
     """Covariances of the disturbance Kalman filter, per joint."""
 
     #: Spectral density of the white noise on dq/dt [rad^2/s].
-    process_q: NonNegativeJoints = 0.0
+    process_q: NonNegativeJoints = Field(0.0, validate_default=True)
     #: Spectral density of the white noise on dqd/dt [rad^2/s^3].
-    process_qd: NonNegativeJoints = 0.0
+    process_qd: NonNegativeJoints = Field(0.0, validate_default=True)
     #: Spectral density of the random walk of d [rad^2/s^5]: how fast the LUaF may move.
     process_d: PositiveJoints
     #: Variance of one position measurement [rad^2].
     measurement: PositiveJoints
     #: Initial covariance of q, qd, d (diagonal).
-    initial_q: PositiveJoints = 1e-6
-    initial_qd: PositiveJoints = 1.0
-    initial_d: PositiveJoints = 100.0
+    initial_q: PositiveJoints = Field(1e-6, validate_default=True)
+    initial_qd: PositiveJoints = Field(1.0, validate_default=True)
+    initial_d: PositiveJoints = Field(100.0, validate_default=True)
 
 
 def process_covariance(T: float, process_q, process_qd, process_d, shape: tuple[int, ...]) -> np.ndarray:

@@ -40,7 +40,7 @@ import math
 from typing import Annotated, ClassVar, Literal
 
 import numpy as np
-from pydantic import BeforeValidator, model_validator
+from pydantic import BeforeValidator, Field, model_validator
 
 from ftc_mj.methods.gains import GainConfig, PositiveJoints
 from ftc_mj.methods.observers.base import Observer
@@ -70,12 +70,12 @@ class DifferentiatorGains(GainConfig):
     order: Order = "2"
     #: Lipschitz constant of the r-th derivative of the position, per joint (|q^(r+1)| <= L).
     L: PositiveJoints
-    lambda0: PositiveJoints = LEVANT_LAMBDAS[0]
-    lambda1: PositiveJoints = LEVANT_LAMBDAS[1]
-    lambda2: PositiveJoints = LEVANT_LAMBDAS[2]
-    lambda3: PositiveJoints = LEVANT_LAMBDAS[3]
-    lambda4: PositiveJoints = LEVANT_LAMBDAS[4]
-    lambda5: PositiveJoints = LEVANT_LAMBDAS[5]
+    lambda0: PositiveJoints = Field(LEVANT_LAMBDAS[0], validate_default=True)
+    lambda1: PositiveJoints = Field(LEVANT_LAMBDAS[1], validate_default=True)
+    lambda2: PositiveJoints = Field(LEVANT_LAMBDAS[2], validate_default=True)
+    lambda3: PositiveJoints = Field(LEVANT_LAMBDAS[3], validate_default=True)
+    lambda4: PositiveJoints = Field(LEVANT_LAMBDAS[4], validate_default=True)
+    lambda5: PositiveJoints = Field(LEVANT_LAMBDAS[5], validate_default=True)
     #: ``euler``: z_i += dt v_i; ``taylor``: plus the Taylor terms of the higher states (Livne and Levant 2014).
     discretisation: Literal["euler", "taylor"] = "euler"
 
