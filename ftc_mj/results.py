@@ -23,8 +23,8 @@ class Diagnosis:
         t: sample times.
         signal: the (filtered) LUaF estimate in the diagnosis space.
         fault_estimate: signal - baseline mean.
-        residual: |fault_estimate|.
-        threshold: per sample and joint; NaN before the diagnoser is armed.
+        residual: the decision statistic: |fault_estimate| (threshold rule), Page's CUSUM g (cusum rule).
+        threshold: per sample and joint (h for the cusum rule); NaN before the diagnoser is armed.
         alarm: per sample and joint.
         armed: per sample.
         mean, std: the baseline per joint (0 without one).

@@ -17,6 +17,20 @@ recorded arrays after the run gives what an online diagnoser would have given):
   it (against chattering-induced alarms); nothing before the diagnoser is armed (``start``, default the
   baseline's end).
 
+The decision ``rule``: ``{kind: threshold}`` (the default) is the above. ``{kind: cusum, drift: nu, h: h}`` is
+Page's one-sided cumulative sum (Page, "Continuous inspection schemes", Biometrika 41, 1954) on the normalised
+residual z = r / threshold, the residual over the threshold above (so the threshold section sets the
+normalisation: with ``threshold: {k: 1}`` z is the residual in baseline standard deviations; with the
+threshold rule's own threshold z > 1 is where that rule would alarm):
+
+    g_k = max(0, g_(k-1) + z_k - nu),   g = 0 before the diagnoser is armed,
+
+alarm where g_k > h, debounced by ``persistence`` as the threshold rule is (one sample: the bare CUSUM). Since
+r = |s - m| is folded, the one-sided sum on it detects changes of either sign. ``drift`` nu is in units of the
+threshold (the level below which z is forgotten), ``h`` in threshold-samples (z - nu summed over samples). The
+diagnosis then holds the CUSUM's statistic g as its ``residual`` and h as its ``threshold``, so that every
+metric and the campaign statistics (which scale the threshold) apply unchanged: a multiple c scales h.
+
 The section ``diagnosis`` of a scenario (:class:`DiagnosisSpec`) is compiled by :func:`compile_diagnoser`;
 the loop hands every result to :func:`diagnose_result`.
 
@@ -39,17 +53,23 @@ actuator fault; sensor effects are not faults):
 from __future__ import annotations
 
 import math
+import os
 from dataclasses import dataclass
 from typing import Annotated, Literal
 
-import numpy as np
-from pydantic import Field, StrictInt, model_validator
-from scipy.signal import lfilter
+# As in ftc_mj.robot.rigid (whichever imports Numba first): no SVML, so a compiled loop rounds as the scalar code.
+os.environ.setdefault("NUMBA_DISABLE_INTEL_SVML", "1")
 
-from ftc_mj.config.errors import InputError
-from ftc_mj.config.expressions import StateFunction, state_variables
-from ftc_mj.results import Diagnosis, VariantResult
-from ftc_mj.config.types import ExpressionText, NonNegativeFloat, PositiveFloat, Strict, parse_expression, per_joint
+import numba  # noqa: E402
+import numpy as np  # noqa: E402
+from pydantic import Field, StrictInt, model_validator  # noqa: E402
+from scipy.signal import lfilter  # noqa: E402
+
+from ftc_mj.config.errors import InputError  # noqa: E402
+from ftc_mj.config.expressions import StateFunction, state_variables  # noqa: E402
+from ftc_mj.results import Diagnosis, VariantResult  # noqa: E402
+from ftc_mj.config.types import (  # noqa: E402
+    ExpressionText, NonNegativeFloat, PositiveFloat, Strict, parse_expression, per_joint)
 
 
 #: The diagnosis metrics, in the order of :data:`ftc_mj.analysis.metrics.METRICS` (they close it).
@@ -107,6 +127,25 @@ class PersistenceSpec(Strict):
         return self
 
 
+class ThresholdRuleSpec(Strict):
+    """The residual against the threshold (the module docstring)."""
+
+    kind: Literal["threshold"] = "threshold"
+
+
+class CusumRuleSpec(Strict):
+    """Page's CUSUM on the residual over the threshold: g = max(0, g + z - drift), alarm where g > h."""
+
+    kind: Literal["cusum"]
+    #: nu, in units of the threshold: the part of z that is forgotten every sample.
+    drift: NonNegativeFloat
+    #: The decision threshold on g, in threshold-samples.
+    h: PositiveFloat
+
+
+RuleSpec = Annotated[ThresholdRuleSpec | CusumRuleSpec, Field(discriminator="kind")]
+
+
 class DiagnosisSpec(Strict):
     space: Literal["acceleration", "torque"] = "acceleration"
     baseline: WindowSpec | None = None
@@ -117,6 +156,8 @@ class DiagnosisSpec(Strict):
     #: The diagnoser is armed from this time [s]; default: the baseline's end, else
     #: ``metrics.estimation_window_start``.
     start: NonNegativeFloat | None = None
+    #: The decision rule on the residual (the module docstring).
+    rule: RuleSpec = ThresholdRuleSpec()
 
     @model_validator(mode="after")
     def _baseline_first(self) -> "DiagnosisSpec":
@@ -141,6 +182,10 @@ class Diagnoser:
     baseline: tuple[float, float] | None = None
     filter_time_constant: float = 0.0
     bound: StateFunction | None = None
+    #: ``threshold`` or ``cusum`` (then ``drift`` and ``h`` of Page's CUSUM).
+    rule: str = "threshold"
+    drift: float = 0.0
+    h: float = 0.0
 
     def diagnose(
         self, t: np.ndarray, estimate: np.ndarray, q_meas: np.ndarray, qd_hat: np.ndarray, injected: np.ndarray
@@ -166,6 +211,10 @@ class Diagnoser:
                 threshold[:, j] += column
         armed = t >= self.start
         threshold[~armed] = np.nan  # no threshold before the diagnoser is armed (also in the plots)
+        if self.rule == "cusum":
+            with np.errstate(invalid="ignore", divide="ignore"):
+                residual = cusum(residual / threshold, self.drift)  # NaN (not armed) restarts the sum at 0
+            threshold = np.where(armed[:, None], self.h, np.nan)
         exceeded = residual > threshold  # NaN compares False: no alarm
         return Diagnosis(space=self.space, t=t, signal=signal, fault_estimate=estimate, residual=residual,
                          threshold=threshold, alarm=persistent(exceeded, self.persistence), armed=armed,
@@ -195,9 +244,12 @@ def compile_diagnoser(spec: DiagnosisSpec, dt: float, estimation_window_start: f
     start = spec.start
     if start is None:
         start = spec.baseline.end if spec.baseline is not None else estimation_window_start
+    rule = spec.rule
+    cusum_parameters = {"drift": rule.drift, "h": rule.h} if rule.kind == "cusum" else {}
     return Diagnoser(space=spec.space, dt=dt, start=start, k=spec.threshold.k, persistence=max(1, persistence),
                      fixed=per_joint(spec.threshold.fixed, n, file, "diagnosis.threshold.fixed"), baseline=baseline,
-                     filter_time_constant=spec.filter_time_constant, bound=bound)
+                     filter_time_constant=spec.filter_time_constant, bound=bound, rule=rule.kind,
+                     **cusum_parameters)
 
 
 def diagnose_result(diagnoser: Diagnoser | None, result: VariantResult, luaf_torque: np.ndarray | None) -> None:
@@ -216,6 +268,31 @@ def low_pass(x: np.ndarray, dt: float, time_constant: float) -> np.ndarray:
     """First-order low-pass filter along axis 0, exactly discretised, starting at the first sample."""
     a = math.exp(-dt / time_constant)
     return lfilter([1.0 - a], [1.0, -a], x, axis=0, zi=a * x[:1])[0]
+
+
+def cusum(z: np.ndarray, drift: float) -> np.ndarray:
+    """Page's one-sided CUSUM along axis 0 of ``(N, ...)``, every other column at once: g_k = max(0, g_(k-1) +
+    z_k - drift) from g_(-1) = 0; where z_k is NaN, g_k is NaN and the sum restarts from 0 after it. Causal:
+    g_k uses z_0..z_k only. The recursion itself (compiled), so g is what an online CUSUM computes, bit for bit."""
+    z = np.asarray(z, dtype=float)
+    columns = np.ascontiguousarray(z.reshape(len(z), -1))
+    out = np.empty_like(columns)
+    _cusum(columns, float(drift), out)
+    return out.reshape(z.shape)
+
+
+@numba.njit(cache=True, nogil=True)
+def _cusum(z: np.ndarray, drift: float, out: np.ndarray) -> None:  # pragma: no cover - compiled
+    g = np.zeros(z.shape[1])
+    for k in range(z.shape[0]):
+        for j in range(z.shape[1]):
+            x = z[k, j]
+            if np.isnan(x):
+                g[j] = 0.0
+                out[k, j] = np.nan
+            else:
+                g[j] = max(0.0, g[j] + x - drift)
+                out[k, j] = g[j]
 
 
 def persistent(exceeded: np.ndarray, samples: int, axis: int = 0) -> np.ndarray:

@@ -384,6 +384,10 @@ INVALID = [
     ({**VALID, "start": 3.0}, "diagnosis", "before the baseline's end"),
     ({**VALID, "filter_time_constant": -0.1}, "diagnosis.filter_time_constant", "greater than or equal to 0"),
     ({**VALID, "alarm": "loud"}, "diagnosis.alarm", "unknown key"),
+    ({**VALID, "rule": {"kind": "sprt"}}, "diagnosis.rule", "does not match any of the expected tags: 'threshold', 'cusum'"),
+    ({**VALID, "rule": {"kind": "cusum", "drift": 0.5}}, "diagnosis.rule.cusum.h", "required field is missing"),
+    ({**VALID, "rule": {"kind": "cusum", "drift": -0.1, "h": 5.0}}, "diagnosis.rule.cusum.drift", "greater than"),
+    ({**VALID, "rule": {"kind": "threshold", "h": 5.0}}, "diagnosis.rule.threshold.h", "unknown key"),
 ]
 
 
@@ -538,3 +542,81 @@ def test_detection_statistics_equal_the_scaled_diagnoser_one_scale_at_a_time():
                 detected = np.flatnonzero(alarm & (t >= onset))
                 delay = t[detected[0]] - onset if detected.size else np.nan
                 np.testing.assert_array_equal(stats[f"detection_delay_{scale_tag(c)}"][j], delay)
+
+
+# ------------------------------------------------------------------------------------------ CUSUM
+
+
+def cusum_diagnoser(drift: float, h: float, persistence: int = 1, **kwargs) -> Diagnoser:
+    return synthetic(persistence, rule="cusum", drift=drift, h=h, **kwargs)
+
+
+def test_cusum_alarm_time_on_a_step_is_the_hand_computed_crossing() -> None:
+    """A constant residual: the threshold is fixed (1 per joint, no baseline), so z is the residual itself; a
+    step of 2 on joint 1 from sample 6000, drift 0.5: g grows by 1.5 a sample and crosses h = 10 at its 7th
+    sample (g = 10.5 > 10 after 6 * 1.5 = 9), i.e. at sample 6006; with a persistence of 3, at 6008."""
+    luaf = np.zeros((len(T), NJ))
+    luaf[6000:, 0] = 2.0
+    for persistence, first in ((1, 6006), (3, 6008)):
+        diagnosis = diagnose(cusum_diagnoser(0.5, 10.0, persistence, fixed=np.ones(NJ), k=0.0, baseline=None), luaf)
+        assert diagnosis.alarm_times() == [[T[first]], [], []]
+        np.testing.assert_array_equal(diagnosis.residual[6000:6007, 0], 1.5 * np.arange(1, 8))  # g, exactly
+        assert (diagnosis.threshold[T >= 4.0] == 10.0).all() and np.isnan(diagnosis.threshold[T < 4.0]).all()
+    m = diagnosis_metrics(diagnosis, np.array([6.0, np.nan, np.nan]), 6.0, NJ)
+    np.testing.assert_allclose(m["detection_delay"], [8 * DT, np.nan, np.nan], rtol=1e-9)
+    np.testing.assert_array_equal(m["false_alarms"], [0, 0, 0])
+
+
+def test_cusum_normalises_by_the_threshold_and_detects_either_sign() -> None:
+    """z = |s - m| / (k sd): the same step in a healthy signal of another scale alarms at the same sample, and a
+    negative step alarms too (as fast, within the healthy oscillation's share)."""
+    healthy = healthy_signal()
+    times = []
+    for scale, sign in ((1.0, 1.0), (10.0, 1.0), (1.0, -1.0)):
+        luaf = scale * healthy
+        luaf[6000:, 0] += sign * scale * 2.0
+        times.append(diagnose(cusum_diagnoser(0.5, 20.0), luaf).alarm_times()[0])
+    assert times[0] == times[1] and len(times[0]) == len(times[2]) == 1
+    assert abs(times[2][0] - times[0][0]) <= 2 * DT
+
+
+def test_cusum_raises_nothing_on_a_zero_mean_residual_below_the_drift() -> None:
+    """Healthy noise whose normalised residual stays below the drift keeps g at 0: no alarm, ever, while the
+    threshold rule at the same level would alarm on its spikes."""
+    rng = np.random.default_rng(2)
+    luaf = rng.uniform(-1.0, 1.0, size=(len(T), NJ))  # zero mean, |s - m| <= 1 about
+    luaf[3000:3001] = 1.2  # an outlier after the baseline
+    diagnoser = cusum_diagnoser(drift=1.1 * np.abs(luaf).max() / (5 * luaf[1000:4000].std(axis=0).min()), h=0.5)
+    diagnosis = diagnose(diagnoser, luaf)
+    assert not diagnosis.alarm.any()
+    assert np.nanmax(diagnosis.residual) == 0.0  # g never left 0
+
+
+def test_cusum_in_the_detection_statistics_scales_h() -> None:
+    """The campaign statistics see g as the residual and h as the threshold: the alarm at c times the threshold is
+    the CUSUM with h scaled by c."""
+    from ftc_mj.analysis.diagnosis import detection_statistics
+
+    luaf = np.zeros((len(T), NJ))
+    luaf[6000:, 0] = 2.0
+    diagnosis = diagnose(cusum_diagnoser(0.5, 10.0, fixed=np.ones(NJ), k=0.0, baseline=None), luaf)
+    stats = detection_statistics(diagnosis, 1, np.array([6.0, np.nan, np.nan]), [1.0, 2.0], NJ)
+    assert stats["detection_delay_x1"][0] == pytest.approx(6 * DT)  # g > 10 at the 7th sample
+    assert stats["detection_delay_x2"][0] == pytest.approx(13 * DT)  # g > 20 at the 14th (1.5 * 14 = 21)
+    scaled = diagnose(cusum_diagnoser(0.5, 20.0, fixed=np.ones(NJ), k=0.0, baseline=None), luaf)
+    assert scaled.alarm_times()[0] == [T[6013]]
+
+
+def test_cusum_restarts_after_a_gap_and_is_causal() -> None:
+    from ftc_mj.analysis.diagnosis import cusum
+
+    z = np.array([0.2, 1.5, 2.0, 0.1, np.nan, 3.0, 0.0])
+    np.testing.assert_array_equal(cusum(z[:, None], 0.5)[:, 0], [0.0, 1.0, 2.5, 2.1, np.nan, 2.5, 2.0])
+    np.testing.assert_array_equal(cusum(z[:4, None], 0.5), cusum(z[:, None], 0.5)[:4])  # the past alone
+
+
+def test_cusum_rule_from_the_scenario(tmp_path: Path) -> None:
+    scenario = load_scenario(write(tmp_path, diagnosis_data({**VALID, "rule": {"kind": "cusum", "drift": 0.4,
+                                                                              "h": 12.0}})))
+    assert (scenario.diagnoser.rule, scenario.diagnoser.drift, scenario.diagnoser.h) == ("cusum", 0.4, 12.0)
+    assert load_scenario(write(tmp_path, diagnosis_data(VALID))).diagnoser.rule == "threshold"

@@ -22,11 +22,17 @@ ROOT = Path(__file__).resolve().parents[2]
 PUMA = ROOT / "models" / "puma560.xml"
 NFTSMC = {"beta1": 15.0, "beta2": 10.0, "beta3": 10.0, "beta4": 5.0, "gamma1": 0.5, "bound": 0.5, "mu": 0.5}
 
-#: One variant per built-in observer and controller (the DO reads the tachometers).
+#: One variant per built-in observer and controller (the DO and the NDOB read the tachometers).
 VARIANTS = {
     "hs_nftsmc": {"observer": {"type": "hs_tosmo", "gains": {"D": 22.0, "gamma": 5.0}},
                   "controller": {"type": "nftsmc", "gains": NFTSMC},
-                  "monitors": {"eso": {"type": "eso", "gains": {"bandwidth": 60.0}}}},
+                  "monitors": {"eso": {"type": "eso", "gains": {"bandwidth": 60.0}},
+                               "levant": {"type": "levant", "gains": {"order": 2, "L": 50.0, "use_model": True}},
+                               "levant3": {"type": "levant", "gains": {"order": 3, "L": 200.0,
+                                                                       "discretisation": "taylor"}},
+                               "ndob": {"type": "ndob", "gains": {"X": [0.01, 0.02, 0.05]}},
+                               "ndob_levant": {"type": "ndob_levant", "gains": {"X": 0.02, "L": 50.0}},
+                               "kalman": {"type": "kalman", "gains": {"process_d": 100.0, "measurement": 1e-9}}}},
     "tosmo_sigmoid": {"observer": {"type": "tosmo", "gains": {"D": 22.0}},
                       "controller": {"type": "sigmoid_nftsmc", "gains": {
                           "kappa1": 6.0, "kappa2": 4.0, "mu1": 1.2, "mu2": 1.4, "alpha": 0.6, "bound": 0.5,
@@ -36,6 +42,9 @@ VARIANTS = {
                                                               "alpha": 0.3, "bound": 5.0, "mu": 0.5}}},
     "eso_smc": {"observer": {"type": "eso", "gains": {"bandwidth": 60.0}},
                 "controller": {"type": "smc", "gains": {"c": 10.0, "bound": 5.0, "mu": 0.5}}},
+    "kalman_smc": {"observer": {"type": "kalman", "gains": {"process_d": [50.0, 100.0, 200.0], "measurement": 1e-9,
+                                                            "process_qd": 0.01}},
+                   "controller": {"type": "smc", "gains": {"c": 10.0, "bound": 5.0, "mu": 0.5}}},
     "do_adaptive": {"observer": {"type": "do", "gains": {"k1": 8.0, "k2": 18.0, "p1": 10.0, "p2": 10.0}},
                     "controller": {"type": "a_nftsmc", "gains": {
                         "beta1": 15.0, "beta2": 10.0, "gamma1": 0.5, "rho": 5.0, "dead_zone": 0.01, "mu": 0.5}}},
@@ -46,9 +55,12 @@ VARIANTS = {
 MEMBERS = [
     {},
     {"seed": 11, "parameters.fault_scale": 0.5, "variants.hs_nftsmc.controller.gains.mu": 2.0,
-     "variants.eso_smc.observer.gains.bandwidth": 40.0, "variants.hs_nftsmc.monitors.eso.gains.bandwidth": 90.0},
+     "variants.eso_smc.observer.gains.bandwidth": 40.0, "variants.hs_nftsmc.monitors.eso.gains.bandwidth": 90.0,
+     "variants.hs_nftsmc.monitors.levant.gains.L": [30.0, 60.0, 90.0],
+     "variants.hs_nftsmc.monitors.ndob_levant.gains.lambda1": 2.0,
+     "variants.hs_nftsmc.monitors.kalman.gains.process_d": 20.0, "variants.kalman_smc.observer.gains.measurement": 1e-8},
     {"nominal.mass_scale": 1.2, "plant.mass_scale": 0.9, "parameters.amplitude": 0.5, "variants.do_adaptive.controller.gains.rho": [1.0, 2.0, 3.0],
-     "variants.tosmo_sigmoid.observer.gains.D": 30.0, "initial.q": [-0.4, -0.6, -0.5], "parameters.fault_rate": 3.0},
+     "variants.tosmo_sigmoid.observer.gains.D": 30.0, "variants.hs_nftsmc.monitors.ndob.gains.X": 0.03, "initial.q": [-0.4, -0.6, -0.5], "parameters.fault_rate": 3.0},
     {"initial.qd.1": 5000.0},
     {"seed": 7, "variants.sosmo_ntsmc.controller.gains.decay": 1.1},
 ]
@@ -111,7 +123,8 @@ def test_every_member_equals_its_own_run(scenario, batch_run, member):
         for name, values in batched.extras.items():
             np.testing.assert_array_equal(values, single.extras[name])
         for a, b in zip(batched.monitors, single.monitors):
-            np.testing.assert_array_equal(a.luaf_hat, b.luaf_hat)
+            np.testing.assert_array_equal(a.luaf_hat, b.luaf_hat, err_msg=a.name)
+            np.testing.assert_array_equal(a.qd_hat, b.qd_hat, err_msg=a.name)
         np.testing.assert_array_equal(batched.diagnosis.alarm, single.diagnosis.alarm)
 
 
@@ -200,7 +213,9 @@ def test_the_plants_own_mass_matrix_is_the_nominal_one(tmp_path, monkeypatch):
     spec = scenario_dict()
     del spec["sensors"]
     spec["robot"]["sensors"] = ["position"]
-    spec["variants"] = {name: v for name, v in VARIANTS.items() if name != "do_adaptive"}
+    spec["variants"] = {name: v for name, v in VARIANTS.items() if name != "do_adaptive"}  # those on encoders only
+    spec["variants"]["hs_nftsmc"] = {**VARIANTS["hs_nftsmc"], "monitors": {
+        name: monitor for name, monitor in VARIANTS["hs_nftsmc"]["monitors"].items() if name != "ndob"}}
     path = tmp_path / "exact.yaml"
     path.write_text(yaml.safe_dump(spec, sort_keys=False), encoding="utf-8")
     scenario = load_scenario(path)

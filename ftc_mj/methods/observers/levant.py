@@ -1,0 +1,181 @@
+"""Levant's arbitrary-order robust exact differentiator (Levant, "Higher-order sliding modes, differentiation
+and output-feedback control", Int. J. Control 76(9-10), 2003, eqs. (8)-(9)), per joint on the measured
+position f = x1, explicit Euler at the control period.
+
+Order r estimates f, f', ..., f^(r) by z0, ..., zr, given the Lipschitz constant L of f^(r) (|f^(r+1)| <= L):
+
+    dz0/dt = v0,   v0 = -lambda_r L^(1/(r+1)) |z0 - f|^(r/(r+1)) sign(z0 - f) + z1
+    dzi/dt = vi,   vi = -lambda_(r-i) L^(1/(r-i+1)) |zi - v(i-1)|^((r-i)/(r-i+1)) sign(zi - v(i-1)) + z(i+1)
+    dzr/dt = -lambda_0 L sign(zr - v(r-1))                                                      0 < i < r
+
+with the coefficients lambda_0..lambda_5 = 1.1, 1.5, 2, 3, 5, 8 of Levant 2003 (Section 3; the same in
+Reichhalter, Koch and Jadlovska's tuning tables), each overridable. In exact arithmetic and without noise the
+estimates are exact after a finite transient; with the measurement sampled at the period tau they are exact to
+within mu_i L tau^(r+1-i) (Levant 2003, Theorem 3), and with measurement noise of size eps to within
+mu_i L^(i/(r+1)) eps^((r+1-i)/(r+1)).
+
+Discretisation (``discretisation``): ``euler`` (the default), z_i(k+1) = z_i(k) + tau v_i(k). Explicit Euler
+keeps the last estimate's accuracy, but on a polynomial z_i lags f^(i) by about tau f^(i+1) / 2 (the
+difference quotient of the previous line): for i < r an O(tau) error, not O(tau^(r+1-i)). ``taylor`` adds the
+Taylor terms of the higher states, z_i(k+1) = z_i(k) + tau v_i(k) + sum_(l=2..r-i) tau^l / l! z_(i+l)(k)
+(Livne and Levant, "Proper discretization of homogeneous differentiators", Automatica 50(8), 2014), which is
+exact on a polynomial of degree r and restores the tau^(r+1-i) accuracy.
+
+The differentiator is model-free: ``q_hat`` is z0 and ``qd_hat`` is z1. With ``use_model: true`` (order >= 2)
+z2 is the acceleration estimate and the LUaF estimate is
+
+    luaf_hat = z2 - (Psi(z0, z1) + M(x1)^-1 u_prev)
+
+with Psi at the differentiator's own estimate (the engine evaluates the nominal model at ``q_hat``, ``qd_hat``)
+and u_prev the command of the previous period: the one held while the acceleration that z2 estimates acted
+(the command of this period is not known when the controller reads the estimate). Without the model the LUaF
+estimate is zero. ``injection`` is the LUaF estimate (zero without the model): the differentiator has no
+velocity equation driven by a model, so the only thing a controller may meaningfully compensate is the LUaF
+estimate itself.
+"""
+
+from __future__ import annotations
+
+import math
+from typing import Annotated, ClassVar, Literal
+
+import numpy as np
+from pydantic import BeforeValidator, Field, model_validator
+
+from ftc_mj.methods.gains import GainConfig, PositiveJoints
+from ftc_mj.methods.observers.base import Observer
+from ftc_mj.methods.primitives import power, signed_power
+from ftc_mj.robot.nominal import StepModel
+
+#: lambda_0..lambda_5 of Levant 2003 (recursive form), the default coefficients.
+LEVANT_LAMBDAS: tuple[float, ...] = (1.1, 1.5, 2.0, 3.0, 5.0, 8.0)
+#: The highest order the default coefficients cover.
+MAX_ORDER = len(LEVANT_LAMBDAS) - 1
+
+
+def _order_text(value: object) -> object:
+    """An order written as a number (``order: 2``) is the choice "2" (a choice is one for every member)."""
+    return str(value) if isinstance(value, int) and not isinstance(value, bool) else value
+
+
+#: The differentiator's order, a choice (it sets the number of states, so it is the same for every member).
+Order = Annotated[Literal["1", "2", "3", "4", "5"], BeforeValidator(_order_text)]
+
+
+class DifferentiatorGains(GainConfig):
+    """The differentiator's gains, shared by :class:`Levant` and the NDOB on its estimate
+    (:class:`~ftc_mj.methods.observers.ndob.LevantNDOB`)."""
+
+    #: Order r (1: the super-twisting differentiator; 2 and 3 the common choices for a position).
+    order: Order = "2"
+    #: Lipschitz constant of the r-th derivative of the position, per joint (|q^(r+1)| <= L).
+    L: PositiveJoints
+    lambda0: PositiveJoints = Field(LEVANT_LAMBDAS[0], validate_default=True)
+    lambda1: PositiveJoints = Field(LEVANT_LAMBDAS[1], validate_default=True)
+    lambda2: PositiveJoints = Field(LEVANT_LAMBDAS[2], validate_default=True)
+    lambda3: PositiveJoints = Field(LEVANT_LAMBDAS[3], validate_default=True)
+    lambda4: PositiveJoints = Field(LEVANT_LAMBDAS[4], validate_default=True)
+    lambda5: PositiveJoints = Field(LEVANT_LAMBDAS[5], validate_default=True)
+    #: ``euler``: z_i += dt v_i; ``taylor``: plus the Taylor terms of the higher states (Livne and Levant 2014).
+    discretisation: Literal["euler", "taylor"] = "euler"
+
+    def lambdas(self) -> list:
+        """lambda_0..lambda_r of this order."""
+        return [getattr(self, f"lambda{i}") for i in range(int(self.order) + 1)]
+
+
+class LevantConfig(DifferentiatorGains):
+    """Gains of the differentiator, and whether it estimates the LUaF with the nominal model."""
+
+    use_model: bool = False
+
+    @model_validator(mode="after")
+    def _acceleration_estimated(self) -> "LevantConfig":
+        if self.use_model and int(self.order) < 2:
+            raise ValueError("use_model needs order >= 2 (z2 estimates the acceleration)")
+        return self
+
+
+class Differentiator:
+    """The law of Levant 2003, eqs. (8)-(9), on ``shape`` arrays: z0..zr, explicit Euler."""
+
+    def __init__(self, gains: DifferentiatorGains, shape: tuple[int, ...], dt: np.ndarray):
+        self.order = r = int(gains.order)
+        self.dt = dt
+        lambdas = gains.lambdas()
+        # k_i = lambda_(r-i) L^(1/(r-i+1)), the gain of the i-th line; p_i = (r-i)/(r-i+1) its exponent.
+        self.gains = [lambdas[r - i] * power(gains.L, 1.0 / (r - i + 1)) for i in range(r + 1)]
+        self.exponents = [(r - i) / (r - i + 1) for i in range(r)]
+        self.z = [np.zeros(shape) for _ in range(r + 1)]
+        # Livne and Levant 2014: z_i += dt v_i + sum over l >= 2 of dt^l / l! z_(i+l); (i, coefficient, i + l).
+        T = float(dt)
+        self.taylor = [] if gains.discretisation == "euler" else [
+            (i, T**l / math.factorial(l), i + l) for i in range(r + 1) for l in range(2, r - i + 1)]
+        self.rates = [np.zeros(shape) for _ in range(r + 1)]  # v0..vr of this period
+        self._error = np.zeros(shape)
+        self._term = np.zeros(shape)
+
+    def reset(self, position: np.ndarray, velocity: np.ndarray) -> None:
+        self.z[0][:] = position
+        if self.order >= 1:
+            self.z[1][:] = velocity
+        for z in self.z[2:]:
+            z[:] = 0.0
+
+    def update(self, f: np.ndarray) -> None:
+        """The rates v0..vr for the measurement ``f``."""
+        z, v, error, term = self.z, self.rates, self._error, self._term
+        previous = f
+        for i in range(self.order):
+            np.subtract(z[i], previous, out=error)
+            signed_power(error, self.exponents[i], out=term)
+            np.multiply(self.gains[i], term, out=term)
+            np.subtract(z[i + 1], term, out=v[i])
+            previous = v[i]
+        np.subtract(z[-1], previous, out=error)
+        np.sign(error, out=term)
+        np.multiply(self.gains[-1], term, out=v[-1])
+        np.negative(v[-1], out=v[-1])
+
+    def advance(self) -> None:
+        """z_i += dt v_i (+ the Taylor terms: the higher states are read before they change)."""
+        z, term = self.z, self._term
+        for i, coefficient, higher in self.taylor:
+            np.multiply(coefficient, z[higher], out=term)
+            z[i] += term
+        for state, v in zip(z, self.rates):
+            np.multiply(self.dt, v, out=term)
+            state += term
+
+
+class Levant(Observer):
+    """Levant's robust exact differentiator, Levant 2003 eqs. (8)-(9); with the nominal model its acceleration
+    estimate gives the LUaF (see the module docstring)."""
+
+    name: ClassVar[str] = "levant"
+    Config: ClassVar[type[LevantConfig]] = LevantConfig
+
+    def __init__(self, config: LevantConfig, n_joints: int, dt: float, members: int | None = None):
+        super().__init__(config, n_joints, dt, members)
+        self.differentiator = Differentiator(config, self.shape, self.dt)
+        z = self.differentiator.z
+        self.q_hat, self.qd_hat = z[0], z[1]  # the estimates are the differentiator's states themselves
+        self.use_model = bool(config.use_model)
+        self._command = np.zeros(self.shape)  # M(x1)^-1 u of the previous period
+
+    def reset(self, q_hat: np.ndarray, qd_hat: np.ndarray) -> None:
+        super().reset(q_hat, qd_hat)
+        self.differentiator.reset(q_hat, qd_hat)
+        self._command[:] = 0.0
+
+    def update(self, t: float, q_meas: np.ndarray, model: StepModel) -> None:
+        self.differentiator.update(q_meas)
+        if self.use_model:
+            np.subtract(self.differentiator.z[2], model.psi_hat, out=self.luaf_hat)
+            self.luaf_hat -= self._command
+            self.injection[:] = self.luaf_hat
+
+    def advance(self, tau: np.ndarray, model: StepModel) -> None:
+        self.differentiator.advance()
+        if self.use_model:
+            self._command[:] = model.command_acceleration(tau)
