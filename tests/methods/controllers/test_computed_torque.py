@@ -18,6 +18,7 @@ import scipy.linalg
 from pydantic import ValidationError
 
 from closed_loop import FakeObserver, Period, make
+from controller_batch import assert_batch_equals_single
 
 from ftc_mj.methods.controllers import ComputedTorque
 from ftc_mj.robot.nominal import NominalModel, StepModel
@@ -142,3 +143,11 @@ def test_uncompensated_disturbance_leaves_the_pd_solution():
     7.6e-2 rad from the PD solution): the estimate case above is not passing for lack of a disturbance."""
     t, errors, controller = puma_loop({"kp": 100.0}, disturbance=TORQUE)
     assert np.abs(errors - pd_solution(t, controller.config.kp, controller.config.kd)).max() > 2e-2
+
+
+def test_batch_equals_single_member_by_member():
+    """5 members of a 3-joint law, each with its own K_p and K_d (given or from the rule)."""
+    members = [{"kp": 100.0, "compensation": "estimate"}, {"kp": [4.0, 9.0, 30.0], "compensation": "estimate"},
+               {"kp": 2.0, "kd": [1.0, 0.5, 7.0], "compensation": "estimate"},
+               {"kp": 100.0, "kd": 3.0, "compensation": "estimate"}, {"kp": 0.3, "compensation": "estimate"}]
+    assert_batch_equals_single(ComputedTorque, members)
