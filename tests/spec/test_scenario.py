@@ -433,8 +433,8 @@ INVALID = [
     ("seed", "abc", "seed", "integer"),
     ("seed", 1.5, "seed", "integer"),
     # method types
-    ("variants.proposed.observer.type", "kalman", "variants.proposed.observer.type", "unknown observer 'kalman'"),
-    ("variants.nftsmc.controller.type", "pid", "variants.nftsmc.controller.type", "unknown controller 'pid'"),
+    ("variants.proposed.observer.type", "luenberger", "variants.proposed.observer.type", "unknown observer 'luenberger'"),
+    ("variants.nftsmc.controller.type", "lqr", "variants.nftsmc.controller.type", "unknown controller 'lqr'"),
     # gains
     ("variants.nftsmc.observer.gains", {}, "variants.nftsmc.observer.gains", "give D"),
     ("variants.nftsmc.observer.gains", {"D": 22.0, "k1": 3.0}, "variants.nftsmc.observer.gains", "not both"),
