@@ -21,7 +21,7 @@ from closed_loop import FakeObserver, Period, make
 from controller_batch import assert_batch_equals_single
 
 from ftc_mj.methods.controllers import ComputedTorque
-from ftc_mj.robot.nominal import NominalModel, StepModel
+from nominal_oracle import NominalModel, step_model
 
 PUMA = Path(__file__).resolve().parents[3] / "models" / "puma560.xml"
 E0 = np.array([0.1, -0.08, 0.05])  # initial position error [rad]
@@ -55,7 +55,7 @@ def puma_loop(gains: dict, *, compensation="none", disturbance=None, drop_psi=Fa
     for k in range(steps):
         q_ref, qd_ref, qdd_ref = (np.full(3, x) for x in reference(t[k]))
         observer.qd_hat[0] = data.qvel
-        step = StepModel.evaluate(nominal, data.qpos, data.qpos, data.qvel)
+        step = step_model(nominal, data.qpos, data.qpos, data.qvel)
         if disturbance is not None:
             observer.luaf_hat[0] = step.solve_M(disturbance[None])[0]
         if drop_psi:
