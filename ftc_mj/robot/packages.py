@@ -44,6 +44,15 @@ def package_roots(package: str, near: Path | None = None) -> list[Path]:
     return roots
 
 
+def package_candidates(uri: str, near: Path | None = None) -> list[Path]:
+    """Every path ``package://NAME/rest`` may name, in lookup order (none need exist); [] for another name."""
+    parts = split_package_uri(uri)
+    if parts is None:
+        return []
+    package, rest = parts
+    return [root / rest for root in package_roots(package, near)]
+
+
 def resolve_package_uri(uri: str, near: Path | None = None) -> Path | None:
     """The existing file ``package://NAME/rest`` names, or None (see the module's lookup order)."""
     parts = split_package_uri(uri)
