@@ -25,10 +25,12 @@ _AMENT_INDEX = Path("share") / "ament_index" / "resource_index" / "packages"
 
 
 def split_package_uri(uri: str) -> tuple[str, str] | None:
-    """``package://NAME/rest`` -> (NAME, rest); None for another kind of name or an incomplete one."""
+    """``package://NAME/rest`` -> (NAME, rest); None for another kind of name or an incomplete one.
+
+    ``package:///NAME/rest`` (an empty host, as some exporters write) names the same file."""
     if not uri.startswith("package://"):
         return None
-    package, _, rest = unquote(uri[len("package://"):]).partition("/")
+    package, _, rest = unquote(uri[len("package://"):]).lstrip("/").partition("/")
     return (package, rest) if package and rest else None
 
 

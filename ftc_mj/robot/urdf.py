@@ -7,7 +7,8 @@ builds an ``MjSpec`` from it (visual geometry kept, mesh paths resolved here), w
 testbed's conventions, those of ``models/*.xml``:
 
 * locked joints removed, their angle baked into the child body's frame (exact, no constraint); a mimic joint
-  must be locked, and is locked by itself where its leader is (at ``multiplier * leader + offset``);
+  must be locked, and is locked by itself where its leader is (at ``multiplier * leader + offset``); a
+  ``<mimic>`` on a fixed joint constrains nothing and is ignored;
 * per free joint, in kinematic order, a torque motor and the joint sensors (:mod:`ftc_mj.robot.editing`);
   optional armature (URDF has none);
 * contacts disabled (``<collision>`` elements are not used), inertia only from ``<inertial>``,
@@ -219,7 +220,8 @@ def _check_tree(file: str, urdf: yourdfpy.URDF) -> list[str]:
         raise InputError(file, f"link {loose!r}", "is not connected to the root link (the joints form a closed "
                                                   "loop, which is not supported)")
     for joint in urdf.robot.joints:
-        leader = joint.mimic.joint if joint.mimic is not None else None
+        # A fixed joint's mimic constrains nothing (exporters write them for a gripper's rigid parts).
+        leader = joint.mimic.joint if joint.mimic is not None and joint.type != "fixed" else None
         if leader is not None and (leader not in urdf.joint_map or urdf.joint_map[leader].type == "fixed"
                                    or leader == joint.name):
             raise InputError(file, f"joint {joint.name!r}: mimic", f"joint {leader!r} is not another movable joint")
@@ -468,7 +470,9 @@ def _with_mimic_joints(robot: UrdfRobot, lock: dict[str, float], source: str, fi
     given its own value must agree with it. A mimic joint left free is refused: the testbed drives every free
     joint with its own motor, and a mimic joint has none of its own."""
     name_of_file = robot.path.name
-    followers = {joint.name: joint for joint in robot.urdf.robot.joints if joint.mimic is not None}
+    # A fixed joint that carries a <mimic> follows nothing: it has no value to lock.
+    followers = {joint.name: joint for joint in robot.urdf.robot.joints
+                 if joint.mimic is not None and joint.type != "fixed"}
     # Chains (a mimic of a mimic) resolve in as many passes as they are long.
     for _ in range(len(followers)):
         for name, joint in followers.items():
