@@ -20,7 +20,8 @@ COMMANDS = {
     "report": "Markdown tables from a run's --json metrics",
     "campaign": "Monte Carlo, sweeps and fault-diagnosis statistics: run, report, replay",
     "tune": "robust gain tuning (CMA-ES) on a campaign's population",
-    "robot": "check a robot before its first run: per-joint numbers and warnings",
+    "robot": "check a robot before its first run: per-joint numbers, warnings",
+    "calibrate": "per-joint diagnosis thresholds for a false-alarm rate",
 }
 
 
