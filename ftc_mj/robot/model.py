@@ -13,7 +13,7 @@ import mujoco
 import numpy as np
 from pydantic import Field
 
-from ftc_mj.robot import mjcf, urdf
+from ftc_mj.robot import mjcf, urdf, visuals
 from ftc_mj.robot.packages import resolve_package_uri, split_package_uri
 from ftc_mj.config.errors import InputError
 from ftc_mj.config.types import FiniteFloat, NonNegativeFloat, PositiveFloat, Strict
@@ -45,6 +45,9 @@ class RobotSpec(Strict):
     #: Sensors the controller may read: joint encoders always; tachometers only where the chapter assumes
     #: them (Chapter 2). A method whose ``requires`` names a sensor not listed here is refused at load time.
     sensors: list[Literal["position", "velocity"]] = ["position"]
+    #: Refuse a model whose visual mesh files are missing. Default: the geoms drawn with them are dropped, with
+    #: one warning line, where the dynamics do not depend on them (:mod:`ftc_mj.robot.visuals`).
+    strict_meshes: bool = False
 
 
 class PlantSpec(Strict):
@@ -121,7 +124,7 @@ def _load_urdf(model_path: Path, robot: RobotSpec, file: str) -> mujoco.MjModel:
         raise InputError(file, "robot.contacts", "a URDF robot has no contacts here (its <collision> shapes are not "
                                                  "used)")
     return urdf.load_model(model_path, joints=robot.joints, lock=robot.lock, torque_limits=robot.torque_limits,
-                           armature=robot.armature, source=file, field="robot")
+                           armature=robot.armature, strict_meshes=robot.strict_meshes, source=file, field="robot")
 
 
 def _load_mjcf(model_path: Path, robot: RobotSpec, file: str, name: str, rebuild: bool) -> mujoco.MjModel:
@@ -133,16 +136,25 @@ def _load_mjcf(model_path: Path, robot: RobotSpec, file: str, name: str, rebuild
             if getattr(robot, option) not in (None, {}):
                 raise InputError(file, f"robot.{option}", "is for URDF models only, or for an MJCF rebuilt as a "
                                                           "testbed robot (give robot.joints)")
-        try:
-            return mujoco.MjModel.from_xml_path(str(model_path))
-        except ValueError as exc:
-            raise InputError(file, "robot.model", f"MuJoCo cannot load {name}: {_first_line(exc)}") from None
     try:
         spec = mujoco.MjSpec.from_file(str(model_path))
     except ValueError as exc:
         raise InputError(file, "robot.model", f"MuJoCo cannot load {name}: {_first_line(exc)}") from None
-    return mjcf.rebuild(spec, joints=robot.joints, lock=robot.lock, torque_limits=robot.torque_limits,
-                        contacts=robot.contacts or "off", name=name, source=file)
+    contacts_on = not spec.option.disableflags & mujoco.mjtDisableBit.mjDSBL_CONTACT and (
+        not rebuild or robot.contacts == "keep")
+    dropped = visuals.drop_missing_meshes(spec, contacts_on=contacts_on, strict=robot.strict_meshes, model=name,
+                                          source=file, field="robot.model")
+    if not rebuild:
+        try:
+            # A model with every file there is compiled from its file, as MuJoCo's own loader does.
+            model = spec.compile() if dropped else mujoco.MjModel.from_xml_path(str(model_path))
+        except ValueError as exc:
+            raise InputError(file, "robot.model", f"MuJoCo cannot load {name}: {_first_line(exc)}") from None
+    else:
+        model = mjcf.rebuild(spec, joints=robot.joints, lock=robot.lock, torque_limits=robot.torque_limits,
+                             contacts=robot.contacts or "off", name=name, source=file)
+    visuals.warn_dropped(file, "robot.model", name, dropped)
+    return model
 
 
 def _first_line(exc: Exception) -> str:

@@ -25,10 +25,12 @@ _AMENT_INDEX = Path("share") / "ament_index" / "resource_index" / "packages"
 
 
 def split_package_uri(uri: str) -> tuple[str, str] | None:
-    """``package://NAME/rest`` -> (NAME, rest); None for another kind of name or an incomplete one."""
+    """``package://NAME/rest`` -> (NAME, rest); None for another kind of name or an incomplete one.
+
+    ``package:///NAME/rest`` (an empty host, as some exporters write) names the same file."""
     if not uri.startswith("package://"):
         return None
-    package, _, rest = unquote(uri[len("package://"):]).partition("/")
+    package, _, rest = unquote(uri[len("package://"):]).lstrip("/").partition("/")
     return (package, rest) if package and rest else None
 
 
@@ -42,6 +44,15 @@ def package_roots(package: str, near: Path | None = None) -> list[Path]:
     prefixes += [prefix for prefix in _python_prefixes() if (prefix / _AMENT_INDEX / package).is_file()]
     roots += [prefix / "share" / package for prefix in prefixes]
     return roots
+
+
+def package_candidates(uri: str, near: Path | None = None) -> list[Path]:
+    """Every path ``package://NAME/rest`` may name, in lookup order (none need exist); [] for another name."""
+    parts = split_package_uri(uri)
+    if parts is None:
+        return []
+    package, rest = parts
+    return [root / rest for root in package_roots(package, near)]
 
 
 def resolve_package_uri(uri: str, near: Path | None = None) -> Path | None:

@@ -7,7 +7,8 @@ builds an ``MjSpec`` from it (visual geometry kept, mesh paths resolved here), w
 testbed's conventions, those of ``models/*.xml``:
 
 * locked joints removed, their angle baked into the child body's frame (exact, no constraint); a mimic joint
-  must be locked, and is locked by itself where its leader is (at ``multiplier * leader + offset``);
+  must be locked, and is locked by itself where its leader is (at ``multiplier * leader + offset``); a
+  ``<mimic>`` on a fixed joint constrains nothing and is ignored;
 * per free joint, in kinematic order, a torque motor and the joint sensors (:mod:`ftc_mj.robot.editing`);
   optional armature (URDF has none);
 * contacts disabled (``<collision>`` elements are not used), inertia only from ``<inertial>``,
@@ -25,6 +26,7 @@ import io
 import math
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
+from dataclasses import field as dataclass_field
 from pathlib import Path
 from typing import TYPE_CHECKING
 from urllib.parse import unquote
@@ -32,9 +34,10 @@ import mujoco
 import numpy as np
 from lxml import etree
 
-from ftc_mj.robot import editing, meshes as mesh_files
+from ftc_mj.robot import editing, meshes as mesh_files, visuals
 from ftc_mj.robot.meshes import CONVERTED_FORMATS, MUJOCO_FORMATS, MeshConversionError, MeshPart
-from ftc_mj.robot.packages import resolve_package_uri
+from ftc_mj.robot.packages import package_candidates, resolve_package_uri
+from ftc_mj.robot.visuals import MissingVisual
 from ftc_mj.config.errors import InputError
 
 if TYPE_CHECKING:  # imported when a URDF is read: it takes about 1 s (trimesh), which MJCF runs need not pay
@@ -61,6 +64,9 @@ class UrdfRobot:
     meshes: Mapping[str, tuple[MeshPart, ...]]
     #: The parsed XML, for MuJoCo's URDF compiler.
     xml: etree._Element
+    #: Mesh files that are not there, by filename as written: their visuals are dropped
+    #: (:mod:`ftc_mj.robot.visuals`; a link's mass is its <inertial>, and contacts are off).
+    missing: Mapping[str, MissingVisual] = dataclass_field(default_factory=dict)
 
     def joint(self, name: str) -> yourdfpy.Joint:
         return self.urdf.joint_map[name]
@@ -74,12 +80,17 @@ def is_urdf(path: Path) -> bool:
 # ------------------------------------------------------------------------------------------- reading
 
 
-def read_urdf(path: Path) -> UrdfRobot:
+def read_urdf(path: Path, strict_meshes: bool = True) -> UrdfRobot:
     """Parse and check a URDF file.
+
+    Args:
+        strict_meshes: refuse a mesh file that is missing; False: note it in :attr:`UrdfRobot.missing` (its
+            visuals are then left out of the model).
 
     Raises:
         InputError: naming the file and the element, for a malformed file, an unsupported or inconsistent
-            joint, a moving link without a physical inertial, or a mesh that cannot be found or read.
+            joint, a moving link without a physical inertial, or a mesh that cannot be read (or found, under
+            ``strict_meshes``; the message lists the paths looked at).
     """
     path = Path(path)
     file = str(path)
@@ -99,14 +110,16 @@ def read_urdf(path: Path) -> UrdfRobot:
         _check_joint(file, joint)
     moving_links = {joint.child for joint in urdf.robot.joints if joint.type != "fixed"}
     meshes: dict[str, tuple[MeshPart, ...]] = {}
+    missing: dict[str, MissingVisual] = {}
     for link in urdf.robot.links:
         _check_inertial(file, link, link.name in moving_links)
         for index, geometry in enumerate(_drawn_geometries(link)):
-            _check_geometry(file, f"link {link.name!r}: {geometry.label} {index + 1}", geometry.geometry, path.parent,
-                            meshes)
+            element = f"link {link.name!r}: {geometry.label} {index + 1}"
+            _check_geometry(file, element, geometry.geometry, path.parent, meshes, missing, strict_meshes,
+                            link.name)
     if not urdf.validate(validation_fn=lambda errors: not errors):  # anything yourdfpy knows that we did not
         raise InputError(file, "", f"invalid URDF: {urdf.errors[0]}")
-    return UrdfRobot(path=path, urdf=urdf, movable=tuple(movable), meshes=meshes, xml=root)
+    return UrdfRobot(path=path, urdf=urdf, movable=tuple(movable), meshes=meshes, xml=root, missing=missing)
 
 
 def _parse_xml(path: Path) -> etree._Element:
@@ -207,7 +220,8 @@ def _check_tree(file: str, urdf: yourdfpy.URDF) -> list[str]:
         raise InputError(file, f"link {loose!r}", "is not connected to the root link (the joints form a closed "
                                                   "loop, which is not supported)")
     for joint in urdf.robot.joints:
-        leader = joint.mimic.joint if joint.mimic is not None else None
+        # A fixed joint's mimic constrains nothing (exporters write them for a gripper's rigid parts).
+        leader = joint.mimic.joint if joint.mimic is not None and joint.type != "fixed" else None
         if leader is not None and (leader not in urdf.joint_map or urdf.joint_map[leader].type == "fixed"
                                    or leader == joint.name):
             raise InputError(file, f"joint {joint.name!r}: mimic", f"joint {leader!r} is not another movable joint")
@@ -289,7 +303,8 @@ def _drawn_geometries(link: yourdfpy.Link) -> list[_Drawn]:
 
 
 def _check_geometry(file: str, element: str, geometry: yourdfpy.Geometry | None, base: Path,
-                    meshes: dict[str, Path]) -> None:
+                    meshes: dict[str, tuple[MeshPart, ...]], missing: dict[str, MissingVisual],
+                    strict_meshes: bool, link: str) -> None:
     shapes = [s for s in (geometry.box, geometry.cylinder, geometry.sphere, geometry.mesh) if s is not None] \
         if geometry is not None else []
     if len(shapes) != 1:
@@ -304,10 +319,20 @@ def _check_geometry(file: str, element: str, geometry: yourdfpy.Geometry | None,
     filename = geometry.mesh.filename or ""
     target = resolve_mesh(filename, base)
     if target is None:
-        raise InputError(file, f"{element}: mesh", f"file {filename!r} not found (relative names are relative to "
-                                                   "the URDF file; package://NAME/... is looked up in the folders "
-                                                   "above it, ROS_PACKAGE_PATH, AMENT_PREFIX_PATH and the ROS "
-                                                   "packages installed with Python packages)")
+        looked_at = tuple(mesh_candidates(filename, base))
+        if strict_meshes or not (looked_at or filename.startswith("package://")):
+            where = (f"looked for {visuals.where(looked_at)}" if looked_at else
+                     "no ROS package of that name was found" if filename.startswith("package://") else
+                     "not a file name")
+            raise InputError(file, f"{element}: mesh", f"file {filename!r} not found: {where} (relative names are "
+                                                       "relative to the URDF file; package://NAME/... is looked up "
+                                                       "in the folders above it, ROS_PACKAGE_PATH, "
+                                                       "AMENT_PREFIX_PATH and the ROS packages installed with "
+                                                       "Python packages)")
+        known = missing.get(filename)
+        users = (known.users if known is not None else ()) + (link,)
+        missing[filename] = MissingVisual(name=filename, looked_at=looked_at, users=users)
+        return
     scale = geometry.mesh.scale
     if scale is not None and not all(_finite(v) and v != 0 for v in np.atleast_1d(scale)):
         raise InputError(file, f"{element}: mesh", f"scale must be non-zero numbers, got {scale}")
@@ -326,6 +351,14 @@ def _check_geometry(file: str, element: str, geometry: yourdfpy.Geometry | None,
         raise InputError(file, f"{element}: mesh", f"{filename!r}: MuJoCo reads {', '.join(MUJOCO_FORMATS)} meshes, "
                                                    f"and {', '.join(CONVERTED_FORMATS)} are converted; not "
                                                    f"{target.suffix or 'files without an extension'}")
+
+
+def mesh_candidates(filename: str, base: Path) -> list[Path]:
+    """Every path a URDF mesh ``filename`` may name, in the lookup order of :func:`resolve_mesh`."""
+    if filename.startswith("package://"):
+        return package_candidates(filename, base)
+    name = unquote(filename[len("file://"):]) if filename.startswith("file://") else filename
+    return [(base / name).resolve()] if name and "://" not in name else []
 
 
 def resolve_mesh(filename: str, base: Path) -> Path | None:
@@ -352,6 +385,7 @@ def load_model(
     lock: Mapping[str, float] | None = None,
     torque_limits: float | Sequence[float] | str | None = None,
     armature: float | Sequence[float] | None = None,
+    strict_meshes: bool = False,
     source: str,
     field: str = "robot",
 ) -> mujoco.MjModel:
@@ -368,13 +402,15 @@ def load_model(
             limit and a joint without one is unlimited.
         armature: reflected rotor inertia of the free joints [kg m^2], one value or one per free joint
             (URDF cannot express it).
+        strict_meshes: refuse a missing mesh file; default: its visuals are dropped, with one warning line
+            (the dynamics never depend on them: mass from <inertial>, contacts off).
         source, field: the file and field path the options come from (a scenario's ``robot``), for errors.
 
     Raises:
         InputError: for a problem in the URDF (naming it and the element) or in the options (naming
             ``source`` and the option's field).
     """
-    robot = read_urdf(path)
+    robot = read_urdf(path, strict_meshes=strict_meshes)
     lock = dict(lock or {})
     if joints is not None:
         lock.update(_hold_the_others(robot, joints, lock, source, field))
@@ -398,6 +434,7 @@ def load_model(
     compiled = [model.joint(i).name for i in range(model.njnt)]
     if compiled != free:  # the actuators, sensors and scenario vectors assume this order
         raise RuntimeError(f"{robot.path}: MuJoCo ordered the joints {compiled}, expected {free}")
+    visuals.warn_dropped(source, f"{field}.model", robot.path.name, list(robot.missing.values()))
     return model
 
 
@@ -433,7 +470,9 @@ def _with_mimic_joints(robot: UrdfRobot, lock: dict[str, float], source: str, fi
     given its own value must agree with it. A mimic joint left free is refused: the testbed drives every free
     joint with its own motor, and a mimic joint has none of its own."""
     name_of_file = robot.path.name
-    followers = {joint.name: joint for joint in robot.urdf.robot.joints if joint.mimic is not None}
+    # A fixed joint that carries a <mimic> follows nothing: it has no value to lock.
+    followers = {joint.name: joint for joint in robot.urdf.robot.joints
+                 if joint.mimic is not None and joint.type != "fixed"}
     # Chains (a mimic of a mimic) resolve in as many passes as they are long.
     for _ in range(len(followers)):
         for name, joint in followers.items():
@@ -497,7 +536,9 @@ def _compile_urdf(robot: UrdfRobot) -> mujoco.MjSpec:
                 collision.tag = "visual"  # drawn in its place, as read_urdf checked it
         for visual in link.findall("visual"):
             mesh = visual.find("geometry/mesh")
-            if mesh is not None:
+            if mesh is not None and mesh.get("filename", "") in robot.missing:
+                link.remove(visual)  # drawn with a file that is not there (read_urdf noted it)
+            elif mesh is not None:
                 _split_mesh_visual(link, visual, robot.meshes[mesh.get("filename", "")])
     geom_names: set[str | None] = set()
     for visual in root.findall("link/visual"):

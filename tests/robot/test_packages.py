@@ -36,6 +36,9 @@ def test_split():
     assert split_package_uri("package://arm/meshes/a.dae") == ("arm", "meshes/a.dae")
     assert split_package_uri("package://arm%20x/a") == ("arm x", "a")
     assert split_package_uri("package://arm") is None
+    # an empty host, as some exporters write (TALOS's full URDF): the same file
+    assert split_package_uri("package:///arm/meshes/a.dae") == ("arm", "meshes/a.dae")
+    assert split_package_uri("package:///arm") is None
     assert split_package_uri("meshes/a.dae") is None
 
 

@@ -290,8 +290,9 @@ FORE_INERTIAL = """<inertial>
 #: Broken input run through ``python -m ftc_mj.run`` as a subprocess (about 2 s of start-up each).
 BROKEN = {
     "malformed_xml": Case(urdf=replace("</robot>", ""), element="line ", problem="malformed XML"),
-    "missing_mesh": Case(urdf=replace('filename="meshes/bracket.obj"/>', 'filename="meshes/gone.obj"/>'),
-                         element="link 'fore': visual 1: mesh", problem="'meshes/gone.obj' not found"),
+    "missing_mesh_strict": Case(urdf=replace('filename="meshes/bracket.obj"/>', 'filename="meshes/gone.obj"/>'),
+                                scenario=robot(strict_meshes=True), element="link 'fore': visual 1: mesh",
+                                problem="'meshes/gone.obj' not found: looked for "),
 }
 
 #: More broken input, in-process through ftc_mj.run.main: the same code path without the start-up; capfd
@@ -358,7 +359,9 @@ OUTPUTS = ["--json", "out.json", "--out", "rec.rrd"]
 
 
 def run_cli(directory: Path, scenario: Path, *args: str) -> subprocess.CompletedProcess:
-    env = {**os.environ, "PYTHONDONTWRITEBYTECODE": "1"}
+    # The package of this source tree, whatever tree is installed: the subprocess tests the code under test.
+    path = os.pathsep.join(filter(None, [str(ROOT), os.environ.get("PYTHONPATH")]))
+    env = {**os.environ, "PYTHONDONTWRITEBYTECODE": "1", "PYTHONPATH": path}
     return subprocess.run([sys.executable, "-m", "ftc_mj.run", str(scenario), *args], cwd=directory,
                           capture_output=True, text=True, timeout=180, env=env)
 
@@ -420,7 +423,7 @@ def test_broken_urdf_message_form(tmp_path, monkeypatch, capfd):
 
 
 def test_load_scenario_raises_input_error_naming_the_urdf(tmp_path):
-    scenario = prepare(tmp_path, BROKEN["missing_mesh"])
+    scenario = prepare(tmp_path, BROKEN["missing_mesh_strict"])
     with pytest.raises(InputError) as info:
         load_scenario(scenario)
     assert info.value.file == str((tmp_path / "arm.urdf").resolve())
@@ -552,6 +555,52 @@ def test_free_mimic_joint_is_refused(tmp_path, mesh_cache, lock):
     with pytest.raises(InputError) as info:
         load_model(ros_arm(tmp_path), lock=lock, source="s.yaml")
     assert info.value.field == "robot.lock" and "mimics 'finger_left'" in info.value.problem
+
+
+def test_fixed_joint_with_a_mimic_constrains_nothing(tmp_path, mesh_cache):
+    """A <mimic> on a fixed joint (TALOS's gripper parts) is ignored: not locked, not refused, even when its
+    leader is held because robot.joints leaves it out."""
+    urdf = ros_arm(tmp_path)
+    text = urdf.read_text(encoding="utf-8").replace("</robot>", """
+  <joint name="finger_pad" type="fixed">
+    <parent link="left"/><child link="pad"/>
+    <mimic joint="finger_left" multiplier="-1.0" offset="0.0"/>
+  </joint>
+  <link name="pad"/>
+</robot>""")
+    urdf.write_text(text, encoding="utf-8")
+    model = load_model(urdf, joints=["shoulder", "elbow"], lock={"finger_left": 0.02}, source="s.yaml")
+    assert [model.joint(i).name for i in range(model.njnt)] == ["shoulder", "elbow"]
+    assert model.body("pad").pos.tolist() == [0.0, 0.0, 0.0]
+    # a fixed joint named in robot.lock is still refused: there is nothing to lock
+    with pytest.raises(InputError) as info:
+        load_model(urdf, lock={"wrist": 0.3, "finger_left": 0.02, "finger_pad": 0.0}, source="s.yaml")
+    assert info.value.field == "robot.lock.finger_pad" and "is fixed" in info.value.problem
+
+
+def test_three_slash_package_mesh_is_found(tmp_path, mesh_cache, monkeypatch):
+    urdf = ros_arm(tmp_path)
+    text = urdf.read_text(encoding="utf-8")
+    assert "package://test_arm/" in text
+    urdf.write_text(text.replace("package://test_arm/", "package:///test_arm/"), encoding="utf-8")
+    monkeypatch.setenv("ROS_PACKAGE_PATH", str(tmp_path))
+    model = load_model(urdf, lock={"wrist": 0.3, "finger_left": 0.02}, source="s.yaml", strict_meshes=True)
+    fore = [g for g in range(model.ngeom) if model.geom_bodyid[g] == model.body("fore").id]
+    assert len(fore) == 2 and all(model.geom_type[g] == mujoco.mjtGeom.mjGEOM_MESH for g in fore)
+
+
+def test_closed_loop_is_still_one_line(tmp_path, mesh_cache):
+    urdf = ros_arm(tmp_path)
+    text = urdf.read_text(encoding="utf-8").replace("</robot>", """
+  <joint name="closing" type="revolute">
+    <parent link="right"/><child link="left"/><axis xyz="0 0 1"/>
+    <limit lower="-1" upper="1" effort="1" velocity="1"/>
+  </joint>
+</robot>""")
+    urdf.write_text(text, encoding="utf-8")
+    with pytest.raises(InputError) as info:
+        load_model(urdf, lock={"wrist": 0.3, "finger_left": 0.02}, source="s.yaml")
+    assert "closed kinematic loops are not supported" in info.value.problem and "\n" not in str(info.value)
 
 
 def test_controlled_joints_lock_the_others(tmp_path, mesh_cache):

@@ -1,0 +1,35 @@
+"""``ftc-mj robot check``: the table and warnings on stdout, exit 0; bad input one line, exit 2."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+from ftc_mj.cli.main import main
+
+ROOT = Path(__file__).resolve().parents[2]
+
+
+def test_check_a_scenario_prints_every_joint(capsys):
+    assert main(["robot", "check", str(ROOT / "scenarios" / "robots" / "ur5_urdf.yaml")]) == 0
+    out = capsys.readouterr().out
+    for joint in ("shoulder_pan_joint", "elbow_joint", "wrist_3_joint"):
+        assert f"\n{joint} " in out
+    assert "M_jj(q0)" in out and "peak tau_ref" in out and "smallest eigenvalue of M(q0)" in out
+    assert "warning: no joint has armature" in out  # the URDF carries none
+
+
+def test_check_a_robot_file_and_set(capsys):
+    assert main(["robot", "check", str(ROOT / "models" / "puma560.xml")]) == 0
+    out = capsys.readouterr().out
+    assert "joint1" in out and "no warnings" in out and "peak tau_ref" in out
+    scenario = str(ROOT / "scenarios" / "robots" / "ur5_urdf.yaml")
+    assert main(["robot", "check", scenario, "--set", "robot.armature=0.1"]) == 0
+    assert "no joint has armature" not in capsys.readouterr().out
+
+
+def test_bad_input_is_one_line_exit_2(tmp_path, capsys):
+    assert main(["robot", "check", str(tmp_path / "nothing.urdf")]) == 2
+    err = capsys.readouterr().err
+    assert len(err.splitlines()) == 1 and err.startswith("error: ") and "not found" in err
+    assert main(["robot", "check", str(ROOT / "models" / "puma560.xml"), "--set", "seed=1"]) == 2
+    assert "--set" in capsys.readouterr().err
