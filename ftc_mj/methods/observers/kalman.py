@@ -10,6 +10,16 @@ Model of each joint, with d the LUaF (acceleration units) as a random walk:
 w_q, w_qd, w_d white with spectral densities ``process_q``, ``process_qd``, ``process_d`` (per joint), v white
 with variance ``measurement`` (per sample, rad^2; an encoder of step s adds s^2 / 12).
 
+**Tuning.** The filter is optimal for its model, so its covariances are its bandwidth: a ``process_d`` much
+larger than the LUaF's real motion makes a fast filter that passes the encoder's noise into qd_hat and d_hat
+(the noise's share of the error variance is the solution of a Lyapunov equation in the steady-state gain). A
+rule that needs no trial: ``measurement`` from the encoder (s^2 / 12 plus its noise's variance);
+``process_d`` = D^2 T from a bound D on |dd/dt| (the bound the TOSMOs are designed for), so that the random
+walk's step over a period, sqrt(process_d T), is the largest change of d in a period, D T (the Wiener-process
+models of Bar-Shalom, Li and Kirubarajan, "Estimation with Applications to Tracking and Navigation", Wiley
+2001, sec. 6.2-6.3: the noise's step over a period of the order of the state's largest change, 0.5 to 1 times
+it); ``process_qd`` = 0, since d already lumps every unknown acceleration.
+
 **What is linearised.** The coupling of the joints through Psi(q, qd) and M^-1 is not modelled in the
 covariance: Psi + M^-1 tau enters as a known input, evaluated at the filter's estimate (the Jacobian of Psi is
 neglected). Each joint is then a linear chain of integrators with a model input, so the filter is a linear
@@ -168,7 +178,8 @@ class KalmanObserver(Observer):
             self.initial[k] = getattr(config, name)
         self.measurement_variance = np.broadcast_to(config.measurement, shape).copy()
         self._measurement_rows = np.ascontiguousarray(np.broadcast_to(self.measurement_variance, (3,) + shape))
-        #: The gain K of the last measurement update, ``(3,) + shape``.
+        #: The gain K of the full recursion's last measurement update, ``(3,) + shape`` (in the steady state
+        #: the stored cycle's gains are applied instead).
         self.gain = np.zeros((3,) + shape)
         self.innovation = np.zeros(shape)
         self.signals["innovation"] = self.innovation
