@@ -10,6 +10,16 @@ Model of each joint, with d the LUaF (acceleration units) as a random walk:
 w_q, w_qd, w_d white with spectral densities ``process_q``, ``process_qd``, ``process_d`` (per joint), v white
 with variance ``measurement`` (per sample, rad^2; an encoder of step s adds s^2 / 12).
 
+**Tuning.** The filter is optimal for its model, so its covariances are its bandwidth: a ``process_d`` much
+larger than the LUaF's real motion makes a fast filter that passes the encoder's noise into qd_hat and d_hat
+(the noise's share of the error variance is the solution of a Lyapunov equation in the steady-state gain). A
+rule that needs no trial: ``measurement`` from the encoder (s^2 / 12 plus its noise's variance);
+``process_d`` = D^2 T from a bound D on |dd/dt| (the bound the TOSMOs are designed for), so that the random
+walk's step over a period, sqrt(process_d T), is the largest change of d in a period, D T (the Wiener-process
+models of Bar-Shalom, Li and Kirubarajan, "Estimation with Applications to Tracking and Navigation", Wiley
+2001, sec. 6.2-6.3: the noise's step over a period of the order of the state's largest change, 0.5 to 1 times
+it); ``process_qd`` = 0, since d already lumps every unknown acceleration.
+
 **What is linearised.** The coupling of the joints through Psi(q, qd) and M^-1 is not modelled in the
 covariance: Psi + M^-1 tau enters as a known input, evaluated at the filter's estimate (the Jacobian of Psi is
 neglected). Each joint is then a linear chain of integrators with a model input, so the filter is a linear
@@ -24,16 +34,44 @@ robot's state.
 Each period:
 
 * :meth:`measure` (the measurement update, before the nominal model is evaluated): innovation
-  nu = y - q_prior, S = P00 + R, K = P[:, 0] / S, x += K nu, P -= P[:, 0] P[0, :] / S; so Psi is then taken
-  at the corrected estimate;
+  nu = y - q_prior, S = P00 + R, K = P[:, 0] / S, x += K nu, P -= K P[0, :]; so Psi is then taken at the
+  corrected estimate;
 * :meth:`update`: the injection is the LUaF estimate d_hat (the filter has no output injection into a velocity
   equation a controller could cancel beyond its disturbance estimate);
 * :meth:`advance` (the time update): x = F x + B u, P = F P F^T + Q.
 
-The covariance is a ``(members, n, 3, 3)`` array; F P F^T is applied as the row operations of F and then the
-column operations of F^T (F is the same for every member and joint), element-wise on the whole batch, and the
-upper triangle is mirrored so that P stays exactly symmetric. The innovation nu is recorded as the signal
-``innovation`` (for a whiteness test: white when the model and the covariances are right).
+**Storage.** P is symmetric: its six entries (P00, P01, P02, P11, P12, P22) are one contiguous
+``(6, members, n)`` array per stage (the prediction and the corrected estimate), and (q, qd, d) one
+``(3, members, n)`` array whose rows are ``q_hat``, ``qd_hat``, ``luaf_hat``. Each step of the recursion is a
+NumPy call on whole rows or blocks of rows of the same shape (at these sizes NumPy's cost per call, and more
+for a broadcast operand, outweighs the arithmetic). Every operation is element-wise (products and sums in a
+fixed order, no reduction), so a member's bits do not depend on the batch. The updates per entry, H = [1, 0, 0]:
+
+* measurement: row 0 becomes P0j R / S = K_j R (the standard form P0j - K_0 P0j without its cancellation when
+  R << P00), and P_ij -= K_i P_0j for i, j >= 1 (P11 -= K1 P01, P12 -= K1 P02, P22 -= K2 P02);
+* time: F P F^T of a symmetric P, per entry (h = T^2/2)::
+
+      P00 += 2T P01 + 2h P02 + T^2 P11 + 2Th P12 + h^2 P22
+      P01 += T P02 + T P11 + (T^2 + h) P12 + hT P22
+      P02 += T P12 + h P22
+      P11 += 2T P12 + T^2 P22
+      P12 += T P22
+
+  summed by diagonal of this table (the coefficients of entry i + o in entry i, o = 1..5: one product and one
+  sum of blocks each) into P + Q.
+
+P stays exactly symmetric (each entry is stored once); :attr:`KalmanObserver.covariance` assembles the
+``(members, n, 3, 3)`` matrices. The innovation nu is recorded as the signal ``innovation`` (for a whiteness
+test: white when the model and the covariances are right).
+
+**The steady state, exactly.** F, Q and R are constant, so the covariances and gains do not depend on the
+data (Kalman 1960): P(k+1) is a fixed function of P(k). In floating point the recursion reaches, after a few
+hundred periods, a fixed point or a cycle of a few periods in the last bits. Once the prediction's covariance
+of the whole batch repeats bit for bit a value it had p periods before (p <= :attr:`KalmanObserver.window`),
+every later gain is the one of p periods earlier: the filter stores the p gains and replays them, and stops
+the covariance recursion. The estimates are bit for bit those of the full recursion (a member's own sequence,
+whatever the batch); only the cost changes (the state update alone). A batch whose members' periods have no
+common multiple up to the window keeps the full recursion.
 """
 
 from __future__ import annotations
@@ -45,6 +83,7 @@ from pydantic import Field
 
 from ftc_mj.methods.gains import GainConfig, NonNegativeJoints, PositiveJoints
 from ftc_mj.methods.observers.base import Observer
+from ftc_mj.methods.primitives import scalar
 from ftc_mj.robot.nominal import StepModel
 
 
@@ -65,10 +104,27 @@ class KalmanConfig(GainConfig):
     initial_d: PositiveJoints = Field(100.0, validate_default=True)
 
 
+#: The stored entries of the symmetric 3x3 covariance, in the order of :attr:`KalmanObserver.entries`.
+ENTRIES: tuple[tuple[int, int], ...] = ((0, 0), (0, 1), (0, 2), (1, 1), (1, 2), (2, 2))
+
+
+def pack(P: np.ndarray) -> np.ndarray:
+    """The six entries of symmetric matrices ``(..., 3, 3)`` as ``(6, ...)`` (the upper triangle)."""
+    return np.stack([P[..., i, j] for i, j in ENTRIES])
+
+
+def unpack(entries: np.ndarray) -> np.ndarray:
+    """The symmetric matrices ``(..., 3, 3)`` of six entries ``(6, ...)``."""
+    P = np.empty(entries.shape[1:] + (3, 3))
+    for entry, (i, j) in zip(entries, ENTRIES):
+        P[..., i, j] = P[..., j, i] = entry
+    return P
+
+
 def process_covariance(T: float, process_q, process_qd, process_d, shape: tuple[int, ...]) -> np.ndarray:
     """Q of the chain of integrators over a period T for white noise of the given spectral densities on each
     state's derivative, ``shape + (3, 3)``: the integral of Phi(s) diag(q, qd, d) Phi(s)^T over [0, T] with
-    Phi(s) = e^(A s), in closed form."""
+    Phi(s) = e^(A s), in closed form (Van Loan 1978)."""
     q = np.broadcast_to(process_q, shape)
     qd = np.broadcast_to(process_qd, shape)
     d = np.broadcast_to(process_d, shape)
@@ -82,83 +138,142 @@ def process_covariance(T: float, process_q, process_qd, process_d, shape: tuple[
     return Q
 
 
+def time_update_diagonals(T: float) -> tuple[np.ndarray, ...]:
+    """The coefficients of P -> F P F^T on the six entries (:data:`ENTRIES`) by offset: diagonal o holds the
+    coefficients of entry i + o in entry i, i = 0 .. 5 - o (the module docstring's table; the identity is
+    offset 0). Returns the diagonals of offsets 1 to 5, of lengths 5 to 1."""
+    h = T * T / 2
+    return tuple(np.array(diagonal) for diagonal in (
+        [2 * T, T, 0.0, 2 * T, T],                 # P01 -> P00, P02 -> P01, P11 -> P02, P12 -> P11, P22 -> P12
+        [2 * h, T, T, T * T],                      # P02 -> P00, P11 -> P01, P12 -> P02, P22 -> P11
+        [T * T, T * T + h, h],                     # P11 -> P00, P12 -> P01, P22 -> P02
+        [2 * T * h, h * T],                        # P12 -> P00, P22 -> P01
+        [h * h]))                                  # P22 -> P00
+
+
 class KalmanObserver(Observer):
     """Per-joint Kalman filter on (q, qd, d) with the nominal model as known input (see the module docstring)."""
 
     name: ClassVar[str] = "kalman"
     Config: ClassVar[type[KalmanConfig]] = KalmanConfig
+    #: The longest period of the covariance's steady state looked for (0: always the full recursion). 24 is a
+    #: common multiple of the periods 1, 2, 3, 4, 6, 8 the recursion ends in.
+    window: ClassVar[int] = 24
 
     def __init__(self, config: KalmanConfig, n_joints: int, dt: float, members: int | None = None):
         super().__init__(config, n_joints, dt, members)
         T = float(dt)
-        self._T, self._half_T2 = self.dt, T * T / 2  # F's entries T and T^2/2
         shape = self.shape
-        self.process = process_covariance(T, config.process_q, config.process_qd, config.process_d, shape)
-        self.initial = np.zeros(shape + (3, 3))
-        for i, name in enumerate(("initial_q", "initial_qd", "initial_d")):
-            self.initial[..., i, i] = getattr(config, name)
+        #: (q_hat, qd_hat, luaf_hat) as one ``(3,) + shape`` array; the three estimates are its rows.
+        self.state = np.zeros((3,) + shape)
+        self.q_hat, self.qd_hat, self.luaf_hat = self.state
+        #: The entries P00, P01, P02, P11, P12, P22 (:data:`ENTRIES`), ``(6,) + shape``, of the covariance of
+        #: the prediction (what :meth:`advance` leaves and :meth:`measure` reads) ...
+        self.entries = np.zeros((6,) + shape)
+        #: ... and of the corrected estimate (what :meth:`measure` leaves and :meth:`advance` reads).
+        self.posterior = np.zeros((6,) + shape)
+        self.process = pack(process_covariance(T, config.process_q, config.process_qd, config.process_d, shape))
+        self.initial = np.zeros((6,) + shape)
+        for k, name in ((0, "initial_q"), (3, "initial_qd"), (5, "initial_d")):
+            self.initial[k] = getattr(config, name)
         self.measurement_variance = np.broadcast_to(config.measurement, shape).copy()
-        #: The covariance P, ``shape + (3, 3)``.
-        self.covariance = self.initial.copy()
+        self._measurement_rows = np.ascontiguousarray(np.broadcast_to(self.measurement_variance, (3,) + shape))
+        #: The gain K of the full recursion's last measurement update, ``(3,) + shape`` (in the steady state
+        #: the stored cycle's gains are applied instead).
+        self.gain = np.zeros((3,) + shape)
         self.innovation = np.zeros(shape)
         self.signals["innovation"] = self.innovation
+        #: The period of the covariance's steady state once found (the gains are then replayed), else None.
+        self.period: int | None = None
+        self._half_T2 = scalar(T * T / 2)
         self._variance = np.zeros(shape)  # S
-        self._gain = np.zeros(shape + (3,))  # K
-        self._row = np.zeros(shape + (3,))  # a row or column operation of F
-        self._outer = np.zeros(shape + (3, 3))
-        self._term = np.zeros(shape)
         self._input = np.zeros(shape)
+        self._term = np.zeros(shape)
+        self._block = np.zeros((5,) + shape)  # the products of one diagonal of the time update
+        # The diagonals expanded to their blocks' shape: a product of two arrays of one shape.
+        diagonals = [np.ascontiguousarray(np.broadcast_to(d.reshape(d.shape + (1,) * len(shape)), d.shape + shape))
+                     for d in time_update_diagonals(T)]
+        # Views made once: the per-period work is then only the ufunc calls.
+        self._prior_entries, self._posterior_entries = tuple(self.entries), tuple(self.posterior)
+        self._gain_rows = self.posterior[:3]
+        self._corrections = tuple(zip(self.state, self.gain))
+        self._time_terms = tuple((diagonal, self.posterior[o:], self._block[:6 - o], self.entries[:6 - o])
+                                 for o, diagonal in enumerate(diagonals, start=1))
+        # The last window's gains and predictions, and where the current period falls in it.
+        self._gains = np.zeros((self.window, 3) + shape)
+        self._priors = np.zeros((self.window, 6) + shape)
+        self._bits = self.entries.view(np.int64)  # compared bit for bit (-0.0 is not 0.0 to the recursion)
+        self._first_bits = self._priors[0].view(np.int64) if self.window else None
+        self._offset = 0
+        self._phase = 0
+        self._cycle: tuple[tuple[tuple[np.ndarray, np.ndarray], ...], ...] = ()
+        self._cycle_priors = self._priors[:0]
+
+    @property
+    def covariance(self) -> np.ndarray:
+        """The covariance of the prediction as ``shape + (3, 3)`` matrices (a copy)."""
+        return unpack(self.entries if self.period is None else self._cycle_priors[self._phase])
 
     def reset(self, q_hat: np.ndarray, qd_hat: np.ndarray) -> None:
         super().reset(q_hat, qd_hat)
-        self.covariance[:] = self.initial
+        self.entries[:] = self.initial
         self.innovation[:] = 0.0
+        self.period, self._offset, self._phase, self._cycle = None, 0, 0, ()
 
     def measure(self, q_meas: np.ndarray, qd_meas: np.ndarray | None) -> None:
         """The measurement update with this period's encoder reading (H = [1, 0, 0])."""
-        P = self.covariance
-        np.subtract(q_meas, self.q_hat, out=self.innovation)
-        variance = np.add(P[..., 0, 0], self.measurement_variance, out=self._variance)
-        gain = np.divide(P[..., :, 0], variance[..., None], out=self._gain)
-        for state, k in ((self.q_hat, gain[..., 0]), (self.qd_hat, gain[..., 1]), (self.luaf_hat, gain[..., 2])):
-            np.multiply(k, self.innovation, out=self._term)
-            state += self._term
-        # P -= P[:, 0] P[0, :] / S: (P_i0 P_0j) / S is the same product for (i, j) and (j, i), so P stays symmetric.
-        outer = np.multiply(P[..., :, 0, None], P[..., None, 0, :], out=self._outer)
-        outer /= variance[..., None, None]
-        P -= outer
+        nu = np.subtract(q_meas, self.q_hat, out=self.innovation)
+        term = self._term
+        if self.period is not None:  # the steady state: this period's gain, stored
+            corrections = self._cycle[self._phase]
+            self._phase = (self._phase + 1) % self.period
+            for state, k in corrections:
+                state += np.multiply(k, nu, out=term)
+            return
+        P00, P01, P02, P11, P12, P22 = self._prior_entries
+        posterior, (K0, K1, K2) = self._posterior_entries, self.gain
+        S = np.add(P00, self.measurement_variance, out=self._variance)
+        np.divide(P00, S, out=K0)  # K = P[:, 0] / S
+        np.divide(P01, S, out=K1)
+        np.divide(P02, S, out=K2)
+        for state, k in self._corrections:
+            state += np.multiply(k, nu, out=term)
+        # Row 0 becomes K R; P11 -= K1 P01, P12 -= K1 P02, P22 -= K2 P02.
+        np.multiply(self.gain, self._measurement_rows, out=self._gain_rows)
+        np.subtract(P11, np.multiply(K1, P01, out=term), out=posterior[3])
+        np.subtract(P12, np.multiply(K1, P02, out=term), out=posterior[4])
+        np.subtract(P22, np.multiply(K2, P02, out=term), out=posterior[5])
+        if self.window:
+            self._gains[self._offset] = self.gain
+            self._priors[self._offset] = self.entries
 
     def update(self, t: float, q_meas: np.ndarray, model: StepModel) -> None:
         self.injection[:] = self.luaf_hat
 
     def advance(self, tau: np.ndarray, model: StepModel) -> None:
         """The time update x = F x + B u, P = F P F^T + Q."""
-        T, h, term = self._T, self._half_T2, self._term
         u = np.add(model.psi_hat, model.command_acceleration(tau), out=self._input)
         u += self.luaf_hat  # qdd_hat = u + d_hat
         # q += T qd + T^2/2 (u + d), then qd += T (u + d); d stays.
-        np.multiply(T, self.qd_hat, out=term)
-        self.q_hat += term
-        np.multiply(h, u, out=term)
-        self.q_hat += term
-        np.multiply(T, u, out=term)
-        self.qd_hat += term
-        P, row = self.covariance, self._row
-        # F P: row 0 += T row 1 + T^2/2 row 2, then row 1 += T row 2 (row 2 unchanged).
-        np.multiply(T, P[..., 1, :], out=row)
-        P[..., 0, :] += row
-        np.multiply(h, P[..., 2, :], out=row)
-        P[..., 0, :] += row
-        np.multiply(T, P[..., 2, :], out=row)
-        P[..., 1, :] += row
-        # (F P) F^T: the same on the columns.
-        np.multiply(T, P[..., :, 1], out=row)
-        P[..., :, 0] += row
-        np.multiply(h, P[..., :, 2], out=row)
-        P[..., :, 0] += row
-        np.multiply(T, P[..., :, 2], out=row)
-        P[..., :, 1] += row
-        P += self.process
-        P[..., 1, 0] = P[..., 0, 1]
-        P[..., 2, 0] = P[..., 0, 2]
-        P[..., 2, 1] = P[..., 1, 2]
+        q_hat, qd_hat, term = self.q_hat, self.qd_hat, self._term
+        q_hat += np.multiply(self.dt, qd_hat, out=term)
+        q_hat += np.multiply(self._half_T2, u, out=term)
+        qd_hat += np.multiply(self.dt, u, out=term)
+        if self.period is not None:
+            return
+        np.add(self.posterior, self.process, out=self.entries)
+        for diagonal, sources, terms, targets in self._time_terms:
+            targets += np.multiply(diagonal, sources, out=terms)
+        if self.window:
+            self._offset += 1
+            if np.array_equal(self._bits, self._first_bits):
+                self._repeat(self._offset)
+            elif self._offset == self.window:
+                self._offset = 0
+
+    def _repeat(self, period: int) -> None:
+        """The prediction's covariance is the one of ``period`` periods ago: replay that period's gains."""
+        self.period, self._phase = period, 0
+        gains = self._gains[:period].copy()
+        self._cycle_priors = self._priors[:period].copy()
+        self._cycle = tuple(tuple(zip(self.state, gain)) for gain in gains)

@@ -1,6 +1,7 @@
 """The disturbance Kalman filter: the exact discretisation of its covariances, the covariance update against
-the textbook matrix form, convergence to a constant disturbance, and white innovations when the plant is the
-filter's own model (normalised autocorrelation at lags 1-20 within 3 / sqrt(N))."""
+the textbook matrix form, convergence to a constant disturbance, white innovations when the plant is the
+filter's own model (normalised autocorrelation at lags 1-20 within 3 / sqrt(N)), and the steady state's
+replayed gains against the full recursion, bit for bit."""
 
 from __future__ import annotations
 
@@ -11,7 +12,7 @@ from scipy.linalg import expm
 from double_integrator import DT, FakeStepModel
 
 from ftc_mj.methods.observers import BUILTIN, KalmanObserver
-from ftc_mj.methods.observers.kalman import process_covariance
+from ftc_mj.methods.observers.kalman import pack, process_covariance, unpack
 
 F = np.array([[1.0, DT, DT**2 / 2], [0.0, 1.0, DT], [0.0, 0.0, 1.0]])
 
@@ -36,8 +37,8 @@ def test_one_period_against_the_matrix_form():
     rng = np.random.default_rng(1)
     observer.reset(np.array([0.1, -0.2]), np.array([0.5, 0.0]))
     A = rng.normal(size=(2, 3, 3))
-    observer.covariance[:] = A @ A.transpose(0, 2, 1) + np.eye(3)
-    P0, x0 = observer.covariance.copy(), np.stack([observer.q_hat, observer.qd_hat, observer.luaf_hat], -1)
+    observer.entries[:] = pack(A @ A.transpose(0, 2, 1) + np.eye(3))
+    P0, x0 = observer.covariance, np.stack([observer.q_hat, observer.qd_hat, observer.luaf_hat], -1)
     y = np.array([0.11, -0.19])
     H = np.array([[1.0, 0.0, 0.0]])
     observer.measure(y, None)
@@ -52,10 +53,9 @@ def test_one_period_against_the_matrix_form():
         x = x0[j] + K[:, 0] * (y[j] - x0[j, 0])
         P = (np.eye(3) - K @ H) @ P0[j]
         x = F @ x + np.array([DT**2 / 2, DT, 0.0]) * u[j]
-        P = F @ P @ F.T + observer.process[j]
+        P = F @ P @ F.T + unpack(observer.process)[j]
         np.testing.assert_allclose([observer.q_hat[j], observer.qd_hat[j], observer.luaf_hat[j]], x, rtol=1e-12)
         np.testing.assert_allclose(observer.covariance[j], P, rtol=1e-10)
-        np.testing.assert_array_equal(observer.covariance[j], observer.covariance[j].T)  # exactly symmetric
     np.testing.assert_array_equal(observer.innovation, y - x0[:, 0])
     assert observer.signals["innovation"] is observer.innovation
 
@@ -111,6 +111,38 @@ def test_innovations_are_not_white_when_the_model_is_wrong():
     _, innovations = run(observer, 1.0, 6000, np.random.default_rng(5), Q, R)
     nu = innovations[1000:] - innovations[1000:].mean()
     assert abs(np.dot(nu[:-1], nu[1:]) / np.dot(nu, nu)) > 3.0 / np.sqrt(len(nu))
+
+
+class FullRecursion(KalmanObserver):
+    window = 0  # never replays
+
+
+def test_the_steady_state_replays_the_recursion_bit_for_bit():
+    """Once the prediction's covariance repeats, the stored gains replace the recursion: the estimates and
+    covariances are those of the full recursion to the bit, on arbitrary readings, for joints of different
+    covariances (their periods differ)."""
+    gains = dict(process_d=[10.0, 300.0, 3600.0], process_qd=[0.0, 1.0, 0.1], measurement=[1e-9, 8.7e-10, 1e-10])
+    replayed = make(3, **gains)
+    full = FullRecursion(KalmanObserver.Config.model_validate(gains, context={"n_joints": 3}), 3, DT)
+    step = FakeStepModel(np.diag([2.0, 1.0, 0.5]), psi_hat=[0.1, -0.3, 0.2])
+    rng = np.random.default_rng(3)
+    for observer in (replayed, full):
+        observer.reset(np.zeros(3), np.full(3, 0.5))
+    y, found = np.zeros(3), None
+    for k in range(3000):
+        y = y + rng.normal(scale=1e-4, size=3)
+        tau = rng.normal(size=3)
+        for observer in (replayed, full):
+            observer.measure(y, None)
+            observer.update(k * DT, y, step)
+            observer.advance(tau, step)
+        np.testing.assert_array_equal(replayed.state, full.state)
+        np.testing.assert_array_equal(replayed.covariance, full.covariance)
+        if found is None and replayed.period is not None:
+            found = k
+    assert found is not None and found < 2000 and full.period is None  # measured: period 2 from step 985
+    replayed.reset(np.zeros(3), np.zeros(3))
+    assert replayed.period is None and np.array_equal(replayed.covariance, unpack(replayed.initial))
 
 
 def test_schema():
