@@ -1,4 +1,4 @@
-"""The ``ftc-mj`` command: ``ftc-mj run|figures|report|campaign|tune ...`` (``python -m ftc_mj.cli`` too).
+"""The ``ftc-mj`` command: ``ftc-mj run|figures|report|campaign|tune|bench ...`` (``python -m ftc_mj.cli`` too).
 
 Dispatches to the command's module in this package, which reads the rest of the arguments; each command's
 ``--help`` tells its options.
@@ -20,6 +20,7 @@ COMMANDS = {
     "report": "Markdown tables from a run's --json metrics",
     "campaign": "Monte Carlo, sweeps and fault-diagnosis statistics: run, report, replay",
     "tune": "robust gain tuning (CMA-ES) on a campaign's population",
+    "bench": "score observers and observer-controller pairs on the versioned benchmark suite",
 }
 
 
