@@ -27,7 +27,7 @@ LAYERS: dict[str, int] = {
     "config": 0, "results": 0,
     "robot": 1,
     "effects": 2, "methods": 2,
-    "analysis": 3,
+    "analysis": 3, "logs": 3,
     "outputs": 4,
     "spec": 5,
     "engine": 6,

@@ -44,6 +44,10 @@ def build_parser(prog: str = PROG) -> argparse.ArgumentParser:
     parser.add_argument("--json", type=Path, metavar="PATH", help="write the metrics as JSON")
     parser.add_argument("--no-record", action="store_true", help="do not write a Rerun recording")
     parser.add_argument("--quiet", action="store_true", help="no progress display and no table")
+    parser.add_argument("--export-log", type=Path, metavar="PATH",
+                        help="write per variant what a real controller would have logged (PATH.<variant>.csv "
+                             "or .mcap, by PATH's extension): time, measured positions and velocities, commanded "
+                             "and delivered torques")
     return parser
 
 
@@ -167,6 +171,14 @@ def main(argv: Sequence[str] | None = None, prog: str = PROG) -> int:
         for label, target in (("--out", None if args.no_record else recording_path), ("--json", args.json)):
             if target is not None:
                 _check_writable(str(args.scenario), label, target)
+        if args.export_log is not None:
+            from ftc_mj.logs.export import FORMATS, variant_path
+
+            if args.export_log.suffix not in FORMATS:
+                raise InputError(str(args.scenario), "--export-log", f"{str(args.export_log)!r}: the extension must "
+                                 f"be one of {', '.join(FORMATS)}")
+            for variant in scenario.variants:
+                _check_writable(str(args.scenario), "--export-log", variant_path(args.export_log, variant.name))
     except InputError as error:
         print(f"error: {error}", file=sys.stderr)
         return 2
@@ -181,8 +193,8 @@ def main(argv: Sequence[str] | None = None, prog: str = PROG) -> int:
         table_console.width = max(table_console.width, 120)
         table_console.print(metrics_table(scenario, results, metrics))
 
-    # Recording first, JSON second; if the JSON cannot be written, the new recording goes too (exit 2 writes
-    # nothing). Both are written whole or not at all (write_atomic).
+    # Recording first, JSON second, exported logs last; if one cannot be written, those written before go too
+    # (exit 2 writes nothing). Each is written whole or not at all (write_atomic).
     written: list[Path] = []
     try:
         if not args.no_record:
@@ -194,12 +206,23 @@ def main(argv: Sequence[str] | None = None, prog: str = PROG) -> int:
         if args.json is not None:
             document = metrics_document(scenario, results, metrics)
             write_atomic(args.json, (json.dumps(document, indent=2) + "\n").encode("utf-8"))
+            written.append(args.json)
+        if args.export_log is not None:
+            from ftc_mj.logs.export import log_bytes, variant_path
+            from ftc_mj.logs.trajectory import joint_names
+
+            joints = joint_names(scenario.model)
+            for result in results:
+                if result.host is None:  # a monitor shares its host's readings and commands
+                    target = variant_path(args.export_log, result.name)
+                    write_atomic(target, log_bytes(target, result, joints))
+                    written.append(target)
     except OSError as error:
         for path in written:
             path.unlink(missing_ok=True)
         print(f"error: cannot write {error.filename}: {error.strerror}", file=sys.stderr)
         return 2
-    if written and not args.quiet:
+    if recording_path in written and not args.quiet:
         print(f"recording: {recording_path}  (open with: rerun {recording_path})", file=sys.stderr)
     diverged = [r for r in results if r.status != "ok" and "." not in r.name]  # monitors share their host's run
     for r in diverged:  # said whatever --quiet: an exit 1 explains itself

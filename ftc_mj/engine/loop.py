@@ -21,6 +21,10 @@ After the last period, the truths that need M(q)^-1 (the true LUaF, the fault's 
 every sample at once (:mod:`ftc_mj.engine.truths`); the series (:mod:`ftc_mj.engine.series`) are cut where
 each row stopped.
 
+A scenario with a ``log`` section replays it instead of simulating (:class:`~ftc_mj.engine.plant.LogPlant`):
+the readings are the log's, every controller is the log's torque
+(:class:`~ftc_mj.logs.controller.LogController`), and there are no truths (NaN).
+
 A row that diverges stops with its own time; the others go on. Observers and controllers never see the
 plant: only readings, time, the reference, their own commands and the nominal model.
 """
@@ -42,7 +46,7 @@ from ftc_mj.effects.terms import PlantTerms
 from ftc_mj.engine.rows import Layout
 from ftc_mj.engine.mass import MassAtReadings, mass_at_readings
 from ftc_mj.engine.members import Members
-from ftc_mj.engine.plant import MuJoCoPlant, Plant
+from ftc_mj.engine.plant import LogPlant, MuJoCoPlant, Plant
 from ftc_mj.engine.series import BatchRun, BlockSeries, Series
 from ftc_mj.engine.truths import Truths
 from ftc_mj.methods.controllers.base import Controller
@@ -205,7 +209,8 @@ class _Run:
     series: Series
     #: The plant's live body poses to record, or None.
     poses: tuple[np.ndarray, np.ndarray] | None
-    truths: Truths
+    #: None where the plant has no truth (a log).
+    truths: Truths | None
     stops: Stops
 
     @property
@@ -224,9 +229,7 @@ class _Run:
                            [v.controller_velocity == "measured" for v in variants])
         rows, per_row = layout.rows, layout.per_row
         threads = nthread if nthread > 0 else _default_threads(rows)
-        plant = MuJoCoPlant(scenario.model, rows, scenario.substeps, threads,
-                            mass_scale=per_row(members.plant_mass_scale), max_position=spec.divergence.max_position,
-                            max_velocity=spec.divergence.max_velocity)
+        plant = _plant(scenario, members, rows, per_row, threads)
         plant.reset(per_row(members.q0), per_row(members.qd0))
         nominal = nominal_batch(scenario.model, layout.per_point(members.nominal_mass_scale), threads)
         mass = mass_at_readings(plant, nominal, scenario.model, per_row(members.nominal_mass_scale),
@@ -249,6 +252,8 @@ class _Run:
 
             observer = variant.observer_type(config.observer, n, dt, members=count)
             controller = variant.controller_type(config.controller, n, dt, members=count)
+            if isinstance(plant, LogPlant):  # the log's torque is the command
+                controller.follow(plant.torque[block.rows])
             controller.reset()
             monitors = [(monitor.name, monitor.observer_type(monitor_config, n, dt, members=count), step_model(points))
                         for monitor, monitor_config, points in zip(variant.monitors, config.monitors, block.monitors)]
@@ -273,7 +278,10 @@ class _Run:
                                     for b in blocks],
             np.asarray(inputs.fault_on, dtype=bool), scenario.measures_velocity,
             scenario.diagnoser is not None and scenario.diagnoser.space == "torque", poses)
-        truths = Truths.allocate(steps, plant, per_row(members.nominal_mass_scale) / per_row(members.plant_mass_scale))
+        truths = None
+        if plant.has_truth:
+            truths = Truths.allocate(steps, plant,
+                                     per_row(members.nominal_mass_scale) / per_row(members.plant_mass_scale))
         return cls(times, layout, plant, readings, nominal, mass, solver, tau, command_acceleration, blocks, inputs,
                    reference, series, poses, truths, Stops(np.full(rows, steps), np.full(rows, np.nan)))
 
@@ -351,7 +359,8 @@ class _Run:
         plant, inputs, series, tau = self.plant, self.inputs, self.series.rows, self.tau
         terms = inputs.terms
         true_mass = self.mass.true_mass() if terms.needs_mass else None
-        self.truths.record(k, plant, tau)  # M(q) of the sample instant and tau / c - C qd - G
+        if self.truths is not None:
+            self.truths.record(k, plant, tau)  # M(q) of the sample instant and tau / c - C qd - G
         terms.apply(k, t, plant.qpos, plant.qvel, true_mass, plant.applied)
         fault_terms_on = inputs.fault_terms_on[k]
         if fault_terms_on:
@@ -391,6 +400,9 @@ class _Run:
     def finish_truth(self) -> None:
         """The truths solved with the samples' factorisations of M(q) (:meth:`Truths.solve`)."""
         series = self.series.rows
+        if self.truths is None:  # no true LUaF; no fault acts on a log (its fault series stay zero)
+            series["luaf_true"].fill(np.nan)
+            return
         self.truths.solve(self.solver, series["qdd_true"], series["fault_torque"], self.inputs.fault_on,
                           series["luaf_true"], series["fault_acceleration"])
 
@@ -406,6 +418,16 @@ class _Run:
                         qd_measured=recorded.qd_measured, luaf_torque=recorded.luaf_torque,
                         body_xpos=recorded.body_xpos, body_xquat=recorded.body_xquat, done=done,
                         diverged_at=self.stops.diverged_at)
+
+
+def _plant(scenario: Scenario, members: Members, rows: int, per_row: Callable[[np.ndarray], np.ndarray],
+           threads: int) -> Plant:
+    """The true robots: the scenario's log played back, or its robot simulated by MuJoCo."""
+    if scenario.log is not None:
+        return LogPlant(scenario.model, scenario.log, rows)
+    spec = scenario.spec
+    return MuJoCoPlant(scenario.model, rows, scenario.substeps, threads, mass_scale=per_row(members.plant_mass_scale),
+                       max_position=spec.divergence.max_position, max_velocity=spec.divergence.max_velocity)
 
 
 def _readings(scenario: Scenario, members: Members, layout: Layout) -> Readings:

@@ -1,6 +1,6 @@
 """The true robots of a run, one row per (variant, member): what the loop needs of them (:class:`Plant`) and
 the simulated robots that give it, every row one simulation of a :class:`mujoco.batch.Batch`
-(:class:`MuJoCoPlant`).
+(:class:`MuJoCoPlant`), or a recorded log played back (:class:`LogPlant`).
 
 Per control period the engine reads the sensors (current: the batch computes the position and velocity
 stages at the new state after each step), writes ``ctrl`` and ``qfrc_applied``, and calls
@@ -21,6 +21,7 @@ import mujoco
 import numpy as np
 from mujoco.batch import Batch, SimulationError
 
+from ftc_mj.logs.trajectory import Log
 from ftc_mj.robot.model import position_sensor_addresses, velocity_sensor_addresses
 from ftc_mj.robot.nominal import DenseMass, scale_masses
 
@@ -49,6 +50,7 @@ class Plant(Protocol):
             ``qLDiagInv``; solved by :class:`~ftc_mj.robot.nominal.SparseSolver`).
         alive: rows still running (a mask); running: how many.
         reads_state_exactly: whether the encoders read the joint positions exactly.
+        has_truth: whether the rows have a true state, M(q) and acceleration (the truths of a run).
     """
 
     qpos: np.ndarray
@@ -61,6 +63,7 @@ class Plant(Protocol):
     alive: np.ndarray
     running: int
     reads_state_exactly: bool
+    has_truth: bool
 
     def reset(self, q0: np.ndarray, qd0: np.ndarray) -> None:
         """Every row at its initial state ``(rows, n)``, running, its readings and M(q) current."""
@@ -87,6 +90,8 @@ class Plant(Protocol):
 
 class MuJoCoPlant(Plant):
     """:class:`Plant` simulated by MuJoCo: one simulation of a persistent :class:`mujoco.batch.Batch` per row."""
+
+    has_truth = True
 
     def __init__(self, model: mujoco.MjModel, rows: int, substeps: int, nthread: int,
                  mass_scale: np.ndarray | None = None, max_position: float = np.inf, max_velocity: float = np.inf):
@@ -197,3 +202,82 @@ def _columns(values: np.ndarray, addresses: np.ndarray) -> Callable[[np.ndarray]
         view = values[:, addresses[0]:addresses[0] + len(addresses)]
         return lambda out: np.copyto(out, view)
     return lambda out: values.take(addresses, axis=1, out=out)
+
+
+class LogPlant(Plant):
+    """:class:`Plant` that plays a recorded trajectory back (:class:`~ftc_mj.logs.trajectory.Log`): every row
+    reads the log's positions (and velocities) of the period, and :attr:`torque` holds the logged torque,
+    which the log's controller hands to the observers (:class:`~ftc_mj.logs.controller.LogController`).
+
+    There is no true state: ``qpos``, ``qvel`` and the period's acceleration are NaN (the truth series of the
+    run), and no true M(q) (:attr:`has_truth` is False: the loop records no truths). The bodies' poses are
+    the robot's at the logged positions (forward kinematics, computed once), for the recording's 3-D view.
+    """
+
+    reads_state_exactly = False
+    #: Whether the loop may take truths from this plant.
+    has_truth = False
+
+    def __init__(self, model: mujoco.MjModel, log: Log, rows: int):
+        n = model.nv
+        self._log = log
+        self.qpos, self.qvel = np.full((rows, n), np.nan), np.full((rows, n), np.nan)
+        self.ctrl, self.applied = np.zeros((rows, n)), np.zeros((rows, n))
+        self.bias = np.full((rows, n), np.nan)
+        self.factor = self.diagonal_inverse = np.zeros((rows, 0))
+        #: The logged torque of the period, ``(rows, n)``.
+        self.torque = np.zeros((rows, n))
+        self._position, self._velocity = np.zeros((rows, n)), np.zeros((rows, n))
+        self.alive = np.ones(rows, dtype=bool)
+        self.running = rows
+        self._xpos, self._xquat = _kinematics(model, log.position)
+        self._pose = np.zeros((rows,) + self._xpos.shape[1:]), np.zeros((rows,) + self._xquat.shape[1:])
+        self._k = 0
+
+    def reset(self, q0: np.ndarray, qd0: np.ndarray) -> None:
+        """Back to the log's first sample (``q0``, ``qd0`` are the log's own: nothing to set)."""
+        self._load(0)
+
+    def _load(self, k: int) -> None:
+        log = self._log
+        self._k = k
+        self._position[:] = log.position[k]
+        if log.velocity is not None:
+            self._velocity[:] = log.velocity[k]
+        self.torque[:] = log.torque[k]
+        self._pose[0][:] = self._xpos[k]
+        self._pose[1][:] = self._xquat[k]
+
+    def read_positions(self, out: np.ndarray) -> None:
+        np.copyto(out, self._position)
+
+    def read_velocities(self, out: np.ndarray) -> None:
+        np.copyto(out, self._velocity)
+
+    def mass_matrices(self) -> np.ndarray:
+        raise TypeError("a log holds no true M(q)")
+
+    def poses(self) -> tuple[np.ndarray, np.ndarray]:
+        return self._pose
+
+    def check(self) -> np.ndarray | None:
+        return None
+
+    def step(self, acceleration: np.ndarray) -> np.ndarray | None:
+        """The next sample (the last one stays after the last period); no true acceleration: NaN."""
+        acceleration[:] = np.nan
+        if self._k + 1 < self._log.steps:
+            self._load(self._k + 1)
+        return None
+
+
+def _kinematics(model: mujoco.MjModel, positions: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """The bodies' world positions ``(steps, bodies, 3)`` and quaternions ``(steps, bodies, 4)`` at each
+    row of ``positions``."""
+    data = mujoco.MjData(model)
+    xpos, xquat = np.empty((len(positions), model.nbody, 3)), np.empty((len(positions), model.nbody, 4))
+    for k, q in enumerate(positions):
+        data.qpos[:] = q
+        mujoco.mj_kinematics(model, data)
+        xpos[k], xquat[k] = data.xpos, data.xquat
+    return xpos, xquat

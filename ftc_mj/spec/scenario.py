@@ -10,7 +10,9 @@ Each section's schema and compile function live beside its concept; this module 
   :mod:`ftc_mj.effects.profiles`;
 * ``variants.*.observer`` / ``.controller`` / ``.monitors``: :mod:`ftc_mj.methods.registry`;
 * ``metrics``: :mod:`ftc_mj.analysis.metrics`; ``diagnosis``: :mod:`ftc_mj.analysis.diagnosis`;
-* ``figures``: :mod:`ftc_mj.outputs.layout`.
+* ``figures``: :mod:`ftc_mj.outputs.layout`;
+* ``log`` (a recorded trajectory instead of the simulated robot): :mod:`ftc_mj.logs.spec`, compiled by
+  :func:`ftc_mj.logs.trajectory.compile_log`.
 
 Reading a file (YAML, ``--set``) is :mod:`ftc_mj.spec.loading`.
 """
@@ -24,6 +26,7 @@ from typing import Annotated, Any, Literal
 
 import mujoco
 import numpy as np
+import sympy
 from pydantic import Field, field_validator, model_validator
 
 from ftc_mj.analysis.diagnosis import Diagnoser, DiagnosisSpec, compile_diagnoser
@@ -45,6 +48,9 @@ from ftc_mj.effects.faults import (
 )
 from ftc_mj.effects.sensors import Channel, SensorsSpec, compile_channel
 from ftc_mj.effects.terms import CompiledTerm, TermSpec, compile_terms, terms_function
+from ftc_mj.logs.controller import LogController
+from ftc_mj.logs.spec import LogSpec
+from ftc_mj.logs.trajectory import Log, compile_log, joint_names
 from ftc_mj.methods.gains import GainConfig
 from ftc_mj.methods.registry import (
     MethodSpec,
@@ -89,7 +95,8 @@ ControllerVelocity = Literal["measured", "estimated"]
 
 class VariantSpec(Strict):
     observer: MethodSpec
-    controller: MethodSpec
+    #: Required, except with a ``log`` section, where it is refused: the log's torque is the command.
+    controller: MethodSpec | None = None
     observer_initial: ObserverInitial | None = None
     #: Overrides the scenario's ``controller_velocity`` for this variant.
     controller_velocity: ControllerVelocity | None = None
@@ -115,16 +122,19 @@ class ScenarioSpec(Strict):
     robot: RobotSpec
     #: Every random element of a run derives from it (:mod:`ftc_mj.effects.randomness`).
     seed: Annotated[int, Field(ge=0)] = 0
-    duration: PositiveFloat
+    #: Required, except with a ``log`` section (default: the whole log).
+    duration: PositiveFloat | None = None
     control_dt: PositiveFloat = 1e-3
     #: Physics timestep; control_dt must be an integer multiple of it. Defaults to control_dt.
     timestep: PositiveFloat | None = None
-    initial: InitialState
+    #: Required, except with a ``log`` section, where it is refused (the log's first sample is the start).
+    initial: InitialState | None = None
     observer_initial: ObserverInitial = ObserverInitial()
     #: The velocity the controllers use: ``measured`` (needs ``robot.sensors`` to list ``velocity``) or
     #: ``estimated`` (the observer's x2_hat). Default: measured with tachometers, estimated without.
     controller_velocity: ControllerVelocity | None = None
-    reference: list[ExpressionText]
+    #: Required, except with a ``log`` section, where it is refused (a log has no reference: NaN).
+    reference: list[ExpressionText] | None = None
     terms: list[TermSpec] = []
     actuator_faults: list[ActuatorFaultSpec] = []
     sensors: SensorsSpec = SensorsSpec()
@@ -141,6 +151,8 @@ class ScenarioSpec(Strict):
     figures: list[FigureSpec] = []
     #: Recording path, relative to the working directory.
     output: str | None = None
+    #: A recorded trajectory replayed instead of the simulated robot (:mod:`ftc_mj.logs.spec`).
+    log: LogSpec | None = None
 
     @model_validator(mode="after")
     def _figures(self) -> "ScenarioSpec":
@@ -235,6 +247,8 @@ class Scenario:
     #: The file's content after ``--set`` (YAML types): the fields as written, which a campaign's paths are
     #: checked against, and every variant the file declares (``load_scenario``'s ``variants`` may run fewer).
     raw: dict[str, Any] = field(default_factory=dict)
+    #: The replayed log (the ``log`` section), or None: the robot is simulated.
+    log: Log | None = None
 
     @property
     def name(self) -> str:
@@ -247,7 +261,9 @@ class Scenario:
 
     @property
     def measures_velocity(self) -> bool:
-        """Whether the controller side may read the tachometers."""
+        """Whether the controller side may read the tachometers (with a log: whether it holds velocities)."""
+        if self.log is not None:
+            return self.log.velocity is not None
         return "velocity" in self.spec.robot.sensors
 
     def _faults(self) -> list[tuple[float, np.ndarray]]:
@@ -311,7 +327,10 @@ def compile_variant_methods(file: str, name: str, variant: VariantSpec, n: int
     """A variant's observer, controller and monitors: plugin classes and validated gains."""
     field = f"variants.{name}"
     observer = compile_method(file, f"{field}.observer", variant.observer, observer_types(), "observer", n)
-    controller = compile_method(file, f"{field}.controller", variant.controller, controller_types(), "controller", n)
+    if variant.controller is None:  # a log's variant: its torque is the command
+        controller = (LogController, LogController.Config())
+    else:
+        controller = compile_method(file, f"{field}.controller", variant.controller, controller_types(), "controller", n)
     monitors = [Monitor(monitor, *compile_method(file, f"{field}.monitors.{monitor}", method, observer_types(),
                                                  "observer", n))
                 for monitor, method in variant.monitors.items()]
@@ -349,12 +368,49 @@ def time_grid(duration: float, control_dt: float) -> np.ndarray:
     return np.arange(int(round(duration / control_dt))) * control_dt
 
 
+#: The sections that describe the simulated robot's run, refused beside a ``log`` section (which replaces it).
+SIMULATION_ONLY = ("initial", "reference", "terms", "actuator_faults", "sensors", "plant", "timestep",
+                   "controller_velocity")
+
+
+def _log_run(spec: ScenarioSpec, path: Path, model: mujoco.MjModel, file: str) -> Log:
+    """The ``log`` section compiled (:func:`~ftc_mj.logs.trajectory.compile_log`), after refusing what only a
+    simulation has; ``control_dt`` and ``duration`` become the log's grid period and length."""
+    for name in SIMULATION_ONLY:
+        if name in spec.model_fields_set:
+            raise InputError(file, name, "a log replaces the simulated robot: remove this section")
+    if "sensors" in spec.robot.model_fields_set:
+        raise InputError(file, "robot.sensors", "with a log the sensors are what the log holds: remove it")
+    for name, variant in spec.variants.items():
+        if variant.controller is not None:
+            raise InputError(file, f"variants.{name}.controller", "a log has no controller: the logged torque is "
+                             "what was applied (give only observer and monitors)")
+        if variant.controller_velocity is not None:
+            raise InputError(file, f"variants.{name}.controller_velocity", "a log has no controller: remove it")
+    dt = spec.log.steps.resample
+    if "control_dt" in spec.model_fields_set and spec.control_dt != dt:
+        raise InputError(file, "control_dt", f"with a log the observers' period is log.steps.resample ({dt:g} s)")
+    log = compile_log(spec.log, path, joint_names(model), spec.duration, file)
+    spec.control_dt, spec.duration = dt, log.steps * dt
+    return log
+
+
 def compile_scenario(path: Path, spec: ScenarioSpec) -> Scenario:
     """Check and compile a validated spec read from ``path``: the robot first (it fixes the number of joints
     and the joint names), then every section by its own compile function."""
     file = str(path)
     model_path, model = load_robot(path, spec.robot, file)
     n = model.nv
+    log = None
+    if spec.log is not None:
+        log = _log_run(spec, path, model, file)
+    else:
+        for required in ("duration", "initial", "reference"):
+            if getattr(spec, required) is None:
+                raise InputError(file, required, "required field is missing (or give a log section)")
+        for name, variant in spec.variants.items():
+            if variant.controller is None:
+                raise InputError(file, f"variants.{name}.controller", "required field is missing")
 
     timestep = spec.timestep if spec.timestep is not None else spec.control_dt
     ratio = spec.control_dt / timestep
@@ -371,16 +427,20 @@ def compile_scenario(path: Path, spec: ScenarioSpec) -> Scenario:
     def vector(values: list[float] | None, field: str, default: float | None = 0.0) -> np.ndarray | None:
         return joint_values(values, n, file, field, default)
 
-    q0 = vector(spec.initial.q, "initial.q")
-    qd0 = vector(spec.initial.qd, "initial.qd")
-
-    if len(spec.reference) != n:
-        raise InputError(file, "reference", f"has {len(spec.reference)} values, the robot has {n} joints")
-    reference_exprs = [parse_expression(text, ["t", *spec.parameters], file, f"reference.{i}")
-                       for i, text in enumerate(spec.reference)]
-    # Only the parameters the reference uses: without any, one reference serves every member.
-    used = {symbol.name for expr in reference_exprs for symbol in expr.free_symbols}
-    reference = expressions.TimeFunctions(reference_exprs, [name for name in spec.parameters if name in used])
+    if log is not None:  # the log's first sample; a log has no reference
+        q0 = log.position[0].copy()
+        qd0 = np.zeros(n) if log.velocity is None else log.velocity[0].copy()
+        reference = expressions.TimeFunctions([sympy.nan] * n)
+    else:
+        q0 = vector(spec.initial.q, "initial.q")
+        qd0 = vector(spec.initial.qd, "initial.qd")
+        if len(spec.reference) != n:
+            raise InputError(file, "reference", f"has {len(spec.reference)} values, the robot has {n} joints")
+        reference_exprs = [parse_expression(text, ["t", *spec.parameters], file, f"reference.{i}")
+                           for i, text in enumerate(spec.reference)]
+        # Only the parameters the reference uses: without any, one reference serves every member.
+        used = {symbol.name for expr in reference_exprs for symbol in expr.free_symbols}
+        reference = expressions.TimeFunctions(reference_exprs, [name for name in spec.parameters if name in used])
 
     terms = compile_terms(spec.terms, file, n, list(spec.parameters))
     times = time_grid(spec.duration, spec.control_dt)
@@ -396,6 +456,8 @@ def compile_scenario(path: Path, spec: ScenarioSpec) -> Scenario:
                              f"the run ({len(times)} control periods)")
 
     sensors = set(spec.robot.sensors) | {"position"}
+    if log is not None:  # what the log holds
+        sensors = {"position"} | ({"velocity"} if log.velocity is not None else set())
     variants = []
     for name, variant in spec.variants.items():
         field = f"variants.{name}"
@@ -405,9 +467,14 @@ def compile_scenario(path: Path, spec: ScenarioSpec) -> Scenario:
         plugins += [(f"monitors.{m.name}", m.observer_type) for m in monitors]
         for kind, plugin in plugins:
             missing = set(plugin.requires) - sensors
+            if missing and log is not None:
+                raise InputError(file, f"{field}.{kind}.type", f"{plugin.name} needs {', '.join(sorted(missing))}, "
+                                 "which the log does not hold (log.columns.velocity, or the messages' velocity)")
             if missing:
                 raise InputError(file, f"{field}.{kind}.type", f"{plugin.name} needs {', '.join(sorted(missing))} sensors, robot.sensors has {sorted(sensors)}")
         velocity = variant.controller_velocity or spec.controller_velocity
+        if log is not None:  # no controller reads anything
+            velocity = "estimated"
         if velocity is None:
             velocity = "measured" if "velocity" in sensors else "estimated"
         if velocity == "measured" and "velocity" not in sensors:
@@ -446,6 +513,7 @@ def compile_scenario(path: Path, spec: ScenarioSpec) -> Scenario:
         actuator_faults=actuator_faults,
         position_sensor=position_sensor,
         velocity_sensor=velocity_sensor,
+        log=log,
     )
     if spec.diagnosis is not None:
         scenario.diagnoser = compile_diagnoser(spec.diagnosis, spec.control_dt, spec.metrics.estimation_window_start,

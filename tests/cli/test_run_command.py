@@ -126,7 +126,7 @@ BAD_INPUT_IN_PROCESS = {
     "duration_inf": Case(mutated("duration", float("inf")), OUTPUTS, "duration"),
     "gamma1_out_of_range": Case(mutated("variants.nftsmc.controller.gains.gamma1", 1.5), OUTPUTS,
                                 "variants.nftsmc.controller.gains.gamma1"),
-    "unknown_observer": Case(mutated("variants.nftsmc.observer.type", "kalman"), OUTPUTS,
+    "unknown_observer": Case(mutated("variants.nftsmc.observer.type", "luenberger"), OUTPUTS,
                              "variants.nftsmc.observer.type"),
     "model_not_found": Case(mutated("robot.model", "/nonexistent/puma.xml"), OUTPUTS, "robot.model"),
     "expression_dunder_chain": Case(mutated("terms.2.value.1", "().__class__.__base__.__subclasses__()"),

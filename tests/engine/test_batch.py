@@ -48,6 +48,14 @@ VARIANTS = {
     "do_adaptive": {"observer": {"type": "do", "gains": {"k1": 8.0, "k2": 18.0, "p1": 10.0, "p2": 10.0}},
                     "controller": {"type": "a_nftsmc", "gains": {
                         "beta1": 15.0, "beta2": 10.0, "gamma1": 0.5, "rho": 5.0, "dead_zone": 0.01, "mu": 0.5}}},
+    "tosmo_ctc": {"observer": {"type": "tosmo", "gains": {"D": 22.0}},
+                  "controller": {"type": "computed_torque", "gains": {"kp": 100.0, "compensation": "estimate"}}},
+    "eso_super_twisting": {"observer": {"type": "eso", "gains": {"bandwidth": 60.0}},
+                           "controller": {"type": "super_twisting", "gains": {"c": 10.0, "L": 30.0}}},
+    "hs_pid": {"observer": {"type": "hs_tosmo", "gains": {"D": 22.0, "gamma": 5.0}},
+               "controller": {"type": "pid", "gains": {"kp": [2000.0, 4000.0, 1000.0], "ki": [4000.0, 8000.0, 2000.0],
+                                                       "kd": [100.0, 200.0, 50.0],
+                                                       "torque_limit": [100.0, 200.0, 100.0]}}},
 }
 
 #: Per member: its own seed, gains, parameter, masses; member 3 diverges at once (its velocity is beyond
@@ -58,9 +66,11 @@ MEMBERS = [
      "variants.eso_smc.observer.gains.bandwidth": 40.0, "variants.hs_nftsmc.monitors.eso.gains.bandwidth": 90.0,
      "variants.hs_nftsmc.monitors.levant.gains.L": [30.0, 60.0, 90.0],
      "variants.hs_nftsmc.monitors.ndob_levant.gains.lambda1": 2.0,
-     "variants.hs_nftsmc.monitors.kalman.gains.process_d": 20.0, "variants.kalman_smc.observer.gains.measurement": 1e-8},
+     "variants.hs_nftsmc.monitors.kalman.gains.process_d": 20.0, "variants.kalman_smc.observer.gains.measurement": 1e-8,
+     "variants.eso_super_twisting.controller.gains.L": 50.0},
     {"nominal.mass_scale": 1.2, "plant.mass_scale": 0.9, "parameters.amplitude": 0.5, "variants.do_adaptive.controller.gains.rho": [1.0, 2.0, 3.0],
-     "variants.tosmo_sigmoid.observer.gains.D": 30.0, "variants.hs_nftsmc.monitors.ndob.gains.X": 0.03, "initial.q": [-0.4, -0.6, -0.5], "parameters.fault_rate": 3.0},
+     "variants.tosmo_sigmoid.observer.gains.D": 30.0, "variants.hs_nftsmc.monitors.ndob.gains.X": 0.03, "initial.q": [-0.4, -0.6, -0.5], "parameters.fault_rate": 3.0,
+     "variants.tosmo_ctc.controller.gains.kd": [15.0, 20.0, 25.0], "variants.hs_pid.controller.gains.torque_limit": [40.0, 60.0, 30.0]},
     {"initial.qd.1": 5000.0},
     {"seed": 7, "variants.sosmo_ntsmc.controller.gains.decay": 1.1},
 ]

@@ -335,7 +335,7 @@ def test_overrides_do_not_change_the_file_or_later_loads():
         ("initial.q=[1, 2]", "initial.q", "3 joints"),
         ("variants.proposed.controller.gains.gamma1=1.5", "variants.proposed.controller.gains.gamma1", "less than 1"),
         ("variants.proposed.controller.gains.colour=1", "variants.proposed.controller.gains.colour", "unknown key"),
-        ("variants.proposed.observer.type=kalman", "variants.proposed.observer.type", "unknown observer"),
+        ("variants.proposed.observer.type=luenberger", "variants.proposed.observer.type", "unknown observer"),
         ("colour=red", "colour", "unknown key"),
         ("duration.x=1", "duration.x", "not a mapping or list"),
         ("duration=[1", "duration", "not a valid YAML"),
@@ -433,8 +433,8 @@ INVALID = [
     ("seed", "abc", "seed", "integer"),
     ("seed", 1.5, "seed", "integer"),
     # method types
-    ("variants.proposed.observer.type", "kalman", "variants.proposed.observer.type", "unknown observer 'kalman'"),
-    ("variants.nftsmc.controller.type", "pid", "variants.nftsmc.controller.type", "unknown controller 'pid'"),
+    ("variants.proposed.observer.type", "luenberger", "variants.proposed.observer.type", "unknown observer 'luenberger'"),
+    ("variants.nftsmc.controller.type", "lqr", "variants.nftsmc.controller.type", "unknown controller 'lqr'"),
     # gains
     ("variants.nftsmc.observer.gains", {}, "variants.nftsmc.observer.gains", "give D"),
     ("variants.nftsmc.observer.gains", {"D": 22.0, "k1": 3.0}, "variants.nftsmc.observer.gains", "not both"),
