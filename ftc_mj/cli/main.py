@@ -20,7 +20,7 @@ COMMANDS = {
     "report": "Markdown tables from a run's --json metrics",
     "campaign": "Monte Carlo, sweeps and fault-diagnosis statistics: run, report, replay",
     "tune": "robust gain tuning (CMA-ES) on a campaign's population",
-    "bench": "score observers and observer-controller pairs on the versioned benchmark suite",
+    "bench": "benchmark: score methods on a versioned suite",
 }
 
 
