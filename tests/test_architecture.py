@@ -33,7 +33,7 @@ LAYERS: dict[str, int] = {
     "engine": 6,
     "ftc_mj": 7,
     "campaign": 8,
-    "tuning": 9,
+    "tuning": 9, "bench": 9,
     "cli": 10, "run": 10, "figures": 10, "report": 10, "tune": 10,
 }
 

@@ -1,4 +1,5 @@
-"""The ``ftc-mj`` command: ``ftc-mj run|figures|report|campaign|tune|robot|calibrate ...`` (``python -m ftc_mj.cli`` too).
+"""The ``ftc-mj`` command: ``ftc-mj run|figures|report|campaign|tune|bench|robot|calibrate ...`` (``python -m
+ftc_mj.cli`` too).
 
 Dispatches to the command's module in this package, which reads the rest of the arguments; each command's
 ``--help`` tells its options.
@@ -20,6 +21,7 @@ COMMANDS = {
     "report": "Markdown tables from a run's --json metrics",
     "campaign": "Monte Carlo, sweeps and fault-diagnosis statistics: run, report, replay",
     "tune": "robust gain tuning (CMA-ES) on a campaign's population",
+    "bench": "benchmark: score methods on a versioned suite",
     "robot": "check a robot before its first run: per-joint numbers, warnings",
     "calibrate": "per-joint diagnosis thresholds for a false-alarm rate",
 }

@@ -1,0 +1,253 @@
+"""A benchmark suite (``suites/v1.yaml``): the robots, the fault library, the sensor conditions, the model
+mismatch and the seeds, and how they become campaign populations.
+
+Per robot and task two populations (:data:`POPULATIONS`): ``healthy`` runs, whose only randomness is the seed
+and the controller model's mass scale (for the false alarms), and ``faults``: one campaign case per fault of
+the library, kind x size x (onset, joint), the same seeds and mass scales as each other (common random
+numbers). Every run of a task is simulated in the robot's scenario reduced to the suite's protocol: the
+scenario's plant, reference, initial state and kept healthy terms, the suite's encoders, diagnosis and
+metrics windows, and no fault but the case's.
+
+* **diagnosis**: one variant, ``reference``, the robot's reference loop (the Chapter 5 controller with the
+  high-speed TOSMO); every entry's observer is a monitor of it, so that every observer sees the same
+  trajectory, diagnosed alike (each on its own LUaF estimate). The robot has tachometers (for the observers
+  that need them); the loop's controller uses its observer's velocity.
+* **tracking**: one variant per entry, its observer driving its controller.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Annotated, Any, Literal
+
+from pydantic import Field, StrictBool, StrictInt, StrictStr, model_validator
+
+from ftc_mj.config.errors import InputError, validate
+from ftc_mj.config.inheritance import resolve_bases
+from ftc_mj.config.types import PositiveFloat, Strict
+from ftc_mj.config.yaml import read_yaml_mapping
+
+SUITES = Path(__file__).resolve().parent / "suites"
+TASKS = ("diagnosis", "tracking")
+POPULATIONS = ("healthy", "faults")
+TIERS = ("quick", "full")
+#: The reference loop's variant name in a diagnosis scenario (its monitors are ``reference.<entry>``).
+REFERENCE = "reference"
+
+PositiveInt = Annotated[StrictInt, Field(gt=0)]
+Fraction = Annotated[float, Field(gt=0, lt=1)]
+Share = Annotated[float, Field(gt=0, le=1)]
+Name = Annotated[StrictStr, Field(pattern=r"^[A-Za-z0-9_][A-Za-z0-9_-]*$")]
+
+
+class MethodSpec(Strict):
+    type: StrictStr
+    gains: dict[str, Any] = {}
+
+
+class LoopSpec(Strict):
+    observer: MethodSpec
+    controller: MethodSpec
+
+
+class ProtocolSpec(Strict):
+    seed: Annotated[StrictInt, Field(ge=0)]
+    mass_scale: tuple[PositiveFloat, PositiveFloat]
+    encoders: dict[str, Any]
+    diagnosis: dict[str, Any]
+    metrics: dict[str, Any]
+    onsets: Annotated[list[PositiveFloat], Field(min_length=1)]
+    fault_length: PositiveFloat
+    tracking_onsets: PositiveInt = 1
+
+    @model_validator(mode="after")
+    def _consistent(self) -> "ProtocolSpec":
+        if not self.mass_scale[0] < self.mass_scale[1]:
+            raise ValueError("mass_scale: low must be below high")
+        if self.tracking_onsets > len(self.onsets):
+            raise ValueError("tracking_onsets: more than there are onsets")
+        return self
+
+
+class FaultLibrary(Strict):
+    loss_of_effectiveness: list[Share] = []
+    bias: list[PositiveFloat] = []
+    saturation: list[Fraction] = []
+    lock: StrictBool = False
+    float: StrictBool = False
+
+
+class TierSpec(Strict):
+    duration: PositiveFloat
+    healthy_runs: PositiveInt
+    fault_runs: PositiveInt
+    tracking_healthy_runs: PositiveInt
+    tracking_fault_runs: PositiveInt
+
+
+class RobotSpec(Strict):
+    #: The robot's shipped scenario, relative to the suite file.
+    scenario: StrictStr
+    #: The reference loop: a variant of the scenario, or an observer and a controller.
+    loop: StrictStr | LoopSpec
+    #: Names of the scenario's terms kept as healthy uncertainty (the others, e.g. additive faults, go).
+    terms: list[StrictStr] = []
+    fault_joints: Annotated[list[Annotated[StrictInt, Field(ge=1)]], Field(min_length=1)]
+    torque_scale: Annotated[list[PositiveFloat], Field(min_length=1)]
+
+    @model_validator(mode="after")
+    def _per_joint(self) -> "RobotSpec":
+        if len(self.torque_scale) != len(self.fault_joints):
+            raise ValueError("torque_scale: one per fault joint")
+        return self
+
+
+class SuiteSpec(Strict):
+    version: Name
+    description: str = ""
+    protocol: ProtocolSpec
+    faults: FaultLibrary
+    tiers: dict[Literal["quick", "full"], TierSpec]
+    robots: Annotated[dict[Name, RobotSpec], Field(min_length=1)]
+
+    @model_validator(mode="after")
+    def _onsets_per_robot(self) -> "SuiteSpec":
+        for name, robot in self.robots.items():
+            if len(robot.fault_joints) != len(self.protocol.onsets):
+                raise ValueError(f"robots.{name}.fault_joints: one per protocol onset ({len(self.protocol.onsets)})")
+        return self
+
+
+class Suite:
+    """A loaded suite: its spec, its file, and each robot's scenario resolved (bases merged)."""
+
+    def __init__(self, path: Path, spec: SuiteSpec):
+        self.path = path
+        self.spec = spec
+        self.scenarios: dict[str, Path] = {}
+        self.resolved: dict[str, dict] = {}
+        for name, robot in spec.robots.items():
+            scenario = (path.parent / robot.scenario).resolve()
+            if not scenario.is_file():
+                raise InputError(str(path), f"robots.{name}.scenario", f"no such file: {robot.scenario}")
+            self.scenarios[name] = scenario
+            self.resolved[name] = resolve_bases(scenario, ("robot.model",)).raw
+            variants = self.resolved[name].get("variants") or {}
+            if isinstance(robot.loop, str) and robot.loop not in variants:
+                raise InputError(str(path), f"robots.{name}.loop", f"{robot.loop!r} is not a variant of "
+                                 f"{robot.scenario} (its variants: {', '.join(variants)})")
+            known = [term.get("name") for term in self.resolved[name].get("terms") or []]
+            for term in robot.terms:
+                if term not in known:
+                    raise InputError(str(path), f"robots.{name}.terms", f"{term!r} is not a term of {robot.scenario}")
+
+    @property
+    def version(self) -> str:
+        return self.spec.version
+
+    def joints(self, robot: str) -> int:
+        """The robot's number of controlled joints (its reference's length)."""
+        return len(self.resolved[robot]["reference"])
+
+    def tier(self, tier: str) -> TierSpec:
+        if tier not in self.spec.tiers:
+            raise InputError(str(self.path), "tiers", f"the suite has no tier {tier!r} (its tiers: "
+                             f"{', '.join(self.spec.tiers)})")
+        return self.spec.tiers[tier]
+
+    # -------------------------------------------------------------------------------------------- scenarios
+
+    def loop(self, robot: str) -> dict[str, Any]:
+        """The reference loop's observer and controller, as a scenario's variant."""
+        loop = self.spec.robots[robot].loop
+        if isinstance(loop, str):
+            variant = self.resolved[robot]["variants"][loop]
+            return {"observer": variant["observer"], "controller": variant["controller"]}
+        return loop.model_dump(mode="json")
+
+    def stage(self, robot: str) -> dict[str, Any]:
+        """The robot's scenario without what the protocol replaces (a base file for :meth:`scenario`)."""
+        return {"base": str(self.scenarios[robot]), "variants": None, "terms": None, "parameters": None,
+                "actuator_faults": None, "sensors": None, "diagnosis": None, "metrics": None, "figures": None}
+
+    def scenario(self, robot: str, task: str, tier: str, variants: dict[str, Any]) -> dict[str, Any]:
+        """The task's scenario on ``base: stage.yaml`` (:meth:`stage`) with the given variants."""
+        protocol, base = self.spec.protocol, self.resolved[robot]
+        kept = [term for term in base.get("terms") or [] if term.get("name") in self.spec.robots[robot].terms]
+        out: dict[str, Any] = {
+            "base": "stage.yaml",
+            "name": f"bench_{self.version}_{task}_{robot}",
+            "description": f"Benchmark suite {self.version}, task {task}, robot {robot}.",
+            "duration": self.tier(tier).duration,
+            "robot": {"sensors": ["position", "velocity"]},
+            "controller_velocity": "estimated",
+            "actuator_faults": [],
+            "sensors": {"position": dict(protocol.encoders)},
+            "diagnosis": dict(protocol.diagnosis),
+            "metrics": dict(protocol.metrics),
+            "variants": variants,
+        }
+        if kept:
+            out["terms"] = kept
+        return out
+
+    # -------------------------------------------------------------------------------------------- populations
+
+    def fault_cases(self, robot: str, task: str) -> list[dict[str, Any]]:
+        """The fault library as campaign cases on ``robot`` (kind x size x (onset, joint)); the tracking task
+        uses the first ``protocol.tracking_onsets`` onsets."""
+        protocol, library, spec = self.spec.protocol, self.spec.faults, self.spec.robots[robot]
+        count = len(protocol.onsets) if task == "diagnosis" else protocol.tracking_onsets
+        cases = []
+        for onset, joint, scale in list(zip(protocol.onsets, spec.fault_joints, spec.torque_scale))[:count]:
+            profile = {"onset": onset, "end": onset + protocol.fault_length}
+            kinds: list[tuple[str, float, dict[str, Any]]] = []
+            kinds += [("loss_of_effectiveness", a, {"alpha": a}) for a in library.loss_of_effectiveness]
+            kinds += [("bias", b, {"offset": b * scale}) for b in library.bias]
+            kinds += [("saturation", s, {"limit": s * scale}) for s in library.saturation]
+            kinds += [(kind, 1.0, {}) for kind in ("lock", "float") if getattr(library, kind)]
+            for kind, size, values in kinds:
+                fault = {"kind": kind, "joints": [joint], **values, "profile": profile}
+                label = f"{kind}_{size:g}_j{joint}_t{onset:g}"
+                cases.append({"label": label, "values": {"kind": kind, "fault_size": size, "fault_joint": joint,
+                                                          "onset": onset},
+                              "set": {"actuator_faults": [fault]}})
+        return cases
+
+    def campaign(self, robot: str, task: str, population: str, tier: str, variants: list[str]) -> dict[str, Any]:
+        """The campaign of one population (on ``scenario.yaml`` beside it)."""
+        protocol, tiers = self.spec.protocol, self.tier(tier)
+        if task == "diagnosis":
+            runs = tiers.healthy_runs if population == "healthy" else tiers.fault_runs
+        else:
+            runs = tiers.tracking_healthy_runs if population == "healthy" else tiers.tracking_fault_runs
+        low, high = protocol.mass_scale
+        out: dict[str, Any] = {
+            "name": f"bench_{self.version}_{tier}_{task}_{robot}_{population}",
+            "scenario": "scenario.yaml",
+            "variants": variants,
+            # Healthy and faulty runs on seeds of their own: a healthy run shares no noise with a faulty one.
+            "seed": protocol.seed + (0 if population == "faults" else 100_000),
+            "samples": {"runs": runs, "method": "sobol", "seed": 0,
+                        "fields": {"nominal.mass_scale": {"uniform": [low, high]}}},
+            "diagnosis": {"threshold_scales": [1.0]},
+            "report": {"metrics": ["rms_error_converged"]},
+        }
+        if population == "faults":
+            out["cases"] = self.fault_cases(robot, task)
+        return out
+
+
+def load_suite(name_or_path: str | Path, file: str = "") -> Suite:
+    """A shipped suite by version (``v1``) or a suite file.
+
+    Raises:
+        InputError: naming the suite file and the field (``file`` and ``suite`` for an unknown version).
+    """
+    text = str(name_or_path)
+    path = Path(text) if text.endswith((".yaml", ".yml")) else SUITES / f"{text}.yaml"
+    if not path.is_file():
+        shipped = sorted(p.stem for p in SUITES.glob("*.yaml") if not p.stem.endswith("-entries"))
+        raise InputError(file or text, "suite", f"no suite {text!r} (shipped: {', '.join(shipped)})")
+    raw = read_yaml_mapping(path, "a benchmark suite")
+    return Suite(path.resolve(), validate(SuiteSpec, raw, str(path)))
