@@ -8,8 +8,8 @@ Per control period k (time t_k = k * control_dt, zero-order hold on the command)
 1. the readings of every row are current (the plant computes them at the new state after each step); they
    are corrupted by the scenario's sensor effects, per member (:mod:`ftc_mj.effects.sensors`);
 2. each observer takes the measurement (``measure``); the nominal model is evaluated for all rows at once
-   (:func:`~ftc_mj.robot.nominal.nominal_batch`): Psi at each observer's estimate, and M at the measured
-   position (:mod:`ftc_mj.engine.mass`);
+   (:func:`~ftc_mj.robot.nominal.nominal_batch`): Psi at each observer's estimate (and, for an observer that
+   declares them in ``needs``, C^T qd and G there), and M at the measured position (:mod:`ftc_mj.engine.mass`);
 3. each observer forms its injection (``update``); each controller computes its torque; ``ctrl`` = torque;
 4. friction, disturbance and fault terms on the *true* state of all rows, and what the actuator faults
    deliver beyond the command, go to ``applied`` (:mod:`ftc_mj.effects.terms`, :mod:`~.faults`); the
@@ -242,7 +242,7 @@ class _Run:
             config = members.variants[v]
 
             def step_model(points: slice, control: slice | None = None,
-                           needs: frozenset[str] = frozenset()) -> StepModel:  # M at the block's rows
+                           quantities: frozenset[str] = frozenset()) -> StepModel:  # M at the block's rows
                 rows_b = block.rows
                 return StepModel(M=mass.M[rows_b], factor=mass.factor[rows_b],
                                  diagonal_inverse=mass.diagonal_inverse[rows_b], solver=solver,
@@ -250,13 +250,13 @@ class _Run:
                                  psi_control=None if control is None else nominal.qacc[control],
                                  qd_measured=None if control is None else readings.qd_meas[rows_b],
                                  command=command_acceleration[rows_b],
-                                 **{name: getattr(nominal, name)[points] for name in needs})
+                                 **{name: getattr(nominal, name)[points] for name in quantities})
 
             observer = variant.observer_type(config.observer, n, dt, members=count)
             controller = variant.controller_type(config.controller, n, dt, members=count)
             controller.reset()
             monitors = [(monitor.name, monitor.observer_type(monitor_config, n, dt, members=count),
-                         step_model(points, needs=monitor_needs))
+                         step_model(points, quantities=monitor_needs))
                         for monitor, monitor_config, points, monitor_needs
                         in zip(variant.monitors, config.monitors, block.monitors, needs[v][1:])]
             estimators = [observer] + [monitor for _, monitor, _ in monitors]

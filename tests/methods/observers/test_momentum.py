@@ -157,6 +157,9 @@ def test_sensors_needs_and_schema():
     observer = MomentumObserver(MomentumObserver.Config.model_validate({"K": 50.0}, context={"n_joints": 2}), 2, DT)
     with pytest.raises(ValueError, match="measured velocities"):
         observer.measure(np.zeros(2), None)
+    observer.reset(np.zeros(2), np.zeros(2))
+    with pytest.raises(ValueError, match="coriolis_transpose and gravity"):
+        observer.update(0.0, np.zeros(2), FakeStepModel(np.eye(2)))  # a StepModel without C^T qd and G
     with pytest.raises(ValidationError):
         MomentumObserver.Config.model_validate({"K": 0.0}, context={"n_joints": 2})
     with pytest.raises(ValidationError):
