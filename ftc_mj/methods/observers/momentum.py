@@ -97,7 +97,8 @@ class MomentumObserver(Observer):
 
     def update(self, t: float, q_meas: np.ndarray, model: StepModel) -> None:
         """r_k = K_I (p_k - z_k), z_k completed with the second half of the previous period's trapezoid."""
-        if not self._started and (model.coriolis_transpose is None or model.gravity is None):
+        if not self._started and (getattr(model, "coriolis_transpose", None) is None
+                                  or getattr(model, "gravity", None) is None):
             raise ValueError(f"{self.name} needs the nominal model's C^T qd and G: a StepModel with "
                              "coriolis_transpose and gravity (the engine gives them for Observer.needs)")
         momentum = model.apply_M(self.qd_hat, out=self._momentum)
