@@ -8,8 +8,8 @@ Per control period k (time t_k = k * control_dt, zero-order hold on the command)
 1. the readings of every row are current (the plant computes them at the new state after each step); they
    are corrupted by the scenario's sensor effects, per member (:mod:`ftc_mj.effects.sensors`);
 2. each observer takes the measurement (``measure``); the nominal model is evaluated for all rows at once
-   (:func:`~ftc_mj.robot.nominal.nominal_batch`): Psi at each observer's estimate, and M at the measured
-   position (:mod:`ftc_mj.engine.mass`);
+   (:func:`~ftc_mj.robot.nominal.nominal_batch`): Psi at each observer's estimate (and, for an observer that
+   declares them in ``needs``, C^T qd and G there), and M at the measured position (:mod:`ftc_mj.engine.mass`);
 3. each observer forms its injection (``update``); each controller computes its torque; ``ctrl`` = torque;
 4. friction, disturbance and fault terms on the *true* state of all rows, and what the actuator faults
    deliver beyond the command, go to ``applied`` (:mod:`ftc_mj.effects.terms`, :mod:`~.faults`); the
@@ -51,7 +51,7 @@ from ftc_mj.engine.series import BatchRun, BlockSeries, Series
 from ftc_mj.engine.truths import Truths
 from ftc_mj.methods.controllers.base import Controller
 from ftc_mj.methods.observers.base import Observer
-from ftc_mj.robot.nominal import NominalBatch, SparseSolver, StepModel, at_rest, nominal_batch
+from ftc_mj.robot.nominal import NEEDS, NominalBatch, SparseSolver, StepModel, at_rest, nominal_batch
 from ftc_mj.spec.scenario import Scenario
 
 ProgressCallback = Callable[[int], None]
@@ -231,7 +231,10 @@ class _Run:
         threads = nthread if nthread > 0 else _default_threads(rows)
         plant = _plant(scenario, members, rows, per_row, threads)
         plant.reset(per_row(members.q0), per_row(members.qd0))
-        nominal = nominal_batch(scenario.model, layout.per_point(members.nominal_mass_scale), threads)
+        # What each estimator (the variant's observer, then its monitors) reads beyond M and Psi.
+        needs = [[_needs(kind) for kind in (v.observer_type, *(m.observer_type for m in v.monitors))] for v in variants]
+        nominal = nominal_batch(scenario.model, layout.per_point(members.nominal_mass_scale), threads,
+                                momentum_points=layout.estimator_points([[bool(s) for s in v] for v in needs]))
         mass = mass_at_readings(plant, nominal, scenario.model, per_row(members.nominal_mass_scale),
                                 per_row(members.plant_mass_scale), scenario.position_sensor is not None, threads)
         solver = SparseSolver(scenario.model)
@@ -241,26 +244,31 @@ class _Run:
         for v, (variant, block) in enumerate(zip(variants, layout.blocks)):
             config = members.variants[v]
 
-            def step_model(points: slice, control: slice | None = None) -> StepModel:  # M at the block's rows
+            def step_model(points: slice, control: slice | None = None,
+                           quantities: frozenset[str] = frozenset()) -> StepModel:  # M at the block's rows
                 rows_b = block.rows
                 return StepModel(M=mass.M[rows_b], factor=mass.factor[rows_b],
                                  diagonal_inverse=mass.diagonal_inverse[rows_b], solver=solver,
                                  psi_hat=nominal.qacc[points],
                                  psi_control=None if control is None else nominal.qacc[control],
                                  qd_measured=None if control is None else readings.qd_meas[rows_b],
-                                 command=command_acceleration[rows_b])
+                                 command=command_acceleration[rows_b],
+                                 **{name: getattr(nominal, name)[points] for name in quantities})
 
             observer = variant.observer_type(config.observer, n, dt, members=count)
             controller = variant.controller_type(config.controller, n, dt, members=count)
             if isinstance(plant, LogPlant):  # the log's torque is the command
                 controller.follow(plant.torque[block.rows])
             controller.reset()
-            monitors = [(monitor.name, monitor.observer_type(monitor_config, n, dt, members=count), step_model(points))
-                        for monitor, monitor_config, points in zip(variant.monitors, config.monitors, block.monitors)]
+            monitors = [(monitor.name, monitor.observer_type(monitor_config, n, dt, members=count),
+                         step_model(points, quantities=monitor_needs))
+                        for monitor, monitor_config, points, monitor_needs
+                        in zip(variant.monitors, config.monitors, block.monitors, needs[v][1:])]
             estimators = [observer] + [monitor for _, monitor, _ in monitors]
             qd_meas = readings.qd_meas
             blocks.append(VariantBlock(
-                variant.name, block.rows, observer, controller, step_model(block.observer, block.readings), monitors,
+                variant.name, block.rows, observer, controller,
+                step_model(block.observer, block.readings, needs[v][0]), monitors,
                 config.q_hat0, config.qd_hat0, q_meas=readings.q_meas[block.rows],
                 qd_meas=None if qd_meas is None else qd_meas[block.rows], tau=tau[block.rows],
                 points=[(estimator, nominal.qpos[points], nominal.qvel[points])
@@ -457,6 +465,16 @@ def _inputs(scenario: Scenario, members: Members, layout: Layout) -> PlantInputs
 def _generators(members: Members, stream: int) -> list[np.random.Generator]:
     """Each member's generator of one random stream (:mod:`ftc_mj.effects.randomness`)."""
     return [randomness.generator(int(seed), stream) for seed in members.seeds]
+
+
+def _needs(observer_type: type[Observer]) -> frozenset[str]:
+    """The nominal quantities beyond M and Psi an observer declares it reads (:data:`NEEDS`), checked."""
+    needs = frozenset(getattr(observer_type, "needs", ()))
+    unknown = needs - NEEDS
+    if unknown:
+        raise ValueError(f"observer {observer_type.name!r} needs {sorted(unknown)}: the nominal model gives "
+                         f"{sorted(NEEDS)} beyond M and Psi")
+    return needs
 
 
 def _default_threads(rows: int) -> int:

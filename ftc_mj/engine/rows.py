@@ -76,6 +76,17 @@ class Layout:
         """Member values ``(members, ...)`` repeated for every variant's block: ``(rows, ...)``."""
         return np.concatenate([values] * len(self.blocks))
 
+    def estimator_points(self, wanted: Sequence[Sequence[bool]]) -> np.ndarray | None:
+        """The mask ``(points,)`` of the points of the estimators ``wanted[v][e]`` (variant v's observer, e = 0,
+        then its monitors in order), or None where none is wanted."""
+        if not any(any(flags) for flags in wanted):
+            return None
+        mask = np.zeros(self.points, dtype=bool)
+        for block, flags in zip(self.blocks, wanted, strict=True):
+            for points, flag in zip(block.estimators, flags, strict=True):
+                mask[points] = flag
+        return mask
+
     def per_point(self, values: np.ndarray) -> np.ndarray:
         """Member values ``(members, ...)`` for every point of the Psi batch: ``(points, ...)``."""
         return np.concatenate([values] * (self.points // self.members))

@@ -37,6 +37,14 @@ def matvec(matrices: np.ndarray, vectors: np.ndarray, out: np.ndarray) -> np.nda
     return _einsum("rij,rj->ri", matrices, vectors, out=out)
 
 
+#: The nominal quantities beyond M and Psi that an observer may declare in ``needs``
+#: (:attr:`~ftc_mj.methods.observers.base.Observer.needs`): the engine then has the nominal batch evaluate them
+#: at that observer's points (``momentum_points`` of :func:`nominal_batch`) and hands them to it as the
+#: :class:`StepModel` attributes of the same names. C(q, qd)^T qd and G(q), the generalized momentum observer's
+#: beta = G - C^T qd (De Luca and Mattone, ICRA 2005), are evaluated together.
+NEEDS = frozenset({"coriolis_transpose", "gravity"})
+
+
 class NominalSpec(Strict):
     #: Scales masses, inertias and armature of the controller's model (1 = exact model).
     mass_scale: PositiveFloat = 1.0
@@ -54,17 +62,24 @@ class StepModel:
             with tachometers whose chapter feeds the controller the measured velocity, Chapter 2: H(x) of (2.25),
             (2.32)) it is Psi(x1, x2) at the readings; otherwise it is ``psi_hat`` itself (the same array).
         qd_measured: the tachometer readings the controller uses, or None when it uses the estimate x2_hat.
+        coriolis_transpose: C(q, qd)^T qd at the observer's state estimate (the point of ``psi_hat``),
+            ``(members, n)``, with C the Coriolis matrix for which Mdot - 2C is skew-symmetric; only for an
+            observer that declares it in ``needs`` (:data:`NEEDS`), else None.
+        gravity: G(q) at the observer's estimate, ``(members, n)``; only where declared in ``needs``, else None.
     """
 
     def __init__(self, M: np.ndarray, factor: np.ndarray, diagonal_inverse: np.ndarray, psi_hat: np.ndarray,
                  solver: SparseSolver, psi_control: np.ndarray | None = None,
-                 qd_measured: np.ndarray | None = None, command: np.ndarray | None = None):
+                 qd_measured: np.ndarray | None = None, command: np.ndarray | None = None,
+                 coriolis_transpose: np.ndarray | None = None, gravity: np.ndarray | None = None):
         """``command``: where the engine puts M(x1)^-1 tau of the period's command once the controllers have
         run, solved for every row of its batch at once (see :meth:`command_acceleration`); None: solved on
-        demand."""
+        demand. ``coriolis_transpose``, ``gravity``: the nominal batch's rows of these quantities at the
+        observer's points, or None."""
         self.M, self.psi_hat = M, psi_hat
         self.psi_control = psi_hat if psi_control is None else psi_control
         self.qd_measured = qd_measured
+        self.coriolis_transpose, self.gravity = coriolis_transpose, gravity
         self._factor, self._diagonal_inverse, self._solver = factor, diagonal_inverse, solver
         self._solution = np.zeros(psi_hat.shape)
         self._command = command
@@ -271,6 +286,9 @@ class NominalBatch(Protocol):
     scale is its own. A ``mass_only`` batch holds points where only M(q) is wanted: no velocity terms, no
     ``qacc``. A point's numbers do not depend on the number of points, so a batch member gets its single run's
     bits. Made by :func:`nominal_batch`.
+
+    Where the batch was made with ``momentum_points``, :meth:`evaluate` also gives C(q, qd)^T qd and G(q)
+    (:data:`NEEDS`) at least at those points, in ``coriolis_transpose`` and ``gravity``; else these are None.
     """
 
     qpos: np.ndarray
@@ -279,6 +297,9 @@ class NominalBatch(Protocol):
     #: MuJoCo's factorisation of M at each point (``qLD``, ``qLDiagInv``), from the last :meth:`evaluate`.
     factor: np.ndarray
     diagonal_inverse: np.ndarray
+    #: ``(points, n)`` C(q, qd)^T qd and G(q) from the last :meth:`evaluate`, or None (no ``momentum_points``).
+    coriolis_transpose: np.ndarray | None
+    gravity: np.ndarray | None
 
     @property
     def mass_from_plant(self) -> bool:
@@ -299,16 +320,19 @@ class NominalBatch(Protocol):
 
 
 def nominal_batch(model: mujoco.MjModel, mass_scale: np.ndarray, nthread: int,
-                  mass_only: bool = False) -> NominalBatch:
+                  mass_only: bool = False, momentum_points: np.ndarray | None = None) -> NominalBatch:
     """The nominal model of ``model`` at ``len(mass_scale)`` points, one mass scale each: the compiled
     rigid-body algorithms where the robot is a tree of hinge and slide joints (every shipped scenario's; not
-    Menagerie's Panda with its coupled fingers), MuJoCo's own batch (``nthread`` threads) otherwise."""
+    Menagerie's Panda with its coupled fingers), MuJoCo's own batch (``nthread`` threads) otherwise.
+
+    ``momentum_points``: a ``(points,)`` mask of the points where C(q, qd)^T qd and G(q) are wanted as well
+    (:data:`NEEDS`), or None: nowhere, at no cost."""
     rigid = rigid_body_model(model)
     mass_scale = np.asarray(mass_scale, dtype=float)
     tree = RigidTree.from_model(rigid)
     if tree is None:
-        return MuJoCoNominal(rigid, mass_scale, nthread, mass_only)
-    return CompiledNominal(tree, rigid, mass_scale, mass_only)
+        return MuJoCoNominal(rigid, mass_scale, nthread, mass_only, momentum_points)
+    return CompiledNominal(tree, rigid, mass_scale, mass_only, momentum_points)
 
 
 class CompiledNominal(NominalBatch):
@@ -318,7 +342,8 @@ class CompiledNominal(NominalBatch):
     #: It rounds otherwise than MuJoCo: it evaluates its own M.
     mass_from_plant = False
 
-    def __init__(self, tree: RigidTree, model: mujoco.MjModel, mass_scale: np.ndarray, mass_only: bool = False):
+    def __init__(self, tree: RigidTree, model: mujoco.MjModel, mass_scale: np.ndarray, mass_only: bool = False,
+                 momentum_points: np.ndarray | None = None):
         """``model``: the rigid-body model whose tree ``tree`` is (for M's sparse layout)."""
         points, n = len(mass_scale), model.nv
         self._tree, self._inertias, self._with_velocity = tree, tree.scaled(mass_scale), not mass_only
@@ -327,10 +352,15 @@ class CompiledNominal(NominalBatch):
         self._sparse_M = np.zeros((points, model.nM))
         self.factor, self.diagonal_inverse = np.zeros((points, model.nM)), np.ones((points, n))
         self._dense = DenseMass(model, points)
+        self._momentum_points = _momentum_points(momentum_points, points, mass_only)
+        self.coriolis_transpose = self.gravity = None
+        if self._momentum_points is not None:
+            self.coriolis_transpose, self.gravity = np.zeros((points, n)), np.zeros((points, n))
 
     def evaluate(self) -> None:
         self._tree.evaluate(*self._inertias, self.qpos, self.qvel, self.applied, self._sparse_M, self.factor,
-                            self.diagonal_inverse, self._qacc, self._bias, self._with_velocity)
+                            self.diagonal_inverse, self._qacc, self._bias, self._with_velocity,
+                            self._momentum_points, self.coriolis_transpose, self.gravity)
 
     @property
     def qacc(self) -> np.ndarray:
@@ -347,8 +377,10 @@ class MuJoCoNominal(NominalBatch):
     #: MuJoCo's own numbers: a plant of the same model at the same position has the same M, bit for bit.
     mass_from_plant = True
 
-    def __init__(self, model: mujoco.MjModel, mass_scale: np.ndarray, nthread: int, mass_only: bool = False):
-        """``model``: the rigid-body model (:func:`rigid_body_model`)."""
+    def __init__(self, model: mujoco.MjModel, mass_scale: np.ndarray, nthread: int, mass_only: bool = False,
+                 momentum_points: np.ndarray | None = None):
+        """``model``: the rigid-body model (:func:`rigid_body_model`). With ``momentum_points``, C^T qd and G
+        are computed at every point (:class:`MuJoCoMomentumTerms`)."""
         self.batch = Batch(model, len(mass_scale), nthread=nthread)
         if np.any(mass_scale != 1.0):
             scale_masses(self.batch.expand, mass_scale)
@@ -359,9 +391,16 @@ class MuJoCoNominal(NominalBatch):
         self.factor, self.diagonal_inverse = self.batch.bind("qLD"), self.batch.bind("qLDiagInv")
         self._stage = _POSITION_STAGE if mass_only else _ACCELERATION_STAGE
         self._dense = DenseMass(model, len(mass_scale))
+        self._terms = None
+        self.coriolis_transpose = self.gravity = None
+        if _momentum_points(momentum_points, len(mass_scale), mass_only) is not None:
+            self._terms = MuJoCoMomentumTerms(model, self.batch)
+            self.coriolis_transpose, self.gravity = self._terms.coriolis_transpose, self._terms.gravity
 
     def evaluate(self) -> None:
         self.batch.forward(stage=self._stage)
+        if self._terms is not None:
+            self._terms.evaluate()
 
     @property
     def qacc(self) -> np.ndarray:
@@ -369,6 +408,74 @@ class MuJoCoNominal(NominalBatch):
 
     def mass_matrices(self) -> np.ndarray:
         return self._dense.update(self._sparse_M)
+
+
+def _momentum_points(momentum_points: np.ndarray | None, points: int, mass_only: bool) -> np.ndarray | None:
+    """The mask of the points that want C^T qd and G, checked; None where none does."""
+    if momentum_points is None:
+        return None
+    mask = np.asarray(momentum_points, dtype=np.bool_)
+    if mask.shape != (points,):
+        raise ValueError(f"momentum_points: a mask of the {points} points, not of shape {mask.shape}")
+    if mass_only and mask.any():
+        raise ValueError("momentum_points: a mass-only batch has no velocity terms")
+    return np.ascontiguousarray(mask) if mask.any() else None
+
+
+#: MuJoCo's 10-number body inertia ``cinert`` (I_xx, I_yy, I_zz, I_xy, I_xz, I_yz, m c_x, m c_y, m c_z, m, in
+#: the com-based frame) as the 6 x 6 spatial inertia that ``mju_mulInertVec`` applies: the entry of ``cinert``
+#: (10: zero) and its sign, row by row.
+_INERTIA_ENTRY = np.array([[0, 3, 4, 10, 8, 7], [3, 1, 5, 8, 10, 6], [4, 5, 2, 7, 6, 10],
+                           [10, 8, 7, 9, 10, 10], [8, 10, 6, 10, 9, 10], [7, 6, 10, 10, 10, 9]])
+_INERTIA_SIGN = np.array([[1, 1, 1, 1, -1, 1], [1, 1, 1, 1, 1, -1], [1, 1, 1, -1, 1, 1],
+                          [1, 1, -1, 1, 1, 1], [-1, 1, 1, 1, 1, 1], [1, -1, 1, 1, 1, 1]], dtype=float)
+
+
+class MuJoCoMomentumTerms:
+    """C(q, qd)^T qd and G(q) on a :class:`mujoco.batch.Batch` after its forward pass, from MuJoCo's com-based
+    quantities, by the formulas of :mod:`ftc_mj.robot.rigid`: (C^T qd)_i = cdof_dot_i' h_i, h_i the spatial
+    momentum ``cinert cvel`` summed over the subtree of dof i's body (``cdof_dot`` = cvel x cdof is dS_i/dt for a
+    hinge or slide joint), and G_i = cdof_i' (I^c a_0), the subtree's inertia times a_0 = [0; -gravity].
+
+    Hinge and slide joints only: for a ball or free joint's rotational dofs MuJoCo's ``cdof_dot`` is taken with
+    the parent's velocity, which gives the right cdof_dot qd but not each axis' own derivative."""
+
+    def __init__(self, model: mujoco.MjModel, batch: Batch):
+        if not np.isin(model.jnt_type, _REBUILT_JOINTS).all():
+            raise ValueError("C^T qd and G: the nominal model must have hinge and slide joints only")
+        self._cinert, self._cvel = batch.bind("cinert"), batch.bind("cvel")
+        self._cdof, self._cdof_dot = batch.bind("cdof"), batch.bind("cdof_dot")
+        points, bodies, n = batch.nsim, model.nbody, model.nv
+        self._parents = [(b, int(model.body_parentid[b])) for b in range(bodies - 1, 0, -1)
+                         if model.body_parentid[b] > 0]
+        self._dof_body = model.dof_bodyid.astype(np.intp)
+        self._entry = _INERTIA_ENTRY.reshape(-1)
+        self._sign = _INERTIA_SIGN.reshape(-1)
+        self._at_rest = np.zeros(6)
+        self._at_rest[3:] = -model.opt.gravity
+        self._extended = np.zeros((points, bodies, 11))  # cinert and a zero
+        self._spatial = np.zeros((points, bodies, 36))
+        self._momentum = np.zeros((points, bodies, 6))  # I v, then summed over subtrees
+        self._weight = np.zeros((points, bodies, 6))  # I a_0, then summed over subtrees
+        self._gathered = np.zeros((points, n, 6))
+        self.coriolis_transpose, self.gravity = np.zeros((points, n)), np.zeros((points, n))
+
+    def evaluate(self) -> None:
+        """From the batch's last forward pass (its velocity stage at least)."""
+        self._extended[..., :10] = self._cinert
+        spatial = self._extended.take(self._entry, axis=2, out=self._spatial)
+        spatial *= self._sign
+        spatial = spatial.reshape(spatial.shape[:2] + (6, 6))
+        momentum, weight = self._momentum, self._weight
+        _einsum("pbij,pbj->pbi", spatial, self._cvel, out=momentum)
+        _einsum("pbij,j->pbi", spatial, self._at_rest, out=weight)
+        for body, parent in self._parents:  # children before their parents
+            momentum[:, parent] += momentum[:, body]
+            weight[:, parent] += weight[:, body]
+        gathered = momentum.take(self._dof_body, axis=1, out=self._gathered)
+        _einsum("pik,pik->pi", self._cdof_dot, gathered, out=self.coriolis_transpose)
+        gathered = weight.take(self._dof_body, axis=1, out=self._gathered)
+        _einsum("pik,pik->pi", self._cdof, gathered, out=self.gravity)
 
 
 def at_rest(batch: NominalBatch, points: np.ndarray) -> None:

@@ -13,7 +13,22 @@ row and control period. The textbook algorithms on that tree, compiled with Numb
   which gives MuJoCo's ``qfrc_bias`` = C(q, qd) qd + G(q);
 - the composite-rigid-body algorithm for M(q) (plus the joint armature);
 - M = L' D L in MuJoCo's own sparse layout (``qLD``, ``qLDiagInv``), by ``mj_factorM``'s recursion from the
-  last joint up, so that :class:`~ftc_mj.robot.nominal.SparseSolver` solves with it unchanged.
+  last joint up, so that :class:`~ftc_mj.robot.nominal.SparseSolver` solves with it unchanged;
+- at the points that ask for them (the generalized momentum observer's terms, which MuJoCo does not give):
+  C(q, qd)^T qd and G(q) apart, by the formulas below.
+
+**C^T qd.** With p = M(q) qd the generalized momentum, p_i = S_i' h_i, h_i = sum over the subtree of i of
+I_j V_j (each body's spatial momentum, world coordinates). Along a motion with qdd = 0 and no gravity,
+dp/dt = Mdot qd, and d(I_j V_j)/dt = I_j A_j + V_j x* I_j V_j, whose sum over the subtree projected on S_i is
+Newton-Euler's C qd; the joint axis, fixed in its body, turns with it: dS_i/dt = V_i x S_i. So
+
+    (Mdot qd)_i = (V_i x S_i)' h_i + (C qd)_i
+
+and with Mdot = C + C^T (the skew-symmetry of Mdot - 2C that the momentum observer rests on, De Luca and
+Mattone, ICRA 2005), C^T qd = Mdot qd - C qd, i.e. (C^T qd)_i = (V_i x S_i)' h_i per joint i: MuJoCo's
+``cdof_dot`` dotted with the subtree's momentum (:class:`~ftc_mj.robot.nominal.MuJoCoMomentumTerms` computes
+it so). **G(q)** is Newton-Euler at rest: G_i = S_i' (I^c_i a_0), the composite inertia of i's subtree times
+the base acceleration a_0 = [0; -gravity].
 
 Everything is expressed in world coordinates about the world origin (Featherstone's spatial vectors, angular
 part first), where composite inertias simply add. Bodies without a joint are welded into the nearest ancestor
@@ -46,6 +61,9 @@ import numba  # noqa: E402
 import numpy as np  # noqa: E402
 
 _HINGE, _SLIDE = int(mujoco.mjtJoint.mjJNT_HINGE), int(mujoco.mjtJoint.mjJNT_SLIDE)
+#: No point asks for the momentum terms: the kernel's arguments when none are wanted (types fixed for Numba).
+_NO_POINTS = np.zeros(0, dtype=np.bool_)
+_NO_TERMS = np.zeros((0, 0))
 
 
 @dataclass(frozen=True)
@@ -146,13 +164,21 @@ class RigidTree:
     def evaluate(self, mass: np.ndarray, first_moment: np.ndarray, inertia: np.ndarray, armature: np.ndarray,
                  qpos: np.ndarray, qvel: np.ndarray, applied: np.ndarray, sparse_M: np.ndarray,
                  factor: np.ndarray, diagonal_inverse: np.ndarray, qacc: np.ndarray, bias: np.ndarray,
-                 with_velocity: bool) -> None:
+                 with_velocity: bool, momentum_points: np.ndarray | None = None,
+                 coriolis_transpose: np.ndarray | None = None, gravity: np.ndarray | None = None) -> None:
         """At every point: M (sparse), its factorisation and, ``with_velocity``, C qd + G into ``bias`` and
-        M^-1 (applied - bias) into ``qacc``. The per-point inertias come from :meth:`scaled`."""
+        M^-1 (applied - bias) into ``qacc``. The per-point inertias come from :meth:`scaled`.
+
+        ``momentum_points`` (a ``(points,)`` mask, with ``with_velocity``): where C(q, qd)^T qd and G(q) are
+        computed as well, into ``coriolis_transpose`` and ``gravity`` ``(points, n)`` (the module docstring);
+        the other points' rows are left as they are. None: nowhere (nothing computed, nothing written)."""
+        if momentum_points is None:
+            momentum_points, coriolis_transpose, gravity = _NO_POINTS, _NO_TERMS, _NO_TERMS
         _evaluate(self.parent, self.offset_position, self.offset_rotation, self.hinge, self.axis, self.anchor,
                   self.reference, self.gravity, self.sparse_row, self.sparse_column,
                   mass, first_moment, inertia, armature, qpos, qvel, applied,
-                  sparse_M, factor, diagonal_inverse, qacc, bias, with_velocity)
+                  sparse_M, factor, diagonal_inverse, qacc, bias, with_velocity,
+                  momentum_points, coriolis_transpose, gravity)
 
 
 @numba.njit(cache=True, nogil=True, inline="always")
@@ -183,10 +209,12 @@ def _apply_inertia(m: float, h: np.ndarray, inertia: np.ndarray, motion: np.ndar
 @numba.njit(cache=True, nogil=True, fastmath=False, error_model="numpy")
 def _evaluate(parent, offset_position, offset_rotation, hinge, axis, anchor, reference, gravity, sparse_row,
               sparse_column, mass, first_moment, inertia, armature, qpos, qvel, applied, sparse_M, factor,
-              diagonal_inverse, qacc, bias, with_velocity):  # pragma: no cover - compiled (tested through its wrapper)
+              diagonal_inverse, qacc, bias, with_velocity, momentum_points, coriolis_transpose,
+              gravity_torque):  # pragma: no cover - compiled (tested through its wrapper)
     """:meth:`RigidTree.evaluate` over the points ``p``: kinematics and each node's inertia in world coordinates,
-    Newton-Euler (``with_velocity``), composite inertias, M, L'DL and the solve. One point's numbers come from its
-    inputs alone (scratch arrays are rewritten per point)."""
+    Newton-Euler (``with_velocity``), composite inertias, C^T qd and G where ``momentum_points`` asks, M, L'DL
+    and the solve. One point's numbers come from its inputs alone (scratch arrays are rewritten per point); the
+    momentum terms only add outputs, the other quantities are computed as without them."""
     points, n = qpos.shape
     rotation = np.empty((n, 3, 3))
     position = np.empty((n, 3))
@@ -206,7 +234,13 @@ def _evaluate(parent, offset_position, offset_rotation, hinge, axis, anchor, ref
     world_anchor = np.empty(3)
     h = np.empty(3)  # a node's first moment about its body origin, world axes
     rhs = np.empty(n)
+    subtree_momentum = np.empty((n, 6))  # h_i: the spatial momenta of i's subtree, [angular; linear]
+    base = np.zeros(6)  # a_0 = [0; -gravity]
+    for r in range(3):
+        base[3 + r] = -gravity[r]
+    any_momentum = len(momentum_points) > 0
     for p in range(points):
+        with_momentum = with_velocity and any_momentum and momentum_points[p]
         for i in range(n):
             # The body frame before the joint: the parent's frame composed with the offset.
             up = parent[i]
@@ -303,6 +337,8 @@ def _evaluate(parent, offset_position, offset_rotation, hinge, axis, anchor, ref
                 # f = I a + V x* (I V) (force cross product: [w x f_n + v x f_f; w x f_f])
                 _apply_inertia(c_mass[i], c_first[i], c_inertia[i], acceleration[i], force[i])
                 _apply_inertia(c_mass[i], c_first[i], c_inertia[i], velocity[i], momentum)
+                if with_momentum:
+                    subtree_momentum[i] = momentum
                 _cross(w[0], w[1], w[2], momentum[:3], force[i, :3], 1.0)
                 _cross(v[0], v[1], v[2], momentum[3:], force[i, :3], 1.0)
                 _cross(w[0], w[1], w[2], momentum[3:], force[i, 3:], 1.0)
@@ -318,11 +354,31 @@ def _evaluate(parent, offset_position, offset_rotation, hinge, axis, anchor, ref
                 if with_velocity:
                     for k in range(6):
                         force[up, k] += force[i, k]
+                if with_momentum:
+                    for k in range(6):
+                        subtree_momentum[up, k] += subtree_momentum[i, k]
                 c_mass[up] += c_mass[i]
                 for r in range(3):
                     c_first[up, r] += c_first[i, r]
                     for c in range(3):
                         c_inertia[up, r, c] += c_inertia[i, r, c]
+        if with_momentum:
+            # C^T qd = (V_i x S_i)' h_i and G_i = S_i' I^c_i a_0 (the module docstring).
+            for i in range(n):
+                w, v, s_w, s_v = velocity[i, :3], velocity[i, 3:], subspace[i, :3], subspace[i, 3:]
+                column[:] = 0.0  # V_i x S_i = [w x s_w; w x s_v + v x s_w]
+                _cross(w[0], w[1], w[2], s_w, column[:3], 1.0)
+                _cross(w[0], w[1], w[2], s_v, column[3:], 1.0)
+                _cross(v[0], v[1], v[2], s_w, column[3:], 1.0)
+                total = 0.0
+                for k in range(6):
+                    total += column[k] * subtree_momentum[i, k]
+                coriolis_transpose[p, i] = total
+                _apply_inertia(c_mass[i], c_first[i], c_inertia[i], base, column)
+                total = 0.0
+                for k in range(6):
+                    total += subspace[i, k] * column[k]
+                gravity_torque[p, i] = total
         # Composite rigid bodies: M[i, j] = S_j' (I^c_i S_i) along i's ancestors j.
         for i in range(n):
             _apply_inertia(c_mass[i], c_first[i], c_inertia[i], subspace[i], column)

@@ -22,7 +22,8 @@ ROOT = Path(__file__).resolve().parents[2]
 PUMA = ROOT / "models" / "puma560.xml"
 NFTSMC = {"beta1": 15.0, "beta2": 10.0, "beta3": 10.0, "beta4": 5.0, "gamma1": 0.5, "bound": 0.5, "mu": 0.5}
 
-#: One variant per built-in observer and controller (the DO and the NDOB read the tachometers).
+#: One variant per built-in observer and controller (the DO, the NDOB and the momentum observer read the
+#: tachometers; the momentum observer also as a variant's own observer, whose StepModel the controller shares).
 VARIANTS = {
     "hs_nftsmc": {"observer": {"type": "hs_tosmo", "gains": {"D": 22.0, "gamma": 5.0}},
                   "controller": {"type": "nftsmc", "gains": NFTSMC},
@@ -32,7 +33,9 @@ VARIANTS = {
                                                                        "discretisation": "taylor"}},
                                "ndob": {"type": "ndob", "gains": {"X": [0.01, 0.02, 0.05]}},
                                "ndob_levant": {"type": "ndob_levant", "gains": {"X": 0.02, "L": 50.0}},
-                               "kalman": {"type": "kalman", "gains": {"process_d": 100.0, "measurement": 1e-9}}}},
+                               "kalman": {"type": "kalman", "gains": {"process_d": 100.0, "measurement": 1e-9}},
+                               "momentum": {"type": "momentum", "gains": {"K": [50.0, 60.0, 90.0]}},
+                               "momentum_levant": {"type": "momentum_levant", "gains": {"K": 50.0, "L": 50.0}}}},
     "tosmo_sigmoid": {"observer": {"type": "tosmo", "gains": {"D": 22.0}},
                       "controller": {"type": "sigmoid_nftsmc", "gains": {
                           "kappa1": 6.0, "kappa2": 4.0, "mu1": 1.2, "mu2": 1.4, "alpha": 0.6, "bound": 0.5,
@@ -45,6 +48,8 @@ VARIANTS = {
     "kalman_smc": {"observer": {"type": "kalman", "gains": {"process_d": [50.0, 100.0, 200.0], "measurement": 1e-9,
                                                             "process_qd": 0.01}},
                    "controller": {"type": "smc", "gains": {"c": 10.0, "bound": 5.0, "mu": 0.5}}},
+    "momentum_smc": {"observer": {"type": "momentum", "gains": {"K": 60.0}},
+                     "controller": {"type": "smc", "gains": {"c": 10.0, "bound": 5.0, "mu": 0.5}}},
     "do_adaptive": {"observer": {"type": "do", "gains": {"k1": 8.0, "k2": 18.0, "p1": 10.0, "p2": 10.0}},
                     "controller": {"type": "a_nftsmc", "gains": {
                         "beta1": 15.0, "beta2": 10.0, "gamma1": 0.5, "rho": 5.0, "dead_zone": 0.01, "mu": 0.5}}},
@@ -67,7 +72,8 @@ MEMBERS = [
      "variants.hs_nftsmc.monitors.levant.gains.L": [30.0, 60.0, 90.0],
      "variants.hs_nftsmc.monitors.ndob_levant.gains.lambda1": 2.0,
      "variants.hs_nftsmc.monitors.kalman.gains.process_d": 20.0, "variants.kalman_smc.observer.gains.measurement": 1e-8,
-     "variants.eso_super_twisting.controller.gains.L": 50.0},
+     "variants.eso_super_twisting.controller.gains.L": 50.0, "variants.hs_nftsmc.monitors.momentum.gains.K": 30.0,
+     "variants.momentum_smc.observer.gains.K": [40.0, 50.0, 70.0]},
     {"nominal.mass_scale": 1.2, "plant.mass_scale": 0.9, "parameters.amplitude": 0.5, "variants.do_adaptive.controller.gains.rho": [1.0, 2.0, 3.0],
      "variants.tosmo_sigmoid.observer.gains.D": 30.0, "variants.hs_nftsmc.monitors.ndob.gains.X": 0.03, "initial.q": [-0.4, -0.6, -0.5], "parameters.fault_rate": 3.0,
      "variants.tosmo_ctc.controller.gains.kd": [15.0, 20.0, 25.0], "variants.hs_pid.controller.gains.torque_limit": [40.0, 60.0, 30.0]},
@@ -223,9 +229,11 @@ def test_the_plants_own_mass_matrix_is_the_nominal_one(tmp_path, monkeypatch):
     spec = scenario_dict()
     del spec["sensors"]
     spec["robot"]["sensors"] = ["position"]
-    spec["variants"] = {name: v for name, v in VARIANTS.items() if name != "do_adaptive"}  # those on encoders only
+    spec["variants"] = {name: v for name, v in VARIANTS.items()
+                        if name not in ("do_adaptive", "momentum_smc")}  # those on encoders only
     spec["variants"]["hs_nftsmc"] = {**VARIANTS["hs_nftsmc"], "monitors": {
-        name: monitor for name, monitor in VARIANTS["hs_nftsmc"]["monitors"].items() if name != "ndob"}}
+        name: monitor for name, monitor in VARIANTS["hs_nftsmc"]["monitors"].items()
+        if name not in ("ndob", "momentum")}}
     path = tmp_path / "exact.yaml"
     path.write_text(yaml.safe_dump(spec, sort_keys=False), encoding="utf-8")
     scenario = load_scenario(path)

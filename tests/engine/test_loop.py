@@ -593,3 +593,17 @@ def test_controller_velocity_is_the_scenarios_choice_not_the_observers(tmp_path:
     sosmo_est, eso_est = (simulate_variant(scenario, v) for v in scenario.variants)
     assert np.abs(sosmo_est.tau - eso_est.tau).max() > 1.0
     assert np.abs(sosmo_est.tau[0] - sosmo.tau[0]).max() > 1.0
+
+
+def test_an_observer_may_need_only_the_quantities_the_nominal_model_gives() -> None:
+    """``Observer.needs`` is empty by default (the engine computes nothing more); a name the nominal model does
+    not give is refused with the names it does."""
+    from ftc_mj.engine.loop import _needs
+
+    class Wanting(HighSpeedTOSMO):
+        needs = frozenset({"coriolis_transpose", "jacobian"})
+
+    assert _needs(HighSpeedTOSMO) == frozenset()
+    assert _needs(observers.BUILTIN["momentum"]) == {"coriolis_transpose", "gravity"}
+    with pytest.raises(ValueError, match=r"needs \['jacobian'\].*'coriolis_transpose', 'gravity'"):
+        _needs(Wanting)

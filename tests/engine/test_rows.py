@@ -30,3 +30,15 @@ def test_member_values_repeat_for_every_row_and_every_point():
     np.testing.assert_array_equal(layout.per_point(values), [1.5, 0.5] * 4)
     # A point's member value is its row's.
     np.testing.assert_array_equal(layout.per_point(values), layout.per_row(values)[layout.point_rows])
+
+
+def test_estimator_points_mark_the_points_of_the_estimators_that_want_them():
+    """Variant 0's second monitor and variant 1's observer want a quantity: their points only (not the
+    readings' points); none wanted: None, so the nominal batch computes nothing more."""
+    layout = Layout.of(2, [2, 1], [False, True])
+    mask = layout.estimator_points([[False, False, True], [True, False]])
+    expected = np.zeros(layout.points, dtype=bool)
+    expected[layout.blocks[0].monitors[1]] = True
+    expected[layout.blocks[1].observer] = True
+    np.testing.assert_array_equal(mask, expected)
+    assert layout.estimator_points([[False, False, False], [False, False]]) is None

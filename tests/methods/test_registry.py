@@ -140,7 +140,8 @@ def test_builtin_names_are_found() -> None:
 def test_builtins_are_found_without_any_entry_point(thirdparty) -> None:
     _, groups_asked = thirdparty
     assert set(registry.observer_types()) == set(observers.BUILTIN) == {
-        "do", "eso", "sosmo", "tosmo", "hs_tosmo", "levant", "ndob", "ndob_levant", "kalman"}
+        "do", "eso", "sosmo", "tosmo", "hs_tosmo", "levant", "ndob", "ndob_levant", "kalman", "momentum",
+        "momentum_levant"}
     assert set(registry.controller_types()) == set(controllers.BUILTIN) == {
         "smc", "ntsmc", "nftsmc", "a_nftsmc", "sigmoid_nftsmc", "computed_torque", "super_twisting", "pid"}
     assert set(groups_asked) == {registry.OBSERVER_GROUP, registry.CONTROLLER_GROUP}

@@ -15,7 +15,7 @@ import numpy as np
 import pytest
 from nominal_oracle import NominalModel, step_model
 
-from ftc_mj.robot.nominal import CompiledNominal, StepModel, nominal_batch
+from ftc_mj.robot.nominal import CompiledNominal, MuJoCoNominal, StepModel, nominal_batch, rigid_body_model
 
 PUMA = Path(__file__).resolve().parents[2] / "models" / "puma560.xml"
 CHECK_QD = np.array([0.4, -0.3, 0.9])
@@ -319,3 +319,120 @@ def test_command_acceleration_is_solved_on_demand_or_read_from_the_engines_buffe
     buffer = np.full((1, 3), 7.0)
     shared = StepModel(step.M, step._factor, step._diagonal_inverse, step.psi_hat, step._solver, command=buffer)
     assert shared.command_acceleration(tau) is buffer
+
+
+def _trajectory(model: mujoco.MjModel, steps: int, dt: float) -> tuple[np.ndarray, np.ndarray]:
+    """q(t_k), qd(t_k) of a passive swing under gravity and a sinusoidal torque, from a non-zero velocity,
+    integrated by RK4 at ``dt`` on the rigid-body copy (no limits, contacts or damping: a smooth motion)."""
+    rigid = rigid_body_model(model)
+    rigid.opt.integrator, rigid.opt.timestep = int(mujoco.mjtIntegrator.mjINT_RK4), dt
+    data = mujoco.MjData(rigid)
+    n = rigid.nv
+    data.qpos[:] = np.linspace(-0.6, 0.8, n)
+    data.qvel[:] = np.linspace(1.5, -1.0, n)
+    q, qd = np.empty((steps, n)), np.empty((steps, n))
+    for k in range(steps):
+        q[k], qd[k] = data.qpos, data.qvel
+        data.qfrc_applied[:] = 5.0 * np.sin(7.0 * k * dt + np.arange(n))
+        mujoco.mj_step(rigid, data)
+    return q, qd
+
+
+def _mass(model: mujoco.MjModel, q: np.ndarray) -> np.ndarray:
+    """Dense M(q) at each row of ``q``, by MuJoCo."""
+    rigid = rigid_body_model(model)
+    data, out = mujoco.MjData(rigid), np.zeros((len(q), rigid.nv, rigid.nv))
+    for k, position in enumerate(q):
+        data.qpos[:] = position
+        mujoco.mj_forward(rigid, data)
+        mujoco.mj_fullM(rigid, data, out[k])
+    return out
+
+
+@pytest.mark.parametrize("backend", ["compiled", "mujoco"])
+@pytest.mark.parametrize("name", ["puma560.xml", "ur5e.xml"])
+def test_coriolis_transpose_is_the_derivative_of_M_along_a_trajectory_less_C_qd(name, backend):
+    """C(q, qd)^T qd = Mdot qd - C qd (Mdot = C + C^T) along a simulated motion: Mdot qd from M at the
+    neighbouring samples, (M(q_(k+1)) - M(q_(k-1))) / (2 dt) qd_k, whose error is dt^2 / 6 |d^3 M / dt^3 qd|
+    (bounded from the third differences of M at the samples) plus RK4's O(dt^4); C qd = bias(q, qd) - bias(q, 0)
+    from MuJoCo. G(q) is MuJoCo's bias at rest. Both backends, the PUMA560 (3 joints) and the UR5e (6)."""
+    model = mujoco.MjModel.from_xml_path(str(PUMA.parent / name))
+    dt, steps = 5e-4, 600
+    q, qd = _trajectory(model, steps, dt)
+    points = steps - 4  # samples 2 .. steps - 3: two neighbours on each side for the third difference
+    if backend == "compiled":
+        batch = nominal_batch(model, np.ones(points), 1, momentum_points=np.ones(points, bool))
+        assert isinstance(batch, CompiledNominal)
+    else:
+        batch = MuJoCoNominal(rigid_body_model(model), np.ones(points), 1, momentum_points=np.ones(points, bool))
+    inner = slice(2, steps - 2)
+    batch.qpos[:], batch.qvel[:] = q[inner], qd[inner]
+    batch.evaluate()
+    M = _mass(model, q)
+    central = (M[3:-1] - M[1:-3]) / (2 * dt)  # Mdot at the inner samples
+    third = (M[4:] - 2 * M[3:-1] + 2 * M[1:-3] - M[:-4]) / (2 * dt**3)  # d^3 M / dt^3
+    mdot_qd = np.einsum("kij,kj->ki", central, qd[inner])
+    rigid = rigid_body_model(model)
+    data = mujoco.MjData(rigid)
+    c_qd, gravity = np.empty((points, rigid.nv)), np.empty((points, rigid.nv))
+    for k in range(points):
+        data.qpos[:], data.qvel[:] = q[k + 2], 0.0
+        mujoco.mj_forward(rigid, data)
+        gravity[k] = data.qfrc_bias
+        data.qvel[:] = qd[k + 2]
+        mujoco.mj_forward(rigid, data)
+        c_qd[k] = data.qfrc_bias - gravity[k]
+    expected = mdot_qd - c_qd
+    scale = np.abs(expected).max()
+    bound = 2 * dt**2 / 6 * np.abs(np.einsum("kij,kj->ki", third, qd[inner])).max() + 1e-9 * scale
+    assert bound < 1e-3 * scale and scale > 0.1  # the tolerance is far below the quantity, which is not small
+    np.testing.assert_allclose(batch.coriolis_transpose, expected, rtol=0, atol=bound)
+    np.testing.assert_allclose(batch.gravity, gravity, rtol=0, atol=1e-12 * np.abs(gravity).max())
+    assert np.abs(c_qd).max() > 0.1 and np.abs(expected - c_qd).max() > 0.1  # C^T qd is not C qd
+
+
+def test_the_momentum_terms_are_computed_only_where_asked_and_change_nothing_else(model):
+    """Without ``momentum_points`` the batch has no C^T qd or G and costs nothing more; with a mask, only the
+    masked points are written, and M, the factorisation and Psi keep their bits; a mass-only batch refuses a
+    mask. Both backends give the same numbers to rounding."""
+    rng = np.random.default_rng(12)
+    q, qd = rng.uniform(-np.pi, np.pi, (4, 3)), rng.uniform(-2.0, 2.0, (4, 3))
+    mask = np.array([True, False, True, True])
+    plain = nominal_batch(model, np.ones(4), 1)
+    asked = nominal_batch(model, np.ones(4), 1, momentum_points=mask)
+    mujoco_batch = MuJoCoNominal(rigid_body_model(model), np.ones(4), 1, momentum_points=mask)
+    assert plain.coriolis_transpose is None and plain.gravity is None
+    for batch in (plain, asked, mujoco_batch):
+        batch.qpos[:], batch.qvel[:] = q, qd
+        batch.evaluate()
+    for name in ("qacc", "factor", "diagonal_inverse"):
+        np.testing.assert_array_equal(getattr(asked, name), getattr(plain, name))
+    np.testing.assert_array_equal(asked.mass_matrices(), plain.mass_matrices())
+    assert not asked.coriolis_transpose[1].any() and not asked.gravity[1].any()
+    for name in ("coriolis_transpose", "gravity"):
+        np.testing.assert_allclose(getattr(asked, name)[mask], getattr(mujoco_batch, name)[mask], rtol=0, atol=1e-12)
+    assert nominal_batch(model, np.ones(4), 1, momentum_points=np.zeros(4, bool)).coriolis_transpose is None
+    with pytest.raises(ValueError, match="mass-only"):
+        nominal_batch(model, np.ones(4), 1, mass_only=True, momentum_points=mask)
+    with pytest.raises(ValueError, match="a mask of the 4 points"):
+        nominal_batch(model, np.ones(4), 1, momentum_points=np.ones(3, bool))
+
+
+def test_the_mujoco_momentum_terms_of_a_point_do_not_depend_on_the_other_points(model):
+    """MuJoCo's backend computes C^T qd and G on the whole batch with array operations: a point's bits are its
+    own alone. It declines joints it does not cover (a ball joint)."""
+    rng = np.random.default_rng(13)
+    q, qd, scale = rng.uniform(-3, 3, (7, 3)), rng.normal(size=(7, 3)), rng.uniform(0.5, 2.0, 7)
+    many = MuJoCoNominal(rigid_body_model(model), scale, 1, momentum_points=np.ones(7, bool))
+    many.qpos[:], many.qvel[:] = q, qd
+    many.evaluate()
+    for point in (0, 4, 6):
+        alone = MuJoCoNominal(rigid_body_model(model), scale[point:point + 1], 1, momentum_points=np.ones(1, bool))
+        alone.qpos[:], alone.qvel[:] = q[point], qd[point]
+        alone.evaluate()
+        np.testing.assert_array_equal(alone.coriolis_transpose[0], many.coriolis_transpose[point])
+        np.testing.assert_array_equal(alone.gravity[0], many.gravity[point])
+    ball = mujoco.MjModel.from_xml_string(
+        '<mujoco><worldbody><body><joint type="ball"/><geom size="0.1" mass="1"/></body></worldbody></mujoco>')
+    with pytest.raises(ValueError, match="hinge and slide joints only"):
+        nominal_batch(ball, np.ones(2), 1, momentum_points=np.ones(2, bool))

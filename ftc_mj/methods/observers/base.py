@@ -18,6 +18,7 @@ State and inputs are ``(members, n)``: the contract of :class:`ftc_mj.methods.pl
 from __future__ import annotations
 
 from abc import abstractmethod
+from typing import ClassVar
 
 import numpy as np
 
@@ -37,7 +38,13 @@ class Observer(Method):
         luaf_hat: estimate of the lumped uncertainty and fault, in acceleration units.
         injection: the whole output injection into the observer's velocity equation (the estimate plus the
             correction terms); Chapter 3-5 controllers compensate this, Appendix-D-type ones ``luaf_hat``.
+
+    Class attribute ``needs``: the nominal quantities beyond M and Psi the observer reads from its
+    :class:`StepModel` (names of :data:`ftc_mj.robot.nominal.NEEDS`, e.g. ``coriolis_transpose``); the engine
+    evaluates them only for the observers that declare them. Empty by default.
     """
+
+    needs: ClassVar[frozenset[str]] = frozenset()
 
     def __init__(self, config: GainConfig, n_joints: int, dt: float, members: int | None = None):
         super().__init__(config, n_joints, dt, members)
