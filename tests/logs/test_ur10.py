@@ -32,16 +32,17 @@ def test_free_motion_command_writes_table_json_recording(tmp_path, capsys):
     assert main([str(FREE), "--json", str(tmp_path / "m.json"), "--out", str(tmp_path / "r.rrd")]) == 0
     assert "ur10_free_motion: metrics" in capsys.readouterr().out
     document = json.loads((tmp_path / "m.json").read_text())
-    assert set(document["variants"]) == {"tosmo", "hs_tosmo", "sosmo", "eso", "do"}
+    assert set(document["variants"]) == {"tosmo", "hs_tosmo", "sosmo", "eso", "do", "momentum"}
     do = document["variants"]["do"]
     assert do["metrics"]["rms_luaf_error"] == [None] * 6  # no truth: not reported
     assert do["diagnosis"]["alarms"] == [[]] * 6  # calibrated on this log: no false alarm of the DO
+    assert document["variants"]["momentum"]["diagnosis"]["alarms"] == [[]] * 6  # nor of the momentum observer
     assert (tmp_path / "r.rrd").stat().st_size > 0
 
 
 def test_free_motion_residuals_are_the_friction_level_and_a_sign_error_leaves_it():
     results = run_scenario(load_scenario(FREE), record_poses=False)
-    for name in ("do", "eso"):
+    for name in ("do", "eso", "momentum"):
         rms = _residual_rms(results, name)
         # Joints 2 and 3 carry gravity and inertia: a correct torque leaves 25 / 10 N m (friction, model errors).
         assert 20 < rms[1] < 35 and 6 < rms[2] < 14, rms
