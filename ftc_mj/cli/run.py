@@ -137,36 +137,28 @@ def metrics_document(scenario: Scenario, results: Sequence[VariantResult], metri
     }
 
 
-def _check_writable(file: str, option: str, target: Path) -> None:
-    """Refuse, before running, an output path that cannot become a file: a directory, or below a file."""
-    from ftc_mj.config.errors import InputError
-
-    if target.is_dir():
-        raise InputError(file, option, f"{str(target)!r} is a directory")
-    for parent in target.parents:
-        if parent.exists():
-            if not parent.is_dir():
-                raise InputError(file, option, f"{str(parent)!r} is not a directory")
-            if not os.access(parent, os.W_OK):
-                raise InputError(file, option, f"{str(parent)!r} is not writable")
-            return
-
-
 def main(argv: Sequence[str] | None = None, prog: str = PROG) -> int:
     args = build_parser(prog).parse_args(argv)
     from rich.console import Console
 
     from ftc_mj.analysis.metrics import compute_metrics
     from ftc_mj.config.errors import InputError
-    from ftc_mj.outputs.files import write_atomic
+    from ftc_mj.outputs.files import check_output, write_atomic
     from ftc_mj.spec.loading import load_scenario
 
+    file = str(args.scenario)
     try:
+        for option, target in (("--out", None if args.no_record else args.out), ("--json", args.json)):
+            if target is not None:  # before loading: the scenario is an input whatever it inherits
+                check_output(target, file, option, inputs=[args.scenario])
         scenario = load_scenario(args.scenario, overrides=args.overrides, duration=args.duration, variants=args.variant)
         recording_path = args.out or scenario.output_path
-        for label, target in (("--out", None if args.no_record else recording_path), ("--json", args.json)):
+        outputs = [("--out", None if args.no_record else recording_path), ("--json", args.json)]
+        for option, target in outputs:
             if target is not None:
-                _check_writable(str(args.scenario), label, target)
+                check_output(target, file, option, inputs=scenario.inputs)
+        if None not in (outputs[0][1], args.json) and os.path.realpath(outputs[0][1]) == os.path.realpath(args.json):
+            raise InputError(file, "--json", f"{str(args.json)!r} is also the recording's path")
     except InputError as error:
         print(f"error: {error}", file=sys.stderr)
         return 2

@@ -235,6 +235,8 @@ class Scenario:
     #: The file's content after ``--set`` (YAML types): the fields as written, which a campaign's paths are
     #: checked against, and every variant the file declares (``load_scenario``'s ``variants`` may run fewer).
     raw: dict[str, Any] = field(default_factory=dict)
+    #: The files the scenario was read from (the file, its bases, the model file): what no output may replace.
+    inputs: tuple[Path, ...] = ()
 
     @property
     def name(self) -> str:
