@@ -39,9 +39,10 @@ from ftc_mj.engine.members import members_from_overrides
 from ftc_mj.results import VariantResult
 from ftc_mj.engine.runner import run_batch
 from ftc_mj.config.errors import InputError
+from ftc_mj.config.paths import input_file_problem
 from ftc_mj.outputs.files import parquet_bytes, write_atomic
 from ftc_mj.spec.loading import load_scenario
-from ftc_mj.spec.scenario import Scenario, series_bytes
+from ftc_mj.spec.scenario import MAX_SEED, Scenario, series_bytes
 
 #: Memory for the series of one batch in one worker [bytes] (the batch engine steps members in chunks that fit).
 WORKER_MEMORY = 3 * 1024**3
@@ -88,6 +89,12 @@ class Campaign:
         """Control periods of one run of one variant."""
         return len(self.scenario.times)
 
+    @property
+    def inputs(self) -> tuple[Path, ...]:
+        """The files the campaign was read from (the campaign, its scenario, the scenario's bases and model):
+        what no output may replace or hold."""
+        return (self.path.resolve(), *self.scenario.inputs)
+
 
 def load(path: str | Path, runs: int | None = None, variants: list[str] | None = None,
          duration: float | None = None) -> Campaign:
@@ -107,8 +114,9 @@ def load(path: str | Path, runs: int | None = None, variants: list[str] | None =
     if duration is not None:
         spec.duration = duration
     scenario_path = (path.parent / spec.scenario).resolve()
-    if not scenario_path.is_file():
-        raise InputError(file, "scenario", f"no such file: {spec.scenario}")
+    problem = input_file_problem(scenario_path)
+    if problem is not None:
+        raise InputError(file, "scenario", f"{spec.scenario}: {problem}")
     base = compiled_scenario(str(scenario_path), tuple(spec.variants or ()), spec.duration, frozen(spec.set))
     _check_paths(spec, base, file)
     variants = [v.name for v in base.variants]
@@ -118,6 +126,11 @@ def load(path: str | Path, runs: int | None = None, variants: list[str] | None =
     campaign = Campaign(path=path, spec=spec, scenario_path=scenario_path, runs=all_runs, variants=variants,
                         n_joints=base.n_joints, member_bytes=int(series_bytes(base.spec, base.n_joints)),
                         fingerprint=fingerprint(spec, base), scenario=base)
+    _check_report(spec, base, all_runs, file)
+    highest = max((run.seed for run in all_runs), default=0)
+    if highest > MAX_SEED:
+        raise InputError(file, "seed" if spec.seed is not None else "replicates", f"the runs' seeds reach {highest}, "
+                         f"beyond the largest seed {MAX_SEED} (seed + sample x replicates + replicate)")
     ids = [run.run_id for run in all_runs]
     if len(set(ids)) != len(ids):
         raise InputError(file, "samples", "two runs have the same values and seed (a choice with too few values "
@@ -127,6 +140,71 @@ def load(path: str | Path, runs: int | None = None, variants: list[str] | None =
     for runs_of_group in campaign.groups.values():
         _check_group(campaign, runs_of_group, file)
     return campaign
+
+
+#: Seconds to wait for a Dask scheduler to answer before a campaign starts.
+SCHEDULER_TIMEOUT = 5.0
+
+
+def check_scheduler_address(address: str, file: str) -> None:
+    """Refuse a ``--scheduler`` that is not a Dask address (``tcp://HOST:PORT``, ``tls://...``, ...)."""
+    from distributed.comm import parse_address
+    from distributed.comm.addressing import parse_host_port
+
+    try:
+        scheme, location = parse_address(address)
+        if scheme in ("tcp", "tls"):
+            parse_host_port(location)
+    except (ValueError, TypeError) as exc:
+        raise InputError(file, "--scheduler", f"{address!r} is not a scheduler's address, e.g. "
+                         f"tcp://127.0.0.1:8786 ({exc})") from None
+
+
+def check_scheduler(address: str, file: str) -> None:
+    """Refuse, before any work, a ``--scheduler`` where nothing listens (a TCP or TLS address: one connection
+    within :data:`SCHEDULER_TIMEOUT`; other transports are tried when the campaign starts)."""
+    import socket
+
+    from distributed.comm import parse_address
+    from distributed.comm.addressing import parse_host_port
+
+    check_scheduler_address(address, file)
+    scheme, location = parse_address(address)
+    if scheme not in ("tcp", "tls"):
+        return
+    host, port = parse_host_port(location)
+    try:
+        socket.create_connection((host, port), timeout=SCHEDULER_TIMEOUT).close()
+    except OSError as exc:
+        raise InputError(file, "--scheduler", f"nothing answers at {address} "
+                         f"({exc.strerror or exc or 'timed out'})") from None
+
+
+def _check_report(spec: CampaignSpec, scenario: Scenario, runs: list[Run], file: str) -> None:
+    """Everything the report names exists, before the first run: the claims' and the reference's variants
+    (monitors as ``variant.monitor``), the joints of the claims and the heat map, the columns of
+    ``fault_size`` and ``fault_kind``."""
+    report, n = spec.report, scenario.n_joints
+    names = [name for v in scenario.variants for name in (v.name, *(f"{v.name}.{m.name}" for m in v.monitors))]
+    known = ", ".join(names)
+    if report.reference is not None and report.reference not in names:
+        raise InputError(file, "report.reference", f"unknown variant {report.reference!r} (the campaign's: {known})")
+    for index, claim in enumerate(report.claims):
+        for role in ("better", "worse"):
+            if getattr(claim, role) not in names:
+                raise InputError(file, f"report.claims.{index}.{role}", f"unknown variant {getattr(claim, role)!r} "
+                                 f"(the campaign's: {known})")
+        for position, joint in enumerate(claim.joints or ()):
+            if joint > n:
+                raise InputError(file, f"report.claims.{index}.joints.{position}", f"joint {joint}: the robot has {n}")
+    if report.heatmap.joint > n:
+        raise InputError(file, "report.heatmap.joint", f"joint {report.heatmap.joint}: the robot has {n}")
+    columns = {name for run in runs for name in run.columns()}
+    for option in ("fault_size", "fault_kind"):
+        column = getattr(report, option)
+        if column is not None and column not in columns:
+            raise InputError(file, f"report.{option}", f"{column!r} is not a column of the runs (a case value or a "
+                             f"varied field: {', '.join(sorted(columns)) or 'none'})")
 
 
 def frozen(values: dict[str, Any]) -> str:

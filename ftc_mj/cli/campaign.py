@@ -68,10 +68,20 @@ def _run(args: argparse.Namespace, console: Console) -> int:
     from ftc_mj.campaign import execute
     from ftc_mj.campaign.summary import write_report
 
+    from ftc_mj.outputs.files import check_output
+
     for value, option in ((args.batch_size, "--batch-size"), (args.workers, "--workers")):
         _positive(value, option)
+    file = str(args.campaign)
+    if args.out is not None:
+        check_output(args.out, file, "--out", directory=True, inputs=[args.campaign])
+    if args.scheduler is not None:
+        execute.check_scheduler_address(args.scheduler, file)
     campaign = execute.load(args.campaign, args.runs)
     out = args.out or Path("results") / campaign.spec.name
+    check_output(out, file, "--out", directory=True, inputs=campaign.inputs)
+    if args.scheduler is not None:
+        execute.check_scheduler(args.scheduler, file)
     if args.quiet:
         summary = execute.execute(campaign, out, batch_size=args.batch_size, workers=args.workers,
                                   scheduler=args.scheduler)
