@@ -109,12 +109,18 @@ class DivergenceSpec(Strict):
     max_velocity: PositiveFloat = 1000.0
 
 
+#: The largest seed: NumPy keeps a batch's seeds as int64 (``seed + k`` for member k).
+MAX_SEED = 2**63 - 1
+#: A run's seed: an integer from 0 to :data:`MAX_SEED`.
+Seed = Annotated[int, Field(ge=0, le=MAX_SEED)]
+
+
 class ScenarioSpec(Strict):
     name: Annotated[str, Field(min_length=1, pattern=r"^[A-Za-z0-9_.-]+$")]
     description: str = ""
     robot: RobotSpec
     #: Every random element of a run derives from it (:mod:`ftc_mj.effects.randomness`).
-    seed: Annotated[int, Field(ge=0)] = 0
+    seed: Seed = 0
     duration: PositiveFloat
     control_dt: PositiveFloat = 1e-3
     #: Physics timestep; control_dt must be an integer multiple of it. Defaults to control_dt.
@@ -351,6 +357,35 @@ def time_grid(duration: float, control_dt: float) -> np.ndarray:
     return np.arange(int(round(duration / control_dt))) * control_dt
 
 
+def check_on_grid(reference: expressions.TimeFunctions, terms: list[CompiledTerm], times: np.ndarray,
+                  parameters: dict[str, float], file: str) -> None:
+    """Refuse a reference, or a term's value of time and parameters alone, that is NaN or infinite at an instant
+    of the run (:func:`~ftc_mj.config.expressions.first_nonfinite`), with the scenario's parameter values: the
+    reference with its first and second derivatives (the controllers use all three), a term only where its
+    profile is on. A term's value that depends on the state has values only along the trajectory and is not
+    checked here (the loop's divergence check is what catches it); nor are a campaign member's own parameters."""
+    values = np.array([[parameters[name] for name in reference.parameters]]) if reference.parameters else None
+    with np.errstate(all="ignore"):
+        evaluated = reference.evaluate(times, values)
+    labels = ("", "its time derivative ", "its second time derivative ")
+    for label, exprs, grid in zip(labels, (reference.exprs, reference.first, reference.second), evaluated):
+        bad = ~np.isfinite(grid.reshape(len(times), -1))
+        if bad.any():
+            sample, joint = np.argwhere(bad)[0]
+            raise InputError(file, f"reference.{joint}", f"{label}is not finite at t = {times[sample]:g} s of the "
+                             f"run ({exprs[joint]})")
+    variables = {expressions.symbol(name) for name in ("t", *parameters)}
+    for index, term in enumerate(terms):
+        active = None if term.time_profile is None else term.time_profile.active(times)
+        for joint, expr in enumerate(term.exprs):
+            if not expr.free_symbols <= variables:
+                continue  # a function of the state: known only along the trajectory
+            at = expressions.first_nonfinite(expr, times, parameters, where=active)
+            if at is not None:
+                raise InputError(file, f"terms.{index}.value.{joint}", f"is not finite at t = {at:g} s ({expr}), "
+                                 "while the term is on")
+
+
 def compile_scenario(path: Path, spec: ScenarioSpec) -> Scenario:
     """Check and compile a validated spec read from ``path``: the robot first (it fixes the number of joints
     and the joint names), then every section by its own compile function."""
@@ -386,6 +421,7 @@ def compile_scenario(path: Path, spec: ScenarioSpec) -> Scenario:
 
     terms = compile_terms(spec.terms, file, n, list(spec.parameters))
     times = time_grid(spec.duration, spec.control_dt)
+    check_on_grid(reference, terms, times, spec.parameters, file)
     actuator_faults = [compile_actuator_fault(fault, file, f"actuator_faults.{index}", model, times)
                        for index, fault in enumerate(spec.actuator_faults)]
     position_sensor = compile_channel(spec.sensors.position, file, "sensors.position", model)
