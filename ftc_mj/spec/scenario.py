@@ -489,5 +489,9 @@ def compile_scenario(path: Path, spec: ScenarioSpec) -> Scenario:
         scenario.diagnoser = compile_diagnoser(spec.diagnosis, spec.control_dt, spec.metrics.estimation_window_start,
                                                 file, n, scenario.fault_onsets)
     names = [name for v in variants for name in (v.name, *(f"{v.name}.{m.name}" for m in v.monitors))]
-    scenario.figures = compile_figures(spec, model, names, file)
+    signals = {v.name: (getattr(v.observer_type, "signal_names", None), getattr(v.controller_type, "signal_names", None))
+               for v in variants}
+    signals.update({f"{v.name}.{m.name}": (getattr(m.observer_type, "signal_names", None),)
+                    for v in variants for m in v.monitors})
+    scenario.figures = compile_figures(spec, model, names, file, signals)
     return scenario
