@@ -16,6 +16,7 @@ the batch size, the number of workers or the scheduler.
 
 from __future__ import annotations
 
+import contextlib
 import json
 import math
 import os
@@ -339,9 +340,40 @@ def detection_keeper(scenario: Scenario, scales: Sequence[float]) -> tuple[
 
 @dataclass
 class Progress:
-    """What the caller shows: called with (runs done, runs in all) after each batch."""
+    """What the caller shows: ``update`` called with (runs done, runs in all) after each batch; ``note`` with
+    one line about the directory (a part that was unreadable and is simulated again)."""
 
     update: Callable[[int, int], None] = lambda done, total: None
+    note: Callable[[str], None] = lambda line: None
+
+
+#: The file in a results directory that a running campaign holds locked (an advisory lock: the operating
+#: system releases it when the process ends, however it ends).
+LOCK = "lock"
+
+
+@contextlib.contextmanager
+def directory_lock(out: Path, file: str) -> Iterator[None]:
+    """Hold ``out``'s lock while the block runs: a second campaign on the same directory is refused instead of
+    simulating everything again beside the first. Without ``fcntl`` (not POSIX) nothing is locked."""
+    try:
+        import fcntl
+    except ImportError:
+        yield
+        return
+    if out.exists() and not out.is_dir():
+        raise InputError(file, "--out", f"{out} is a file, not a directory")
+    out.mkdir(parents=True, exist_ok=True)
+    with open(out / LOCK, "a+") as handle:
+        try:
+            fcntl.flock(handle.fileno(), fcntl.LOCK_EX | fcntl.LOCK_NB)
+        except OSError:
+            raise InputError(file, "--out", f"{out} is in use by another campaign run (it holds {out / LOCK}); "
+                             "wait for it to end") from None
+        try:
+            yield
+        finally:
+            fcntl.flock(handle.fileno(), fcntl.LOCK_UN)
 
 
 def default_workers() -> int:
@@ -384,8 +416,9 @@ def member_tasks(campaign: Campaign, members: list[tuple[int, str, Run, dict[str
     return tasks
 
 
-def prepare_directory(campaign: Campaign, out: Path) -> set[str]:
-    """Create or check the results directory; the run ids already done (from its parts).
+def prepare_directory(campaign: Campaign, out: Path, note: Callable[[str], None] = lambda line: None) -> set[str]:
+    """Create or check the results directory; the run ids already done (from its parts). ``note`` is told of
+    each part that cannot be read (removed: its runs are simulated again).
 
     Raises:
         InputError: the directory holds another campaign, or something that is not a campaign's results.
@@ -394,7 +427,7 @@ def prepare_directory(campaign: Campaign, out: Path) -> set[str]:
     marker = out / "fingerprint"
     if out.exists() and not out.is_dir():
         raise InputError(file, "--out", f"{out} is a file, not a directory")
-    if out.is_dir() and any(out.iterdir()):
+    if out.is_dir() and any(entry.name != LOCK for entry in out.iterdir()):
         if not marker.is_file():
             raise InputError(file, "--out", f"{out} is not empty and holds no campaign's results")
         if marker.read_text().strip() != campaign.fingerprint:
@@ -409,6 +442,7 @@ def prepare_directory(campaign: Campaign, out: Path) -> set[str]:
             done.update(pq.read_table(part, columns=["run_id"]).column("run_id").to_pylist())
         except (OSError, pa.ArrowInvalid):
             part.unlink()  # a part is written atomically: an unreadable one is not ours to keep
+            note(f"{part} could not be read (truncated or damaged): removed, its runs are simulated again")
     return done
 
 
@@ -417,7 +451,13 @@ def execute(campaign: Campaign, out: Path, *, batch_size: int | None = None, wor
     """Run what is missing of the campaign into ``out``, then write ``runs.parquet`` and ``campaign.json``;
     returns the summary written to ``campaign.json``."""
     start = time.perf_counter()
-    done = prepare_directory(campaign, out)
+    with directory_lock(out, str(campaign.path)):
+        return _execute(campaign, out, start, batch_size, workers, scheduler, progress)
+
+
+def _execute(campaign: Campaign, out: Path, start: float, batch_size: int | None, workers: int | None,
+             scheduler: str | None, progress: Progress) -> dict[str, Any]:
+    done = prepare_directory(campaign, out, progress.note)
     pending = [run for run in campaign.runs if run.run_id not in done]
     workers = workers or (default_workers() if scheduler is None else 1)
     tasks = tasks_for(campaign, pending, batch_size, workers)
@@ -451,12 +491,38 @@ def results(tasks: list[Task], workers: int, scheduler: str | None) -> Iterator[
             yield task, run_task(task)
         return
     context = multiprocessing.get_context("spawn")  # no fork of a process holding MuJoCo's thread pools
-    with ProcessPoolExecutor(max_workers=workers, mp_context=context) as pool:
+    pool = ProcessPoolExecutor(max_workers=workers, mp_context=context, initializer=_ignore_interrupts)
+    try:
         running: dict[Future, Task] = {pool.submit(run_task, task): task for task in tasks}
         while running:
             finished, _ = wait(running, return_when=FIRST_COMPLETED)
             for future in finished:
                 yield running.pop(future), future.result()
+    except BaseException:
+        # Interrupted (Ctrl-C, a worker's error, the caller stopped): stop the batches in flight at once
+        # instead of letting every queued one run to its end; what finished is already saved.
+        _stop(pool)
+        raise
+    pool.shutdown(wait=True)
+
+
+def _ignore_interrupts() -> None:
+    """In a worker: Ctrl-C (sent to the whole process group) is the parent's to handle, which ends the workers
+    (:func:`_stop`); a worker of its own would print a traceback and take its next batch."""
+    import signal
+
+    signal.signal(signal.SIGINT, signal.SIG_IGN)
+
+
+def _stop(pool: ProcessPoolExecutor) -> None:
+    """Cancel what has not started and end the worker processes now (the pool's own shutdown would wait)."""
+    processes = list((getattr(pool, "_processes", None) or {}).values())
+    pool.shutdown(wait=False, cancel_futures=True)
+    for process in processes:
+        if process.is_alive():
+            process.terminate()
+    for process in processes:
+        process.join(timeout=5)
 
 
 def _write_part(out: Path, task: Task, rows: list[dict]) -> None:

@@ -2,7 +2,8 @@
 
 Runs every controller-observer variant of the scenario, prints their metrics, and writes a Rerun recording
 (and optionally a JSON file of the metrics). Exit status: 0 on success, 1 if a variant diverged, 2 on bad
-input (one line on stderr naming the file, the field and the problem; nothing is written).
+input (one line on stderr naming the file, the field and the problem; nothing is written), 130 when
+interrupted (nothing is written).
 
 A thin client of the library: :func:`ftc_mj.load_scenario`, :func:`ftc_mj.run_scenario` (given the progress
 bars), :func:`ftc_mj.analysis.metrics.compute_metrics`, :func:`ftc_mj.outputs.recording.write_recording`,
@@ -162,21 +163,25 @@ def main(argv: Sequence[str] | None = None, prog: str = PROG) -> int:
     except InputError as error:
         print(f"error: {error}", file=sys.stderr)
         return 2
+    except KeyboardInterrupt:
+        print("interrupted: nothing written", file=sys.stderr)
+        return 130
 
     console = None if args.quiet else Console(stderr=True)
-    results = _run_with_progress(scenario, console)
-    onsets = scenario.fault_onsets
-    metrics = {r.name: compute_metrics(r, scenario.spec.metrics, onsets, scenario.joint_fault_onsets) for r in results}
-    if not args.quiet:
-        # Wide enough for four variant columns even when the output is piped (rich then assumes 80).
-        table_console = Console()
-        table_console.width = max(table_console.width, 120)
-        table_console.print(metrics_table(scenario, results, metrics))
-
-    # Recording first, JSON second; if the JSON cannot be written, the new recording goes too (exit 2 writes
-    # nothing). Both are written whole or not at all (write_atomic).
     written: list[Path] = []
     try:
+        results = _run_with_progress(scenario, console)
+        onsets = scenario.fault_onsets
+        metrics = {r.name: compute_metrics(r, scenario.spec.metrics, onsets, scenario.joint_fault_onsets)
+                   for r in results}
+        if not args.quiet:
+            # Wide enough for four variant columns even when the output is piped (rich then assumes 80).
+            table_console = Console()
+            table_console.width = max(table_console.width, 120)
+            table_console.print(metrics_table(scenario, results, metrics))
+
+        # Recording first, JSON second; if the JSON cannot be written, the new recording goes too (exit 2
+        # writes nothing). Both are written whole or not at all (write_atomic).
         if not args.no_record:
             from ftc_mj.outputs.recording import write_recording  # rerun is heavy to import; only when recording
 
@@ -191,6 +196,11 @@ def main(argv: Sequence[str] | None = None, prog: str = PROG) -> int:
             path.unlink(missing_ok=True)
         print(f"error: cannot write {error.filename}: {error.strerror}", file=sys.stderr)
         return 2
+    except KeyboardInterrupt:  # as campaign run: one line, exit 130, and no output of a run that did not end
+        for path in written:
+            path.unlink(missing_ok=True)
+        print("interrupted: nothing written", file=sys.stderr)
+        return 130
     if written and not args.quiet:
         print(f"recording: {recording_path}  (open with: rerun {recording_path})", file=sys.stderr)
     diverged = [r for r in results if r.status != "ok" and "." not in r.name]  # monitors share their host's run
