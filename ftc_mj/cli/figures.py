@@ -52,7 +52,14 @@ def main(argv: Sequence[str] | None = None, prog: str = PROG) -> int:
 
     jobs = []
     for recording in args.recordings:  # check every input before drawing anything
+        if args.out is None:
+            folder = recording.with_suffix("")
+        else:
+            folder = args.out / recording.stem if len(args.recordings) > 1 else args.out
         problem = input_file_problem(recording)
+        if problem is None:
+            problem = output_problem(folder, directory=True, inputs=args.recordings)
+            problem = problem and f"--out: {problem}"
         if problem is not None:
             print(f"error: {recording}: {problem}", file=sys.stderr)
             return 2
@@ -67,13 +74,8 @@ def main(argv: Sequence[str] | None = None, prog: str = PROG) -> int:
             print(f"error: {recording}: --only: no figure {sorted(missing)[0]!r} (figures: "
                   f"{', '.join(f.name for f in layout.figures)})", file=sys.stderr)
             return 2
-        if args.out is None:
-            folder = recording.with_suffix("")
-        else:
-            folder = args.out / recording.stem if len(args.recordings) > 1 else args.out
-        targets = [(folder, True)] + [(folder / f"{f.name}.{fmt}", False) for f in chosen for fmt in formats]
-        for target, directory in targets:  # every output, before drawing anything
-            problem = output_problem(target, directory=directory, inputs=args.recordings)
+        for target in [folder / f"{f.name}.{fmt}" for f in chosen for fmt in formats]:  # before drawing anything
+            problem = output_problem(target, inputs=args.recordings)
             if problem is not None:
                 print(f"error: {recording}: --out: {problem}", file=sys.stderr)
                 return 2
