@@ -117,7 +117,8 @@ def load(path: str | Path, runs: int | None = None, variants: list[str] | None =
     scenario_path = (path.parent / spec.scenario).resolve()
     problem = input_file_problem(scenario_path)
     if problem is not None:
-        raise InputError(file, "scenario", f"{spec.scenario}: {problem}")
+        raise InputError(file, "scenario", f"no such file: {spec.scenario}" if problem == "not found"
+                         else f"{spec.scenario} {problem}")
     base = compiled_scenario(str(scenario_path), tuple(spec.variants or ()), spec.duration, frozen(spec.set))
     _check_paths(spec, base, file)
     variants = [v.name for v in base.variants]
