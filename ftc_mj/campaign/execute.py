@@ -417,13 +417,9 @@ def member_tasks(campaign: Campaign, members: list[tuple[int, str, Run, dict[str
     return tasks
 
 
-def prepare_directory(campaign: Campaign, out: Path, note: Callable[[str], None] = lambda line: None) -> set[str]:
-    """Create or check the results directory; the run ids already done (from its parts). ``note`` is told of
-    each part that cannot be read (removed: its runs are simulated again).
-
-    Raises:
-        InputError: the directory holds another campaign, or something that is not a campaign's results.
-    """
+def check_directory(campaign: Campaign, out: Path) -> None:
+    """Refuse, writing nothing, a results directory that is a file, holds something else, or holds another
+    campaign's results."""
     file = str(campaign.path)
     marker = out / "fingerprint"
     if out.exists() and not out.is_dir():
@@ -434,6 +430,17 @@ def prepare_directory(campaign: Campaign, out: Path, note: Callable[[str], None]
         if marker.read_text().strip() != campaign.fingerprint:
             raise InputError(file, "--out", f"{out} holds the results of another campaign (or of this one before it "
                              "changed); choose another --out or remove it")
+
+
+def prepare_directory(campaign: Campaign, out: Path, note: Callable[[str], None] = lambda line: None) -> set[str]:
+    """Create or check the results directory; the run ids already done (from its parts). ``note`` is told of
+    each part that cannot be read (removed: its runs are simulated again).
+
+    Raises:
+        InputError: the directory holds another campaign, or something that is not a campaign's results.
+    """
+    check_directory(campaign, out)
+    marker = out / "fingerprint"
     (out / "parts").mkdir(parents=True, exist_ok=True)
     if not marker.is_file():
         write_atomic(marker, (campaign.fingerprint + "\n").encode())
@@ -452,6 +459,7 @@ def execute(campaign: Campaign, out: Path, *, batch_size: int | None = None, wor
     """Run what is missing of the campaign into ``out``, then write ``runs.parquet`` and ``campaign.json``;
     returns the summary written to ``campaign.json``."""
     start = time.perf_counter()
+    check_directory(campaign, out)  # before the lock file is made in it
     with directory_lock(out, str(campaign.path)):
         return _execute(campaign, out, start, batch_size, workers, scheduler, progress)
 
