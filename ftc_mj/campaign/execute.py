@@ -110,6 +110,7 @@ def load(path: str | Path, runs: int | None = None, variants: list[str] | None =
     path = Path(path)
     file = str(path)
     spec = load_campaign(path, runs)
+    narrowed = variants is not None
     if variants is not None:  # a tuning evaluates one variant on the campaign's population
         spec.variants = list(variants)
     if duration is not None:
@@ -128,7 +129,8 @@ def load(path: str | Path, runs: int | None = None, variants: list[str] | None =
     campaign = Campaign(path=path, spec=spec, scenario_path=scenario_path, runs=all_runs, variants=variants,
                         n_joints=base.n_joints, member_bytes=int(series_bytes(base.spec, base.n_joints)),
                         fingerprint=fingerprint(spec, base), scenario=base)
-    _check_report(spec, base, all_runs, file)
+    if not narrowed:  # a tuning evaluates its own variant: the campaign's report is not made
+        _check_report(spec, base, all_runs, file)
     highest = max((run.seed for run in all_runs), default=0)
     if highest > MAX_SEED:
         raise InputError(file, "seed" if spec.seed is not None else "replicates", f"the runs' seeds reach {highest}, "
