@@ -16,6 +16,7 @@ the batch size, the number of workers or the scheduler.
 
 from __future__ import annotations
 
+import contextlib
 import json
 import math
 import os
@@ -39,9 +40,10 @@ from ftc_mj.engine.members import members_from_overrides
 from ftc_mj.results import VariantResult
 from ftc_mj.engine.runner import run_batch
 from ftc_mj.config.errors import InputError
+from ftc_mj.config.paths import input_file_problem
 from ftc_mj.outputs.files import parquet_bytes, write_atomic
 from ftc_mj.spec.loading import load_scenario
-from ftc_mj.spec.scenario import Scenario, series_bytes
+from ftc_mj.spec.scenario import MAX_SEED, Scenario, series_bytes
 
 #: Memory for the series of one batch in one worker [bytes] (the batch engine steps members in chunks that fit).
 WORKER_MEMORY = 3 * 1024**3
@@ -88,6 +90,12 @@ class Campaign:
         """Control periods of one run of one variant."""
         return len(self.scenario.times)
 
+    @property
+    def inputs(self) -> tuple[Path, ...]:
+        """The files the campaign was read from (the campaign, its scenario, the scenario's bases and model):
+        what no output may replace or hold."""
+        return (self.path.resolve(), *self.scenario.inputs)
+
 
 def load(path: str | Path, runs: int | None = None, variants: list[str] | None = None,
          duration: float | None = None) -> Campaign:
@@ -102,13 +110,16 @@ def load(path: str | Path, runs: int | None = None, variants: list[str] | None =
     path = Path(path)
     file = str(path)
     spec = load_campaign(path, runs)
+    narrowed = variants is not None
     if variants is not None:  # a tuning evaluates one variant on the campaign's population
         spec.variants = list(variants)
     if duration is not None:
         spec.duration = duration
     scenario_path = (path.parent / spec.scenario).resolve()
-    if not scenario_path.is_file():
-        raise InputError(file, "scenario", f"no such file: {spec.scenario}")
+    problem = input_file_problem(scenario_path)
+    if problem is not None:
+        raise InputError(file, "scenario", f"no such file: {spec.scenario}" if problem == "not found"
+                         else f"{spec.scenario} {problem}")
     base = compiled_scenario(str(scenario_path), tuple(spec.variants or ()), spec.duration, frozen(spec.set))
     _check_paths(spec, base, file)
     variants = [v.name for v in base.variants]
@@ -118,6 +129,12 @@ def load(path: str | Path, runs: int | None = None, variants: list[str] | None =
     campaign = Campaign(path=path, spec=spec, scenario_path=scenario_path, runs=all_runs, variants=variants,
                         n_joints=base.n_joints, member_bytes=int(series_bytes(base.spec, base.n_joints)),
                         fingerprint=fingerprint(spec, base), scenario=base)
+    if not narrowed:  # a tuning evaluates its own variant: the campaign's report is not made
+        _check_report(spec, base, all_runs, file)
+    highest = max((run.seed for run in all_runs), default=0)
+    if highest > MAX_SEED:
+        raise InputError(file, "seed" if spec.seed is not None else "replicates", f"the runs' seeds reach {highest}, "
+                         f"beyond the largest seed {MAX_SEED} (seed + sample x replicates + replicate)")
     ids = [run.run_id for run in all_runs]
     if len(set(ids)) != len(ids):
         raise InputError(file, "samples", "two runs have the same values and seed (a choice with too few values "
@@ -127,6 +144,71 @@ def load(path: str | Path, runs: int | None = None, variants: list[str] | None =
     for runs_of_group in campaign.groups.values():
         _check_group(campaign, runs_of_group, file)
     return campaign
+
+
+#: Seconds to wait for a Dask scheduler to answer before a campaign starts.
+SCHEDULER_TIMEOUT = 5.0
+
+
+def check_scheduler_address(address: str, file: str) -> None:
+    """Refuse a ``--scheduler`` that is not a Dask address (``tcp://HOST:PORT``, ``tls://...``, ...)."""
+    from distributed.comm import parse_address
+    from distributed.comm.addressing import parse_host_port
+
+    try:
+        scheme, location = parse_address(address)
+        if scheme in ("tcp", "tls"):
+            parse_host_port(location)
+    except (ValueError, TypeError) as exc:
+        raise InputError(file, "--scheduler", f"{address!r} is not a scheduler's address, e.g. "
+                         f"tcp://127.0.0.1:8786 ({exc})") from None
+
+
+def check_scheduler(address: str, file: str) -> None:
+    """Refuse, before any work, a ``--scheduler`` where nothing listens (a TCP or TLS address: one connection
+    within :data:`SCHEDULER_TIMEOUT`; other transports are tried when the campaign starts)."""
+    import socket
+
+    from distributed.comm import parse_address
+    from distributed.comm.addressing import parse_host_port
+
+    check_scheduler_address(address, file)
+    scheme, location = parse_address(address)
+    if scheme not in ("tcp", "tls"):
+        return
+    host, port = parse_host_port(location)
+    try:
+        socket.create_connection((host, port), timeout=SCHEDULER_TIMEOUT).close()
+    except OSError as exc:
+        raise InputError(file, "--scheduler", f"nothing answers at {address} "
+                         f"({exc.strerror or exc or 'timed out'})") from None
+
+
+def _check_report(spec: CampaignSpec, scenario: Scenario, runs: list[Run], file: str) -> None:
+    """Everything the report names exists, before the first run: the claims' and the reference's variants
+    (monitors as ``variant.monitor``), the joints of the claims and the heat map, the columns of
+    ``fault_size`` and ``fault_kind``."""
+    report, n = spec.report, scenario.n_joints
+    names = [name for v in scenario.variants for name in (v.name, *(f"{v.name}.{m.name}" for m in v.monitors))]
+    known = ", ".join(names)
+    if report.reference is not None and report.reference not in names:
+        raise InputError(file, "report.reference", f"unknown variant {report.reference!r} (the campaign's: {known})")
+    for index, claim in enumerate(report.claims):
+        for role in ("better", "worse"):
+            if getattr(claim, role) not in names:
+                raise InputError(file, f"report.claims.{index}.{role}", f"unknown variant {getattr(claim, role)!r} "
+                                 f"(the campaign's: {known})")
+        for position, joint in enumerate(claim.joints or ()):
+            if joint > n:
+                raise InputError(file, f"report.claims.{index}.joints.{position}", f"joint {joint}: the robot has {n}")
+    if report.heatmap.joint > n:
+        raise InputError(file, "report.heatmap.joint", f"joint {report.heatmap.joint}: the robot has {n}")
+    columns = {name for run in runs for name in run.columns()}
+    for option in ("fault_size", "fault_kind"):
+        column = getattr(report, option)
+        if column is not None and column not in columns:
+            raise InputError(file, f"report.{option}", f"{column!r} is not a column of the runs (a case value or a "
+                             f"varied field: {', '.join(sorted(columns)) or 'none'})")
 
 
 def frozen(values: dict[str, Any]) -> str:
@@ -261,9 +343,40 @@ def detection_keeper(scenario: Scenario, scales: Sequence[float]) -> tuple[
 
 @dataclass
 class Progress:
-    """What the caller shows: called with (runs done, runs in all) after each batch."""
+    """What the caller shows: ``update`` called with (runs done, runs in all) after each batch; ``note`` with
+    one line about the directory (a part that was unreadable and is simulated again)."""
 
     update: Callable[[int, int], None] = lambda done, total: None
+    note: Callable[[str], None] = lambda line: None
+
+
+#: The file in a results directory that a running campaign holds locked (an advisory lock: the operating
+#: system releases it when the process ends, however it ends).
+LOCK = "lock"
+
+
+@contextlib.contextmanager
+def directory_lock(out: Path, file: str) -> Iterator[None]:
+    """Hold ``out``'s lock while the block runs: a second campaign on the same directory is refused instead of
+    simulating everything again beside the first. Without ``fcntl`` (not POSIX) nothing is locked."""
+    try:
+        import fcntl
+    except ImportError:
+        yield
+        return
+    if out.exists() and not out.is_dir():
+        raise InputError(file, "--out", f"{out} is a file, not a directory")
+    out.mkdir(parents=True, exist_ok=True)
+    with open(out / LOCK, "a+") as handle:
+        try:
+            fcntl.flock(handle.fileno(), fcntl.LOCK_EX | fcntl.LOCK_NB)
+        except OSError:
+            raise InputError(file, "--out", f"{out} is in use by another campaign run (it holds {out / LOCK}); "
+                             "wait for it to end") from None
+        try:
+            yield
+        finally:
+            fcntl.flock(handle.fileno(), fcntl.LOCK_UN)
 
 
 def default_workers() -> int:
@@ -306,22 +419,30 @@ def member_tasks(campaign: Campaign, members: list[tuple[int, str, Run, dict[str
     return tasks
 
 
-def prepare_directory(campaign: Campaign, out: Path) -> set[str]:
-    """Create or check the results directory; the run ids already done (from its parts).
-
-    Raises:
-        InputError: the directory holds another campaign, or something that is not a campaign's results.
-    """
+def check_directory(campaign: Campaign, out: Path) -> None:
+    """Refuse, writing nothing, a results directory that is a file, holds something else, or holds another
+    campaign's results."""
     file = str(campaign.path)
     marker = out / "fingerprint"
     if out.exists() and not out.is_dir():
         raise InputError(file, "--out", f"{out} is a file, not a directory")
-    if out.is_dir() and any(out.iterdir()):
+    if out.is_dir() and any(entry.name != LOCK for entry in out.iterdir()):
         if not marker.is_file():
             raise InputError(file, "--out", f"{out} is not empty and holds no campaign's results")
         if marker.read_text().strip() != campaign.fingerprint:
             raise InputError(file, "--out", f"{out} holds the results of another campaign (or of this one before it "
                              "changed); choose another --out or remove it")
+
+
+def prepare_directory(campaign: Campaign, out: Path, note: Callable[[str], None] = lambda line: None) -> set[str]:
+    """Create or check the results directory; the run ids already done (from its parts). ``note`` is told of
+    each part that cannot be read (removed: its runs are simulated again).
+
+    Raises:
+        InputError: the directory holds another campaign, or something that is not a campaign's results.
+    """
+    check_directory(campaign, out)
+    marker = out / "fingerprint"
     (out / "parts").mkdir(parents=True, exist_ok=True)
     if not marker.is_file():
         write_atomic(marker, (campaign.fingerprint + "\n").encode())
@@ -331,6 +452,7 @@ def prepare_directory(campaign: Campaign, out: Path) -> set[str]:
             done.update(pq.read_table(part, columns=["run_id"]).column("run_id").to_pylist())
         except (OSError, pa.ArrowInvalid):
             part.unlink()  # a part is written atomically: an unreadable one is not ours to keep
+            note(f"{part} could not be read (truncated or damaged): removed, its runs are simulated again")
     return done
 
 
@@ -339,7 +461,14 @@ def execute(campaign: Campaign, out: Path, *, batch_size: int | None = None, wor
     """Run what is missing of the campaign into ``out``, then write ``runs.parquet`` and ``campaign.json``;
     returns the summary written to ``campaign.json``."""
     start = time.perf_counter()
-    done = prepare_directory(campaign, out)
+    check_directory(campaign, out)  # before the lock file is made in it
+    with directory_lock(out, str(campaign.path)):
+        return _execute(campaign, out, start, batch_size, workers, scheduler, progress)
+
+
+def _execute(campaign: Campaign, out: Path, start: float, batch_size: int | None, workers: int | None,
+             scheduler: str | None, progress: Progress) -> dict[str, Any]:
+    done = prepare_directory(campaign, out, progress.note)
     pending = [run for run in campaign.runs if run.run_id not in done]
     workers = workers or (default_workers() if scheduler is None else 1)
     tasks = tasks_for(campaign, pending, batch_size, workers)
@@ -373,12 +502,38 @@ def results(tasks: list[Task], workers: int, scheduler: str | None) -> Iterator[
             yield task, run_task(task)
         return
     context = multiprocessing.get_context("spawn")  # no fork of a process holding MuJoCo's thread pools
-    with ProcessPoolExecutor(max_workers=workers, mp_context=context) as pool:
+    pool = ProcessPoolExecutor(max_workers=workers, mp_context=context, initializer=_ignore_interrupts)
+    try:
         running: dict[Future, Task] = {pool.submit(run_task, task): task for task in tasks}
         while running:
             finished, _ = wait(running, return_when=FIRST_COMPLETED)
             for future in finished:
                 yield running.pop(future), future.result()
+    except BaseException:
+        # Interrupted (Ctrl-C, a worker's error, the caller stopped): stop the batches in flight at once
+        # instead of letting every queued one run to its end; what finished is already saved.
+        _stop(pool)
+        raise
+    pool.shutdown(wait=True)
+
+
+def _ignore_interrupts() -> None:
+    """In a worker: Ctrl-C (sent to the whole process group) is the parent's to handle, which ends the workers
+    (:func:`_stop`); a worker of its own would print a traceback and take its next batch."""
+    import signal
+
+    signal.signal(signal.SIGINT, signal.SIG_IGN)
+
+
+def _stop(pool: ProcessPoolExecutor) -> None:
+    """Cancel what has not started and end the worker processes now (the pool's own shutdown would wait)."""
+    processes = list((getattr(pool, "_processes", None) or {}).values())
+    pool.shutdown(wait=False, cancel_futures=True)
+    for process in processes:
+        if process.is_alive():
+            process.terminate()
+    for process in processes:
+        process.join(timeout=5)
 
 
 def _write_part(out: Path, task: Task, rows: list[dict]) -> None:

@@ -38,9 +38,12 @@ from ftc_mj.analysis.metrics import METRICS
 from ftc_mj.config.errors import InputError, validate
 from ftc_mj.config.yaml import read_yaml_mapping
 from ftc_mj.config.types import FiniteFloat, PositiveFloat, Strict
+from ftc_mj.spec.scenario import MAX_SEED
 
 PositiveInt = Annotated[StrictInt, Field(gt=0)]
 NonNegativeInt = Annotated[StrictInt, Field(ge=0)]
+#: A seed of the campaign (of its runs, of its draws): 0 to the scenario's largest seed.
+SeedInt = Annotated[StrictInt, Field(ge=0, le=MAX_SEED)]
 #: A dotted path into the scenario, as ``--set`` takes it.
 FieldPath = Annotated[StrictStr, Field(pattern=r"^[A-Za-z_][A-Za-z0-9_]*(\.[A-Za-z0-9_]+)*$")]
 Name = Annotated[StrictStr, Field(pattern=r"^[A-Za-z0-9_][A-Za-z0-9_.-]*$")]
@@ -98,7 +101,7 @@ class SamplesSpec(Strict):
     #: ``random``: independent uniform points, point k from its own stream; ``sobol``/``halton``: scrambled
     #: low-discrepancy points (scipy.stats.qmc), whose first N are the same whatever N.
     method: Literal["random", "sobol", "halton"] = "sobol"
-    seed: NonNegativeInt = 0
+    seed: SeedInt = 0
     fields: Annotated[dict[FieldPath, Distribution], Field(min_length=1)]
 
 
@@ -145,6 +148,13 @@ class HeatmapSpec(Strict):
     metric: StrictStr = "rms_error_converged"
     joint: Annotated[StrictInt, Field(ge=1)] = 1
 
+    @field_validator("metric")
+    @classmethod
+    def _known_metric(cls, metric: str) -> str:
+        if metric not in METRICS:
+            raise ValueError(f"unknown metric {metric!r}")
+        return metric
+
 
 class ReportSpec(Strict):
     metrics: list[StrictStr] = list(DEFAULT_REPORT_METRICS)
@@ -156,7 +166,7 @@ class ReportSpec(Strict):
     #: are not comparable).
     fault_kind: StrictStr | None = None
     #: The false-alarm probability at which P_d against size is drawn.
-    false_alarm_probability: Annotated[float, Field(gt=0, lt=1)] = 0.05
+    false_alarm_probability: Annotated[float, Field(gt=0, lt=1, allow_inf_nan=False)] = 0.05
     claims: list[ClaimSpec] = []
     heatmap: HeatmapSpec = HeatmapSpec()
     #: Bootstrap resamples of every confidence interval.
@@ -180,7 +190,7 @@ class CampaignSpec(Strict):
     duration: PositiveFloat | None = None
     #: Seed of run k's random streams: seed + its sample index x replicates + its replicate (default: the
     #: scenario's seed). The grid's points and the cases share seeds (common random numbers).
-    seed: NonNegativeInt | None = None
+    seed: SeedInt | None = None
     set: dict[FieldPath, Any] = {}
     cases: list[CaseSpec] = []
     grid: dict[FieldPath, Annotated[list[Any], Field(min_length=1)]] = {}

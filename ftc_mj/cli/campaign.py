@@ -68,13 +68,26 @@ def _run(args: argparse.Namespace, console: Console) -> int:
     from ftc_mj.campaign import execute
     from ftc_mj.campaign.summary import write_report
 
+    from ftc_mj.outputs.files import check_output
+
     for value, option in ((args.batch_size, "--batch-size"), (args.workers, "--workers")):
         _positive(value, option)
+    file = str(args.campaign)
+    if args.out is not None:
+        check_output(args.out, file, "--out", directory=True, inputs=[args.campaign])
+    if args.scheduler is not None:
+        execute.check_scheduler_address(args.scheduler, file)
     campaign = execute.load(args.campaign, args.runs)
     out = args.out or Path("results") / campaign.spec.name
+    check_output(out, file, "--out", directory=True, inputs=campaign.inputs)
+    if args.scheduler is not None:
+        execute.check_scheduler(args.scheduler, file)
+    def note(line: str) -> None:  # said whatever --quiet: a run simulated again is not silent
+        print(f"note: {line}", file=sys.stderr)
+
     if args.quiet:
         summary = execute.execute(campaign, out, batch_size=args.batch_size, workers=args.workers,
-                                  scheduler=args.scheduler)
+                                  scheduler=args.scheduler, progress=execute.Progress(note=note))
     else:
         columns = (TextColumn(f"{campaign.spec.name:<20}"), BarColumn(), MofNCompleteColumn(), TextColumn("runs"),
                    TextColumn("{task.fields[rate]}"), TimeElapsedColumn(), TextColumn("left"), TimeRemainingColumn())
@@ -90,7 +103,7 @@ def _run(args: argparse.Namespace, console: Console) -> int:
                 display.update(task, completed=done, rate=f"{rate:.2f} runs/s" if rate else "")
 
             summary = execute.execute(campaign, out, batch_size=args.batch_size, workers=args.workers,
-                                      scheduler=args.scheduler, progress=execute.Progress(update))
+                                      scheduler=args.scheduler, progress=execute.Progress(update, note))
     written = write_report(out)
     if not args.quiet:
         console.print(f"{summary['runs']} runs x {len(summary['variants'])} variants "

@@ -45,11 +45,24 @@ def main(argv: Sequence[str] | None = None, prog: str = PROG) -> int:
         print(f"error: --dpi: {args.dpi} is outside 20-1200", file=sys.stderr)
         return 2
 
+    from ftc_mj.config.paths import input_file_problem
     from ftc_mj.outputs import figures
+    from ftc_mj.outputs.files import output_problem
     from ftc_mj.outputs.recording import read_entities, read_layout
 
     jobs = []
     for recording in args.recordings:  # check every input before drawing anything
+        if args.out is None:
+            folder = recording.with_suffix("")
+        else:
+            folder = args.out / recording.stem if len(args.recordings) > 1 else args.out
+        problem = input_file_problem(recording)
+        if problem is None:
+            problem = output_problem(folder, directory=True, inputs=args.recordings)
+            problem = problem and f"--out: {problem}"
+        if problem is not None:
+            print(f"error: {recording}: {problem}", file=sys.stderr)
+            return 2
         try:
             layout = read_layout(recording)
         except Exception as error:  # noqa: BLE001 - any unreadable file is bad input: one line, exit 2
@@ -61,10 +74,11 @@ def main(argv: Sequence[str] | None = None, prog: str = PROG) -> int:
             print(f"error: {recording}: --only: no figure {sorted(missing)[0]!r} (figures: "
                   f"{', '.join(f.name for f in layout.figures)})", file=sys.stderr)
             return 2
-        if args.out is None:
-            folder = recording.with_suffix("")
-        else:
-            folder = args.out / recording.stem if len(args.recordings) > 1 else args.out
+        for target in [folder / f"{f.name}.{fmt}" for f in chosen for fmt in formats]:  # before drawing anything
+            problem = output_problem(target, inputs=args.recordings)
+            if problem is not None:
+                print(f"error: {recording}: --out: {problem}", file=sys.stderr)
+                return 2
         jobs.append((recording, layout, chosen, folder))
 
     for recording, layout, chosen, folder in jobs:

@@ -2,7 +2,8 @@
 
 Runs every controller-observer variant of the scenario, prints their metrics, and writes a Rerun recording
 (and optionally a JSON file of the metrics). Exit status: 0 on success, 1 if a variant diverged, 2 on bad
-input (one line on stderr naming the file, the field and the problem; nothing is written).
+input (one line on stderr naming the file, the field and the problem; nothing is written), 130 when
+interrupted (nothing is written).
 
 A thin client of the library: :func:`ftc_mj.load_scenario`, :func:`ftc_mj.run_scenario` (given the progress
 bars), :func:`ftc_mj.analysis.metrics.compute_metrics`, :func:`ftc_mj.outputs.recording.write_recording`,
@@ -141,62 +142,59 @@ def metrics_document(scenario: Scenario, results: Sequence[VariantResult], metri
     }
 
 
-def _check_writable(file: str, option: str, target: Path) -> None:
-    """Refuse, before running, an output path that cannot become a file: a directory, or below a file."""
-    from ftc_mj.config.errors import InputError
-
-    if target.is_dir():
-        raise InputError(file, option, f"{str(target)!r} is a directory")
-    for parent in target.parents:
-        if parent.exists():
-            if not parent.is_dir():
-                raise InputError(file, option, f"{str(parent)!r} is not a directory")
-            if not os.access(parent, os.W_OK):
-                raise InputError(file, option, f"{str(parent)!r} is not writable")
-            return
-
-
 def main(argv: Sequence[str] | None = None, prog: str = PROG) -> int:
     args = build_parser(prog).parse_args(argv)
     from rich.console import Console
 
     from ftc_mj.analysis.metrics import compute_metrics
     from ftc_mj.config.errors import InputError
-    from ftc_mj.outputs.files import write_atomic
+    from ftc_mj.outputs.files import check_output, write_atomic
     from ftc_mj.spec.loading import load_scenario
 
+    file = str(args.scenario)
     try:
+        for option, target in (("--out", None if args.no_record else args.out), ("--json", args.json)):
+            if target is not None:  # before loading: the scenario is an input whatever it inherits
+                check_output(target, file, option, inputs=[args.scenario])
         scenario = load_scenario(args.scenario, overrides=args.overrides, duration=args.duration, variants=args.variant)
         recording_path = args.out or scenario.output_path
-        for label, target in (("--out", None if args.no_record else recording_path), ("--json", args.json)):
+        outputs = [("--out", None if args.no_record else recording_path), ("--json", args.json)]
+        for option, target in outputs:
             if target is not None:
-                _check_writable(str(args.scenario), label, target)
+                check_output(target, file, option, inputs=scenario.inputs)
+        if None not in (outputs[0][1], args.json) and os.path.realpath(outputs[0][1]) == os.path.realpath(args.json):
+            raise InputError(file, "--json", f"{str(args.json)!r} is also the recording's path")
         if args.export_log is not None:
             from ftc_mj.logs.export import FORMATS, variant_path
 
             if args.export_log.suffix not in FORMATS:
-                raise InputError(str(args.scenario), "--export-log", f"{str(args.export_log)!r}: the extension must "
+                raise InputError(file, "--export-log", f"{str(args.export_log)!r}: the extension must "
                                  f"be one of {', '.join(FORMATS)}")
             for variant in scenario.variants:
-                _check_writable(str(args.scenario), "--export-log", variant_path(args.export_log, variant.name))
+                check_output(variant_path(args.export_log, variant.name), file, "--export-log",
+                             inputs=scenario.inputs)
     except InputError as error:
         print(f"error: {error}", file=sys.stderr)
         return 2
+    except KeyboardInterrupt:
+        print("interrupted: nothing written", file=sys.stderr)
+        return 130
 
     console = None if args.quiet else Console(stderr=True)
-    results = _run_with_progress(scenario, console)
-    onsets = scenario.fault_onsets
-    metrics = {r.name: compute_metrics(r, scenario.spec.metrics, onsets, scenario.joint_fault_onsets) for r in results}
-    if not args.quiet:
-        # Wide enough for four variant columns even when the output is piped (rich then assumes 80).
-        table_console = Console()
-        table_console.width = max(table_console.width, 120)
-        table_console.print(metrics_table(scenario, results, metrics))
-
-    # Recording first, JSON second, exported logs last; if one cannot be written, those written before go too
-    # (exit 2 writes nothing). Each is written whole or not at all (write_atomic).
     written: list[Path] = []
     try:
+        results = _run_with_progress(scenario, console)
+        onsets = scenario.fault_onsets
+        metrics = {r.name: compute_metrics(r, scenario.spec.metrics, onsets, scenario.joint_fault_onsets)
+                   for r in results}
+        if not args.quiet:
+            # Wide enough for four variant columns even when the output is piped (rich then assumes 80).
+            table_console = Console()
+            table_console.width = max(table_console.width, 120)
+            table_console.print(metrics_table(scenario, results, metrics))
+
+        # Recording first, JSON second, exported logs last; if one cannot be written, those written before go too
+        # (exit 2 writes nothing). Each is written whole or not at all (write_atomic).
         if not args.no_record:
             from ftc_mj.outputs.recording import write_recording  # rerun is heavy to import; only when recording
 
@@ -222,9 +220,14 @@ def main(argv: Sequence[str] | None = None, prog: str = PROG) -> int:
             path.unlink(missing_ok=True)
         print(f"error: cannot write {error.filename}: {error.strerror}", file=sys.stderr)
         return 2
+    except KeyboardInterrupt:  # as campaign run: one line, exit 130, and no output of a run that did not end
+        for path in written:
+            path.unlink(missing_ok=True)
+        print("interrupted: nothing written", file=sys.stderr)
+        return 130
     if recording_path in written and not args.quiet:
         print(f"recording: {recording_path}  (open with: rerun {recording_path})", file=sys.stderr)
-    diverged = [r for r in results if r.status != "ok" and "." not in r.name]  # monitors share their host's run
+    diverged = [r for r in results if r.status != "ok" and r.host is None]  # monitors share their host's run
     for r in diverged:  # said whatever --quiet: an exit 1 explains itself
         print(f"diverged: variant {r.name!r} at t = {r.diverged_at:.6g} s", file=sys.stderr)
     return 1 if diverged else 0

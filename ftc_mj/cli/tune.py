@@ -37,12 +37,22 @@ def main(argv: Sequence[str] | None = None, prog: str = PROG) -> int:
     from ftc_mj.config.errors import InputError
 
     try:
+        from ftc_mj.campaign import execute
+        from ftc_mj.outputs.files import check_output
         from ftc_mj.tuning import optimise, outcome
 
+        file = str(args.tuning)
         if args.workers is not None and args.workers < 1:
-            raise InputError(str(args.tuning), "--workers", f"must be at least 1, not {args.workers}")
+            raise InputError(file, "--workers", f"must be at least 1, not {args.workers}")
+        if args.out is not None:
+            check_output(args.out, file, "--out", directory=True, inputs=[args.tuning])
+        if args.scheduler is not None:
+            execute.check_scheduler_address(args.scheduler, file)
         tuning = optimise.prepare(args.tuning, args.generations)
         out = args.out or Path("results") / "tuning" / tuning.spec.name
+        check_output(out, file, "--out", directory=True, inputs=[args.tuning, *tuning.campaign.inputs])
+        if args.scheduler is not None:
+            execute.check_scheduler(args.scheduler, file)
 
         def progress(generation: int, total: int, best: float) -> None:
             if not args.quiet:

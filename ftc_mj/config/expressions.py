@@ -14,7 +14,7 @@ from __future__ import annotations
 import ast
 import math
 import re
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Mapping, Sequence
 
 import numpy as np
 import sympy as sp
@@ -319,3 +319,32 @@ def is_free_name(name: str) -> bool:
 def state_variables(n_joints: int) -> list[str]:
     """Variable names of a state-dependent field: ``t, q1..qn, qd1..qn``."""
     return ["t"] + [f"q{i + 1}" for i in range(n_joints)] + [f"qd{i + 1}" for i in range(n_joints)]
+
+
+def first_nonfinite(expr: sp.Expr, times: np.ndarray, values: Mapping[str, float] | None = None,
+                    where: np.ndarray | None = None) -> float | None:
+    """The first time of the grid ``times`` (among those where ``where`` is true) at which ``expr`` is NaN or
+    infinite, the named ``values`` (a scenario's parameters) put in; None when it is finite on all of them.
+
+    A check made once when a scenario loads, on a throwaway function (the compiled ones are not involved):
+    ``log(t - 5)`` on a run from 0 s is refused there rather than running to a NaN reference. Only an
+    expression of ``t`` and the parameters has values on the grid; one of the state (``q1``, ``qd1``, ...)
+    has values only along a trajectory, which is not known before the run, so it cannot be checked here.
+
+    Raises:
+        ValueError: ``expr`` has a variable other than ``t`` and the names of ``values``.
+    """
+    t = symbol("t")
+    known = {symbol(name): float(value) for name, value in (values or {}).items()}
+    others = expr.free_symbols - {t} - set(known)
+    if others:
+        raise ValueError(f"depends on {', '.join(sorted(str(s) for s in others))}: not a function of time alone")
+    function = sp.lambdify([t], expr.subs(known), modules="numpy")
+    times = np.asarray(times, dtype=float)
+    with np.errstate(all="ignore"):
+        result = np.broadcast_to(np.asarray(function(times), dtype=complex if expr.has(sp.I) else float), times.shape)
+    bad = ~np.isfinite(result)
+    if where is not None:
+        bad &= where
+    found = np.flatnonzero(bad)
+    return float(times[found[0]]) if found.size else None

@@ -22,6 +22,7 @@ from pathlib import Path, PurePath
 from typing import Any
 
 from ftc_mj.config.errors import InputError
+from ftc_mj.config.paths import input_file_problem
 from ftc_mj.config.yaml import read_yaml_mapping, unshared
 
 #: The key that names a file's base.
@@ -81,6 +82,8 @@ class Resolved:
 
     raw: dict
     provenance: Provenance
+    #: Every file read: the file asked for, then its base, its base's base... (resolved paths).
+    files: list[Path] = field(default_factory=list)
 
 
 def resolve_bases(path: str | Path, relative_fields: Sequence[str] = (), what: str = "a scenario") -> Resolved:
@@ -98,16 +101,18 @@ def resolve_bases(path: str | Path, relative_fields: Sequence[str] = (), what: s
     """
     path = Path(path)
     provenance = Provenance(str(path))
-    raw = _resolve(path, path.parent.resolve(), [], relative_fields, what, provenance)
-    return Resolved(raw=raw, provenance=provenance)
+    files: list[Path] = []
+    raw = _resolve(path, path.parent.resolve(), [], relative_fields, what, provenance, files)
+    return Resolved(raw=raw, provenance=provenance, files=files)
 
 
 def _resolve(path: Path, folder: Path, chain: list[Path], relative_fields: Sequence[str], what: str,
-             provenance: Provenance) -> dict:
+             provenance: Provenance, files: list[Path]) -> dict:
     """The merged content of ``path``; ``folder`` is the first file's folder (resolved), ``chain`` the
-    resolved files that inherit from ``path``."""
+    resolved files that inherit from ``path``; every file read is appended to ``files``."""
     file = provenance.default if not chain else os.path.normpath(path)
     raw = unshared(read_yaml_mapping(path, what, file=file))
+    files.append(path.resolve())
     if chain and path.parent.resolve() != folder:
         _rebase_paths(raw, path.parent, folder, relative_fields)
     if BASE not in raw:
@@ -123,9 +128,10 @@ def _resolve(path: Path, folder: Path, chain: list[Path], relative_fields: Seque
     if base_path.resolve() in chain:
         raise InputError(file, BASE, f"{base!r} makes a cycle: {base_path.resolve()} is this file or inherits "
                          "from it")
-    if not base_path.is_file():
-        raise InputError(file, BASE, f"base file {base_path.resolve()} not found")
-    merged = _resolve(base_path, folder, chain, relative_fields, what, provenance)
+    problem = input_file_problem(base_path)
+    if problem is not None:
+        raise InputError(file, BASE, f"base file {base_path.resolve()} {problem}")
+    merged = _resolve(base_path, folder, chain, relative_fields, what, provenance, files)
     return merge(merged, raw, file, provenance)
 
 

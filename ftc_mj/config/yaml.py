@@ -1,7 +1,17 @@
-"""Reading untrusted YAML: the loader (a ``yaml.SafeLoader`` on which duplicate keys are errors), a file that
-must hold a mapping, and the ``--set`` override language (dotted paths, list indices as numbers).
+"""Reading untrusted YAML: the loader (a ``yaml.SafeLoader`` on which duplicate keys are errors and the
+document is bounded), a file that must hold a mapping, and the ``--set`` override language (dotted paths, list
+indices as numbers).
 
-Every problem is an :class:`~ftc_mj.config.errors.InputError` naming the file and the field.
+The document is bounded while it is composed, before anything is constructed: at most :data:`MAX_NODES`
+nodes, an alias counting as the size of what it names (so that a few lines of anchors and aliases cannot
+expand to a billion values in the schema, the merge or a copy), nesting at most :data:`MAX_NESTING` deep (the
+composer, the constructor and the schema recurse), and no alias inside the node it names (a structure that
+contains itself). The file itself is a regular file of at most :data:`MAX_FILE_BYTES`
+(:func:`~ftc_mj.config.paths.read_input_text`). Anchors, aliases and merge keys (``<<: *name``) work as
+usual within these bounds.
+
+Every problem is an :class:`~ftc_mj.config.errors.InputError` naming the file and the field (``line N`` for
+a problem of the YAML itself).
 """
 
 from __future__ import annotations
@@ -12,10 +22,59 @@ from typing import Any
 import yaml
 
 from ftc_mj.config.errors import InputError
+from ftc_mj.config.paths import read_input_text
+
+#: At most this many nodes in a document, aliases expanded (every scalar, list and mapping counts one). The
+#: shipped scenarios and campaigns have a few thousand.
+MAX_NODES = 200_000
+#: At most this many levels of lists and mappings inside one another (the shipped files have fewer than ten).
+MAX_NESTING = 64
+#: At most this many bytes in a YAML file (the shipped files have a few kilobytes).
+MAX_FILE_BYTES = 1 << 20
 
 
-class _UniqueKeyLoader(yaml.SafeLoader):
-    """safe_load that rejects duplicate keys instead of silently keeping the last one."""
+class _BoundedComposer(yaml.SafeLoader):
+    """A SafeLoader whose composer refuses a document beyond :data:`MAX_NODES` (aliases counted as what they
+    name) or :data:`MAX_NESTING`, or with an alias inside its own anchor, before anything is constructed."""
+
+    def __init__(self, stream: str):
+        super().__init__(stream)
+        self._sizes: dict[int, int] = {}  # id(node) -> its size, aliases expanded, once composed
+        self._nesting = 0
+        self._total = 0
+
+    def compose_node(self, parent: yaml.Node | None, index: Any) -> yaml.Node:
+        if self.check_event(yaml.AliasEvent):
+            event = self.peek_event()
+            node = super().compose_node(parent, index)
+            size = self._sizes.get(id(node))
+            if size is None:
+                raise yaml.composer.ComposerError(None, None, f"alias *{event.anchor} is inside the node it names "
+                                                  "(a structure that contains itself)", event.start_mark)
+            self._count(size, event.start_mark)
+            return node
+        event = self.peek_event()
+        start, collection = event.start_mark, not isinstance(event, yaml.ScalarEvent)
+        self._nesting += collection
+        if self._nesting > MAX_NESTING:
+            raise yaml.composer.ComposerError(None, None, f"lists and mappings nested more than {MAX_NESTING} deep",
+                                              start)
+        before = self._total
+        node = super().compose_node(parent, index)
+        self._nesting -= collection
+        self._count(1, start)
+        self._sizes[id(node)] = self._total - before
+        return node
+
+    def _count(self, size: int, mark: yaml.Mark) -> None:
+        self._total += size
+        if self._total > MAX_NODES:
+            raise yaml.composer.ComposerError(None, None, f"more than {MAX_NODES} values (aliases expanded): "
+                                              "too large for an input file", mark)
+
+
+class _UniqueKeyLoader(_BoundedComposer):
+    """safe_load that rejects duplicate keys instead of silently keeping the last one, on a bounded document."""
 
 
 def _construct_mapping(loader: yaml.SafeLoader, node: yaml.MappingNode, deep: bool = False) -> dict:
@@ -39,21 +98,24 @@ def read_yaml_mapping(path: Path, what: str, file: str | None = None) -> dict:
     """A YAML file that must hold a mapping (duplicate keys are errors), for ``what`` ("a scenario"); errors
     name it ``file`` (default: ``path`` as given)."""
     file = str(path) if file is None else file
-    try:
-        text = path.read_text(encoding="utf-8")
-    except (OSError, UnicodeDecodeError) as exc:
-        reason = "not UTF-8 text" if isinstance(exc, UnicodeDecodeError) else exc.strerror or str(exc)
-        raise InputError(file, "", f"cannot read the file: {reason}") from None
-    try:
-        raw = yaml.load(text, Loader=_UniqueKeyLoader)  # noqa: S506 - a SafeLoader subclass
-    except yaml.YAMLError as exc:
-        mark = getattr(exc, "problem_mark", None)
-        where = f"line {mark.line + 1}" if mark is not None else ""
-        problem = getattr(exc, "problem", None) or str(exc).splitlines()[0]
-        raise InputError(file, where, f"invalid YAML: {problem}") from None
+    raw = load_bounded(read_input_text(path, MAX_FILE_BYTES, file), file)
     if not isinstance(raw, dict):
         raise InputError(file, "", f"{what} must be a YAML mapping")
     return raw
+
+
+def load_bounded(text: str, file: str, field: str = "") -> Any:
+    """The YAML document ``text`` (safe, duplicate keys refused, bounded: see the module), or the one-line
+    :class:`InputError` naming ``file`` and ``line N`` (after ``field``, e.g. a ``--set`` key, when given)."""
+    try:
+        return yaml.load(text, Loader=_UniqueKeyLoader)  # noqa: S506 - a SafeLoader subclass
+    except yaml.YAMLError as exc:
+        mark = getattr(exc, "problem_mark", None)
+        where = ", ".join(p for p in (field, f"line {mark.line + 1}" if mark is not None else "") if p)
+        problem = getattr(exc, "problem", None) or str(exc).splitlines()[0]
+        raise InputError(file, where, f"invalid YAML: {problem}") from None
+    except RecursionError:  # a bound above should come first; never a traceback
+        raise InputError(file, field, "invalid YAML: nested too deeply") from None
 
 
 def unshared(node: Any) -> Any:
@@ -72,9 +134,10 @@ def apply_override(raw: dict, item: str, file: str) -> None:
     if not sep or not key:
         raise InputError(file, f"--set {item}", "expected key.path=value")
     try:
-        value = yaml.safe_load(value_text)
-    except yaml.YAMLError:
-        raise InputError(file, key, f"--set value {value_text!r} is not a valid YAML scalar") from None
+        value = yaml.load(value_text, Loader=_UniqueKeyLoader)  # noqa: S506 - a SafeLoader subclass, bounded
+    except yaml.YAMLError as exc:
+        problem = getattr(exc, "problem", None) or "not valid YAML"
+        raise InputError(file, key, f"--set value {value_text[:80]!r} is not a valid YAML value: {problem}") from None
     set_path(raw, key, value, file)
 
 

@@ -36,11 +36,15 @@ class Method(ABC):
         name: the name scenario files use (``type: ...``).
         Config: the pydantic schema of the method's gains, checked when a scenario loads.
         requires: sensors the method needs; a scenario whose robot lacks one is refused when it loads.
+        signal_names: the keys the method puts in ``self.signals`` (what a figure may plot as
+            ``extras.NAME``), checked when a scenario loads; None (the default, for plugins that do not
+            declare them): any plain name is accepted and a figure of a name never recorded is empty.
     """
 
     name: ClassVar[str]
     Config: ClassVar[type[GainConfig]]
     requires: ClassVar[frozenset[str]] = frozenset({"position"})
+    signal_names: ClassVar[frozenset[str] | None] = None
 
     def __init__(self, config: GainConfig, n_joints: int, dt: float, members: int | None = None):
         self.config = config

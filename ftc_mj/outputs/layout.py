@@ -11,7 +11,7 @@ from __future__ import annotations
 
 import json
 import re
-from collections.abc import Collection, Sequence
+from collections.abc import Collection, Mapping, Sequence
 from dataclasses import asdict, dataclass, field
 from typing import Annotated, Any, Literal
 
@@ -19,6 +19,7 @@ import mujoco
 import numpy as np
 from pydantic import Field, model_validator
 
+from ftc_mj.config.errors import InputError
 from ftc_mj.config.types import FiniteFloat, JointSelection, NonNegativeFloat, Strict, joint_indices
 from ftc_mj.outputs.palette import RUN_ORDER
 
@@ -66,7 +67,8 @@ QUANTITIES: dict[str, Quantity] = {
 #: Plugins' own signals (``extras.NAME``) whose units are known.
 EXTRA_UNITS = {"switching_gain": "rad/s^2", "terminal_slope_term": "rad/s^2"}
 EXTRA_PREFIX = "extras."
-_EXTRA = re.compile(r"^extras\.[A-Za-z0-9_]+$")
+#: A signal's name: a plain identifier (no leading underscore: never an attribute of Python's own).
+_EXTRA = re.compile(r"^extras\.[A-Za-z][A-Za-z0-9_]*$")
 
 
 # ------------------------------------------------------------------------------------------------- the schema
@@ -216,10 +218,14 @@ def _unit(quantity: str, units: dict[str, str]) -> str:
 
 
 def compile_figures(spec: ScenarioSpec, model: mujoco.MjModel, variant_names: Sequence[str],
-                    file: str) -> list[Figure]:
+                    file: str, signals: Mapping[str, Collection[frozenset[str] | None]] | None = None) -> list[Figure]:
     """The scenario's figures (its ``figures`` section, else :func:`default_figures`) for the variants that
     run (``variant_names``, monitors included): a figure's variants not selected by ``--variant`` are left
-    out, and a figure left with none is dropped."""
+    out, and a figure left with none is dropped.
+
+    ``signals``: per variant (and monitor) name, the ``signal_names`` of the methods whose signals its result
+    holds (:attr:`ftc_mj.methods.plugin.Method.signal_names`); a figure of ``extras.NAME`` that none of its
+    variants' methods declares is refused (a method that declares nothing, None, may record any name)."""
     if not spec.figures:
         return default_figures(spec, model.nv, variant_names)
     units = _units(spec)
@@ -229,6 +235,8 @@ def compile_figures(spec: ScenarioSpec, model: mujoco.MjModel, variant_names: Se
         if not chosen:
             continue
         joints = joint_indices(figure.joints, model, file, f"figures.{index}.joints")
+        if figure.quantity.startswith(EXTRA_PREFIX) and signals is not None:
+            _check_signal(figure.quantity[len(EXTRA_PREFIX):], chosen, signals, file, f"figures.{index}.quantity")
         figures.append(Figure(
             name=figure.name,
             title=figure.title or _title(figure.quantity),
@@ -243,6 +251,18 @@ def compile_figures(spec: ScenarioSpec, model: mujoco.MjModel, variant_names: Se
             zoom_variants=tuple(figure.zoom.variants) if figure.zoom and figure.zoom.variants else None,
         ))
     return figures
+
+
+def _check_signal(name: str, variants: Sequence[str], signals: Mapping[str, Collection[frozenset[str] | None]],
+                  file: str, field: str) -> None:
+    """Refuse ``extras.NAME`` when no method of ``variants`` records ``name``."""
+    declared = [names for variant in variants for names in signals.get(variant, ())]
+    if any(names is None for names in declared):
+        return  # a method that does not declare its signals may record this one
+    recorded = sorted(set().union(*declared))
+    if name not in recorded:
+        raise InputError(file, field, f"no method of the figure's variants records a signal {name!r} (they record: "
+                         f"{', '.join(recorded) or 'none'})")
 
 
 def _title(quantity: str) -> str:

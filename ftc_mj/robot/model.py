@@ -16,6 +16,7 @@ from pydantic import Field
 from ftc_mj.robot import mjcf, urdf, visuals
 from ftc_mj.robot.packages import resolve_package_uri, split_package_uri
 from ftc_mj.config.errors import InputError
+from ftc_mj.config.paths import input_file_problem
 from ftc_mj.config.types import FiniteFloat, NonNegativeFloat, PositiveFloat, Strict
 
 #: The options that rebuild a model; an MJCF in the testbed's form is used as it is without them.
@@ -95,10 +96,14 @@ def _model_file(scenario_path: Path, name: str, file: str) -> Path:
             raise InputError(file, "robot.model", f"{name!r} not found (ROS packages are looked up in "
                                                   "ROS_PACKAGE_PATH, AMENT_PREFIX_PATH and those installed with "
                                                   "Python packages)")
+        problem = input_file_problem(found)
+        if problem is not None:
+            raise InputError(file, "robot.model", f"{name!r} ({found}) {problem}")
         return found
     model_path = (scenario_path.parent / name).resolve()
-    if not model_path.is_file():
-        raise InputError(file, "robot.model", f"model file {name!r} not found")
+    problem = input_file_problem(model_path)
+    if problem is not None:
+        raise InputError(file, "robot.model", f"model file {name!r} {problem}")
     return model_path
 
 

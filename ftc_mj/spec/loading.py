@@ -70,4 +70,5 @@ def load_scenario(
             raise
         raise InputError(writer, exc.field, exc.problem) from None
     scenario.raw = raw
+    scenario.inputs = (*resolved.files, scenario.model_path)
     return scenario

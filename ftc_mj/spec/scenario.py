@@ -116,12 +116,18 @@ class DivergenceSpec(Strict):
     max_velocity: PositiveFloat = 1000.0
 
 
+#: The largest seed: NumPy keeps a batch's seeds as int64 (``seed + k`` for member k).
+MAX_SEED = 2**63 - 1
+#: A run's seed: an integer from 0 to :data:`MAX_SEED`.
+Seed = Annotated[int, Field(ge=0, le=MAX_SEED)]
+
+
 class ScenarioSpec(Strict):
     name: Annotated[str, Field(min_length=1, pattern=r"^[A-Za-z0-9_.-]+$")]
     description: str = ""
     robot: RobotSpec
     #: Every random element of a run derives from it (:mod:`ftc_mj.effects.randomness`).
-    seed: Annotated[int, Field(ge=0)] = 0
+    seed: Seed = 0
     #: Required, except with a ``log`` section (default: the whole log).
     duration: PositiveFloat | None = None
     control_dt: PositiveFloat = 1e-3
@@ -249,6 +255,8 @@ class Scenario:
     raw: dict[str, Any] = field(default_factory=dict)
     #: The replayed log (the ``log`` section), or None: the robot is simulated.
     log: Log | None = None
+    #: The files the scenario was read from (the file, its bases, the model file): what no output may replace.
+    inputs: tuple[Path, ...] = ()
 
     @property
     def name(self) -> str:
@@ -395,6 +403,35 @@ def _log_run(spec: ScenarioSpec, path: Path, model: mujoco.MjModel, file: str) -
     return log
 
 
+def check_on_grid(reference: expressions.TimeFunctions, terms: list[CompiledTerm], times: np.ndarray,
+                  parameters: dict[str, float], file: str) -> None:
+    """Refuse a reference, or a term's value of time and parameters alone, that is NaN or infinite at an instant
+    of the run (:func:`~ftc_mj.config.expressions.first_nonfinite`), with the scenario's parameter values: the
+    reference with its first and second derivatives (the controllers use all three), a term only where its
+    profile is on. A term's value that depends on the state has values only along the trajectory and is not
+    checked here (the loop's divergence check is what catches it); nor are a campaign member's own parameters."""
+    values = np.array([[parameters[name] for name in reference.parameters]]) if reference.parameters else None
+    with np.errstate(all="ignore"):
+        evaluated = reference.evaluate(times, values)
+    labels = ("", "its time derivative ", "its second time derivative ")
+    for label, exprs, grid in zip(labels, (reference.exprs, reference.first, reference.second), evaluated):
+        bad = ~np.isfinite(grid.reshape(len(times), -1))
+        if bad.any():
+            sample, joint = np.argwhere(bad)[0]
+            raise InputError(file, f"reference.{joint}", f"{label}is not finite at t = {times[sample]:g} s of the "
+                             f"run ({exprs[joint]})")
+    variables = {expressions.symbol(name) for name in ("t", *parameters)}
+    for index, term in enumerate(terms):
+        active = None if term.time_profile is None else term.time_profile.active(times)
+        for joint, expr in enumerate(term.exprs):
+            if not expr.free_symbols <= variables:
+                continue  # a function of the state: known only along the trajectory
+            at = expressions.first_nonfinite(expr, times, parameters, where=active)
+            if at is not None:
+                raise InputError(file, f"terms.{index}.value.{joint}", f"is not finite at t = {at:g} s ({expr}), "
+                                 "while the term is on")
+
+
 def compile_scenario(path: Path, spec: ScenarioSpec) -> Scenario:
     """Check and compile a validated spec read from ``path``: the robot first (it fixes the number of joints
     and the joint names), then every section by its own compile function."""
@@ -444,6 +481,8 @@ def compile_scenario(path: Path, spec: ScenarioSpec) -> Scenario:
 
     terms = compile_terms(spec.terms, file, n, list(spec.parameters))
     times = time_grid(spec.duration, spec.control_dt)
+    if log is None:  # a log has no reference (NaN) and no terms
+        check_on_grid(reference, terms, times, spec.parameters, file)
     actuator_faults = [compile_actuator_fault(fault, file, f"actuator_faults.{index}", model, times)
                        for index, fault in enumerate(spec.actuator_faults)]
     position_sensor = compile_channel(spec.sensors.position, file, "sensors.position", model)
@@ -519,5 +558,9 @@ def compile_scenario(path: Path, spec: ScenarioSpec) -> Scenario:
         scenario.diagnoser = compile_diagnoser(spec.diagnosis, spec.control_dt, spec.metrics.estimation_window_start,
                                                 file, n, scenario.fault_onsets)
     names = [name for v in variants for name in (v.name, *(f"{v.name}.{m.name}" for m in v.monitors))]
-    scenario.figures = compile_figures(spec, model, names, file)
+    signals = {v.name: (getattr(v.observer_type, "signal_names", None), getattr(v.controller_type, "signal_names", None))
+               for v in variants}
+    signals.update({f"{v.name}.{m.name}": (getattr(m.observer_type, "signal_names", None),)
+                    for v in variants for m in v.monitors})
+    scenario.figures = compile_figures(spec, model, names, file, signals)
     return scenario

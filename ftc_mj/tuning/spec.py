@@ -39,8 +39,8 @@ PositiveInt = Annotated[StrictInt, Field(gt=0)]
 
 
 class GainBounds(Strict):
-    low: float
-    high: float
+    low: Annotated[float, Field(allow_inf_nan=False)]
+    high: Annotated[float, Field(allow_inf_nan=False)]
     #: Search the logarithm (a gain that spans decades); needs 0 < low.
     log: StrictBool = False
 
@@ -68,7 +68,7 @@ class CostSpec(Strict):
     weights: Annotated[dict[StrictStr, PositiveFloat], Field(min_length=1)]
     aggregate: Literal["mean", "mean_cvar"] = "mean"
     #: The worst fraction of the conditions whose mean is CVaR.
-    fraction: Annotated[float, Field(gt=0, le=1)] = 0.2
+    fraction: Annotated[float, Field(gt=0, le=1, allow_inf_nan=False)] = 0.2
 
     @field_validator("weights")
     @classmethod
@@ -89,12 +89,14 @@ class ConstraintsSpec(Strict):
 
 
 class OptimizerSpec(Strict):
-    #: Candidates per generation (CMA-ES's lambda); default 4 + 3 ln(dimension).
-    population: PositiveInt | None = None
+    #: Candidates per generation (CMA-ES's lambda, at least 2: its update ranks candidates); default
+    #: 4 + 3 ln(dimension).
+    population: Annotated[StrictInt, Field(ge=2)] | None = None
     generations: PositiveInt = 10
     #: Initial step size in the unit box of the bounds.
-    sigma: Annotated[float, Field(gt=0, le=1)] = 0.25
-    seed: Annotated[StrictInt, Field(ge=0)] = 0
+    sigma: Annotated[float, Field(gt=0, le=1, allow_inf_nan=False)] = 0.25
+    #: The optimizer's seed (NumPy's RandomState, which takes 32 bits).
+    seed: Annotated[StrictInt, Field(ge=0, le=2**32 - 1)] = 0
     #: Added to a candidate's cost per violating condition, as a share of the conditions (explicit penalty).
     penalty: NonNegativeFloat = 10.0
 

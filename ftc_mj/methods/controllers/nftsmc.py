@@ -69,6 +69,7 @@ class NFTSMC(SlidingModeController):
     """Observer-based NFTSMC, eqs. (2.22)-(2.27), (4.15)-(4.18), (5.14)-(5.27)."""
 
     name: ClassVar[str] = "nftsmc"
+    signal_names: ClassVar[frozenset[str] | None] = frozenset()
     Config: ClassVar[type[NFTSMCConfig]] = NFTSMCConfig
 
     def __init__(self, config: NFTSMCSurfaceConfig, n_joints: int, dt: float, members: int | None = None):
@@ -107,6 +108,7 @@ class AdaptiveNFTSMC(NFTSMC):
     ``switching_gain`` (Fig. 2.8)."""
 
     name: ClassVar[str] = "a_nftsmc"
+    signal_names: ClassVar[frozenset[str] | None] = frozenset({"switching_gain"})
     Config: ClassVar[type[AdaptiveNFTSMCConfig]] = AdaptiveNFTSMCConfig
 
     def __init__(self, config: AdaptiveNFTSMCConfig, n_joints: int, dt: float, members: int | None = None):

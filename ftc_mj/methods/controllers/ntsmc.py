@@ -36,6 +36,7 @@ class NTSMC(SlidingModeController):
     """NTSMC with the time-decaying terminal term of (3.50)."""
 
     name: ClassVar[str] = "ntsmc"
+    signal_names: ClassVar[frozenset[str] | None] = frozenset()
     Config: ClassVar[type[NTSMCConfig]] = NTSMCConfig
 
     def surface(self, t: float, e: np.ndarray, e_dot: np.ndarray) -> np.ndarray:

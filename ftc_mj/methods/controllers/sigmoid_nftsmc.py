@@ -69,6 +69,7 @@ class SigmoidNFTSMC(SlidingModeController):
     """Chapter 3's NFTSMC-TOSMO law (3.26)-(3.28), or (3.35)-(3.37) with ``compensation: estimate``."""
 
     name: ClassVar[str] = "sigmoid_nftsmc"
+    signal_names: ClassVar[frozenset[str] | None] = frozenset({"terminal_slope_term"})
     Config: ClassVar[type[SigmoidNFTSMCConfig]] = SigmoidNFTSMCConfig
 
     def __init__(self, config: SigmoidNFTSMCConfig, n_joints: int, dt: float, members: int | None = None):

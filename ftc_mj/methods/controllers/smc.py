@@ -28,6 +28,7 @@ class SMC(SlidingModeController):
     """Conventional SMC on the linear surface (3.46)."""
 
     name: ClassVar[str] = "smc"
+    signal_names: ClassVar[frozenset[str] | None] = frozenset()
     Config: ClassVar[type[SMCConfig]] = SMCConfig
 
     def surface(self, t: float, e: np.ndarray, e_dot: np.ndarray) -> np.ndarray:

@@ -39,6 +39,7 @@ class DisturbanceObserver(Observer):
     """DO (2.6) on measured velocities; LUaF estimate (2.20)."""
 
     name: ClassVar[str] = "do"
+    signal_names: ClassVar[frozenset[str] | None] = frozenset()
     Config: ClassVar[type[DisturbanceObserverConfig]] = DisturbanceObserverConfig
     requires: ClassVar[frozenset[str]] = frozenset({"position", "velocity"})
 

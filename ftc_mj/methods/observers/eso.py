@@ -34,6 +34,7 @@ class ESO(Observer):
     """Third-order linear ESO with bandwidth parameterisation."""
 
     name: ClassVar[str] = "eso"
+    signal_names: ClassVar[frozenset[str] | None] = frozenset()
     Config: ClassVar[type[ESOConfig]] = ESOConfig
 
     def __init__(self, config: ESOConfig, n_joints: int, dt: float, members: int | None = None):

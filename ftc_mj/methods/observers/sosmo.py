@@ -54,6 +54,7 @@ class SOSMO(Observer):
     """Super-twisting observer, eq. (4.37); LUaF from (4.39) through a first-order low-pass filter."""
 
     name: ClassVar[str] = "sosmo"
+    signal_names: ClassVar[frozenset[str] | None] = frozenset()
     Config: ClassVar[type[SOSMOConfig]] = SOSMOConfig
 
     def __init__(self, config: SOSMOConfig, n_joints: int, dt: float, members: int | None = None):

@@ -62,6 +62,7 @@ class TOSMO(Observer):
     """Third-order sliding-mode observer, eq. (3.11); LUaF estimate eq. (3.15)."""
 
     name: ClassVar[str] = "tosmo"
+    signal_names: ClassVar[frozenset[str] | None] = frozenset()
     Config: ClassVar[type[TOSMOConfig]] = TOSMOConfig
 
     def __init__(self, config: TOSMOConfig, n_joints: int, dt: float, members: int | None = None):

@@ -1,0 +1,335 @@
+"""Hostile inputs through the command lines (``ftc-mj run|figures|campaign|tune``), one per row of
+:data:`CASES`: YAML structure (alias bombs, deep nesting, oversized files), special files (devices, pipes,
+directories), outputs (an input overwritten, a kernel file system, a device node), numbers (seeds beyond 64
+bits, a reference that is NaN on the run's grid), names (a signal no method records), campaigns and tuning
+(a claim on an unknown variant, a scheduler where nothing listens, optimizer bounds).
+
+Each case must exit 2 with one line on stderr that names the file and the field, print no traceback, write
+nothing (the folder's listing and every input's bytes are the same afterwards) and end within
+:data:`TIMEOUT` (its process is killed then: the cases that hung took minutes and gigabytes) under an
+address-space limit of :data:`MEMORY_KB`. Each case is a process of its own, forked from one driver
+subprocess that imported the package once (:func:`drive`).
+"""
+
+from __future__ import annotations
+
+import os
+import subprocess
+import sys
+from collections.abc import Callable
+from dataclasses import dataclass
+from pathlib import Path
+
+import pytest
+import yaml
+
+ROOT = Path(__file__).resolve().parents[2]
+sys.path.insert(0, str(ROOT / "tests" / "campaign"))
+import small_campaign  # noqa: E402
+
+#: Seconds a case may take, on a loaded machine (before the fixes: minutes, or killed by the memory limit).
+TIMEOUT = 15
+#: Address space of a case [KiB]: an expanded alias bomb or /dev/zero read whole would exceed it.
+MEMORY_KB = 3_000_000
+BOMB = "\n".join(["  a0: &a0 [x, x, x, x, x, x, x, x, x, x]"]
+                 + [f"  a{i}: &a{i} [{', '.join([f'*a{i - 1}'] * 10)}]" for i in range(1, 9)]) + "\n"
+
+
+def scenario(**changes) -> dict:
+    data = small_campaign.scenario()
+    data.update(changes)
+    return data
+
+
+def dump(data: dict) -> str:
+    return yaml.safe_dump(data, sort_keys=False)
+
+
+@dataclass
+class Case:
+    """``setup(folder)`` writes the inputs and returns the command's arguments after ``ftc-mj``; the one
+    stderr line must contain ``file`` (a name in the folder, or a path) and ``field``."""
+
+    name: str
+    setup: Callable[[Path], list[str]]
+    file: str
+    field: str
+    root_only: bool = False
+
+
+def run_case(scenario_text: str | Callable[[Path], str], *extra: str) -> Callable[[Path], list[str]]:
+    def setup(folder: Path) -> list[str]:
+        text = scenario_text(folder) if callable(scenario_text) else scenario_text
+        (folder / "s.yaml").write_text(text)
+        return ["run", "s.yaml", "--duration", "0.05", "--quiet", *extra] + (
+            [] if "--out" in extra or "--no-record" in extra else ["--out", "rec.rrd"]) + (
+            [] if "--json" in extra else ["--json", "out.json"])
+    return setup
+
+
+def with_model(name: str) -> Callable[[Path], str]:
+    def text(folder: Path) -> str:
+        data = scenario()
+        data["robot"]["model"] = name if name != "DIR" else str(folder / "models")
+        (folder / "models").mkdir(exist_ok=True)
+        return dump(data)
+    return text
+
+
+def fifo_scenario(folder: Path) -> list[str]:
+    os.mkfifo(folder / "pipe.yaml")
+    return ["run", "pipe.yaml", "--quiet", "--out", "rec.rrd"]
+
+
+def local_model(folder: Path) -> list[str]:
+    (folder / "m.xml").write_bytes((ROOT / "models" / "puma560.xml").read_bytes())
+    data = scenario()
+    data["robot"]["model"] = "m.xml"
+    (folder / "s.yaml").write_text(dump(data))
+    return ["run", "s.yaml", "--quiet", "--duration", "0.05", "--out", "m.xml"]
+
+
+def with_base(folder: Path) -> list[str]:
+    (folder / "base.yaml").write_text(dump(scenario()))
+    (folder / "s.yaml").write_text("base: base.yaml\nname: child\n")
+    return ["run", "s.yaml", "--quiet", "--duration", "0.05", "--json", "base.yaml", "--no-record"]
+
+
+def device_output(folder: Path) -> list[str]:
+    os.mknod(folder / "null", 0o020666, os.makedev(1, 3))
+    (folder / "s.yaml").write_text(dump(scenario()))
+    return ["run", "s.yaml", "--quiet", "--duration", "0.05", "--out", "null"]
+
+
+def mutated(dotted: str, value) -> str:
+    data = scenario()
+    *parents, last = dotted.split(".")
+    node = data
+    for part in parents:
+        node = node[int(part)] if isinstance(node, list) else node[part]
+    node[int(last) if isinstance(node, list) else last] = value
+    return dump(data)
+
+
+def campaign_case(change: Callable[[dict], None] | str, *extra: str) -> Callable[[Path], list[str]]:
+    def setup(folder: Path) -> list[str]:
+        path = small_campaign.write(folder, campaign_changes={"duration": 0.3})
+        if callable(change):
+            data = yaml.safe_load(path.read_text())
+            change(data)
+            path.write_text(dump(data))
+        else:
+            path.write_text(path.read_text() + change)
+        return ["campaign", "run", path.name, "--quiet", "--workers", "1", *extra] + (
+            [] if "--out" in extra else ["--out", "results"])
+    return setup
+
+
+def set_claim(data: dict) -> None:
+    data["report"]["claims"][0]["worse"] = "nope"
+
+
+def tuning_case(optimizer: dict) -> Callable[[Path], list[str]]:
+    def setup(folder: Path) -> list[str]:
+        small_campaign.write(folder)
+        (folder / "tuning.yaml").write_text(dump({
+            "name": "t", "campaign": "campaign.yaml", "variant": "hs", "conditions": 2, "held_out": 2,
+            "gains": {"variants.hs.controller.gains.mu": {"low": 0.1, "high": 1.0}},
+            "cost": {"weights": {"rms_error_converged": 1.0}},
+            "optimizer": {"population": 4, "generations": 1, "sigma": 0.2, "seed": 0, **optimizer}}))
+        return ["tune", "tuning.yaml", "--quiet", "--workers", "1", "--out", "results"]
+    return setup
+
+
+def figures_case(recording: str, *extra: str) -> Callable[[Path], list[str]]:
+    def setup(folder: Path) -> list[str]:
+        (folder / "rec.rrd").write_bytes(b"not a recording")
+        return ["figures", recording, *extra]
+    return setup
+
+
+CASES = [
+    # YAML structure
+    Case("alias bomb in an unknown key", run_case(dump(scenario()) + "junk:\n" + BOMB), "s.yaml", "line "),
+    Case("alias bomb in description", run_case(dump({k: v for k, v in scenario().items()}) + "description:\n" + BOMB),
+         "s.yaml", "line "),
+    Case("deeply nested list", run_case(dump(scenario()) + "junk: " + "[" * 50000 + "]" * 50000 + "\n"),
+         "s.yaml", "line "),
+    Case("deeply nested mapping", run_case(dump(scenario()) + "junk: " + "{a: " * 20000 + "1" + "}" * 20000 + "\n"),
+         "s.yaml", "line "),
+    Case("oversized file", run_case(dump(scenario()) + "description: " + "x" * (2 << 20) + "\n"), "s.yaml",
+         "larger than"),
+    # special files
+    Case("scenario is /dev/zero", lambda folder: ["run", "/dev/zero", "--quiet", "--out", "rec.rrd"], "/dev/zero",
+         "not a regular file"),
+    Case("scenario is a named pipe", fifo_scenario, "pipe.yaml", "not a regular file"),
+    Case("model is a directory", run_case(with_model("DIR")), "s.yaml", "robot.model: model file"),
+    Case("model is a device", run_case(with_model("/dev/null")), "s.yaml", "robot.model: model file '/dev/null' is not"),
+    # outputs
+    Case("--out is the scenario", run_case(dump(scenario()), "--out", "s.yaml"), "s.yaml", "--out"),
+    Case("--json is the scenario", run_case(dump(scenario()), "--no-record", "--json", "s.yaml"), "s.yaml", "--json"),
+    Case("--out is the model file", local_model, "s.yaml", "--out"),
+    Case("--json is a base", with_base, "s.yaml", "--json"),
+    Case("--out is on /proc", run_case(dump(scenario()), "--out", "/proc/self/x.rrd"), "s.yaml", "--out"),
+    Case("--json is on /sys", run_case(dump(scenario()), "--no-record", "--json", "/sys/kernel/x.json"), "s.yaml",
+         "--json"),
+    Case("--out is a device node", device_output, "s.yaml", "--out", root_only=True),
+    Case("--out and --json are one file", run_case(dump(scenario()), "--out", "x", "--json", "x"), "s.yaml",
+         "--json"),
+    # numbers
+    Case("seed beyond 64 bits", run_case(dump(scenario(seed=2**70))), "s.yaml", "seed"),
+    Case("--set seed beyond 64 bits", run_case(dump(scenario()), "--set", f"seed={2**70}"), "s.yaml", "seed"),
+    Case("reference NaN on the grid", run_case(mutated("reference.0", "log(t - 5)")), "s.yaml", "reference.0"),
+    Case("reference infinite on the grid", run_case(mutated("reference.1", "1/(t - 0.02)")), "s.yaml", "reference.1"),
+    Case("reference derivative infinite at 0", run_case(mutated("reference.2", "sqrt(t)")), "s.yaml", "reference.2"),
+    Case("term of time NaN while on", run_case(mutated("terms.1.value.1", "sqrt(t - 1) * size").replace(
+        "onset: 0.3", "onset: 0.01")), "s.yaml", "terms.1.value.1"),
+    # names
+    Case("extras.__dict__", run_case(dump(scenario(figures=[{"name": "x", "quantity": "extras.__dict__"}]))),
+         "s.yaml", "figures.0"),
+    Case("a signal no method records", run_case(dump(scenario(figures=[{"name": "x", "quantity": "extras.nothing"}]))),
+         "s.yaml", "figures.0.quantity"),
+    # figures
+    Case("figures of /dev/zero", figures_case("/dev/zero", "--out", "figs"), "/dev/zero", "not a regular file"),
+    Case("figures --out is the recording", figures_case("rec.rrd", "--out", "rec.rrd"), "rec.rrd", "--out"),
+    Case("figures --out on /proc", figures_case("rec.rrd", "--out", "/proc/self/figs"), "rec.rrd", "--out"),
+    # campaigns and tuning
+    Case("claim on an unknown variant", campaign_case(set_claim), "campaign.yaml", "report.claims.0.worse"),
+    Case("campaign seed beyond 64 bits", campaign_case(lambda data: data.update(seed=2**70)), "campaign.yaml", "seed"),
+    Case("campaign alias bomb", campaign_case("junk:\n" + BOMB), "campaign.yaml", "line "),
+    Case("campaign --out is the campaign", campaign_case(lambda data: None, "--out", "campaign.yaml"), "campaign.yaml",
+         "--out"),
+    Case("--scheduler not an address", campaign_case(lambda data: None, "--scheduler", "not an address"),
+         "campaign.yaml", "--scheduler"),
+    Case("--scheduler where nothing listens", campaign_case(lambda data: None, "--scheduler", "tcp://127.0.0.1:1"),
+         "campaign.yaml", "--scheduler"),
+    Case("optimizer.sigma NaN", tuning_case({"sigma": float("nan")}), "tuning.yaml", "optimizer.sigma: Input should be a finite"),
+    Case("optimizer.population 1", tuning_case({"population": 1}), "tuning.yaml", "optimizer.population"),
+    Case("optimizer.seed beyond 32 bits", tuning_case({"seed": 2**40}), "tuning.yaml", "optimizer.seed"),
+]
+
+
+@dataclass
+class Outcome:
+    returncode: int | str
+    stderr: str
+    before: dict[str, bytes | None]
+    after: dict[str, bytes | None]
+
+
+def listing(folder: Path) -> dict[str, bytes | None]:
+    """Every entry below ``folder`` with its bytes (None: not a regular file)."""
+    return {str(p.relative_to(folder)): p.read_bytes() if p.is_file() and not p.is_symlink() else None
+            for p in sorted(folder.rglob("*"))}
+
+
+# ------------------------------------------------------------------------------------------------ the driver
+# One subprocess imports the package once, then runs each case in a forked child of its own (the command's
+# main(argv), its working directory the case's folder, stderr to a file, an address-space limit), killed at
+# TIMEOUT: a real process per case and its exit status, without paying the imports 37 times.
+
+
+def _child(argv: list[str], folder: str, stderr_path: str) -> None:
+    import resource
+    import traceback
+
+    from ftc_mj.cli.main import main
+
+    os.chdir(folder)
+    resource.setrlimit(resource.RLIMIT_AS, (MEMORY_KB * 1024, MEMORY_KB * 1024))
+    handle = os.open(stderr_path, os.O_WRONLY | os.O_CREAT | os.O_TRUNC)
+    os.dup2(handle, 2)
+    os.dup2(os.open(os.devnull, os.O_WRONLY), 1)
+    try:
+        code = main(argv)
+    except SystemExit as exc:
+        code = exc.code if isinstance(exc.code, int) else 1
+    except BaseException:  # noqa: BLE001 - what the command would print: a traceback, exit 1
+        traceback.print_exc()
+        code = 1
+    sys.stdout.flush()
+    sys.stderr.flush()
+    os._exit(code)
+
+
+def drive(jobs_path: str) -> None:
+    """Run the jobs of ``jobs_path`` (JSON: argv, folder, stderr file), two at a time; write each exit status
+    (or "timeout") beside them."""
+    import json
+    import signal
+    import time
+
+    import ftc_mj.campaign.execute  # noqa: F401 - the imports every command needs, paid once
+    import ftc_mj.cli.campaign  # noqa: F401
+    import ftc_mj.cli.figures  # noqa: F401
+    import ftc_mj.cli.run  # noqa: F401
+    import ftc_mj.cli.tune  # noqa: F401
+    import ftc_mj.outputs.recording  # noqa: F401
+    import ftc_mj.tuning.optimise  # noqa: F401
+    import rich.console  # noqa: F401
+
+    jobs = json.loads(Path(jobs_path).read_text())
+    codes: dict[int, int | str] = {}
+    running: dict[int, tuple[int, float]] = {}
+    pending = list(range(len(jobs)))
+    while pending or running:
+        while pending and len(running) < 2:
+            index = pending.pop(0)
+            sys.stdout.flush()
+            sys.stderr.flush()
+            pid = os.fork()
+            if pid == 0:
+                _child(*jobs[index])
+            running[index] = (pid, time.monotonic() + TIMEOUT)
+        for index, (pid, deadline) in list(running.items()):
+            done, status = os.waitpid(pid, os.WNOHANG)
+            if done:
+                codes[index] = os.waitstatus_to_exitcode(status)
+                del running[index]
+            elif time.monotonic() > deadline:
+                os.kill(pid, signal.SIGKILL)
+                os.waitpid(pid, 0)
+                codes[index] = "timeout"
+                del running[index]
+        time.sleep(0.02)
+    Path(jobs_path).with_suffix(".codes").write_text(json.dumps([codes[i] for i in range(len(jobs))]))
+
+
+@pytest.fixture(scope="module")
+def outcomes(tmp_path_factory) -> dict[str, Outcome]:
+    import json
+
+    base = tmp_path_factory.mktemp("bad_input")
+    chosen = [case for case in CASES if not case.root_only or os.geteuid() == 0]
+    jobs, befores = [], []
+    for index, case in enumerate(chosen):
+        folder = base / f"case{index}"
+        folder.mkdir()
+        argv = case.setup(folder)
+        befores.append(listing(folder))
+        jobs.append([argv, str(folder), str(base / f"case{index}.stderr")])
+    jobs_path = base / "jobs.json"
+    jobs_path.write_text(json.dumps(jobs))
+    env = {**os.environ, "PYTHONPATH": str(ROOT)}
+    subprocess.run([sys.executable, __file__, str(jobs_path)], env=env, check=True,
+                   timeout=60 + TIMEOUT * len(jobs))
+    codes = json.loads(jobs_path.with_suffix(".codes").read_text())
+    return {case.name: Outcome(code, Path(job[2]).read_text() if Path(job[2]).exists() else "", before,
+                               listing(Path(job[1])))
+            for case, job, code, before in zip(chosen, jobs, codes, befores)}
+
+
+@pytest.mark.parametrize("case", CASES, ids=[case.name for case in CASES])
+def test_refused_in_one_line_with_nothing_written(outcomes, case):
+    if case.name not in outcomes:
+        pytest.skip("needs root (mknod)")
+    outcome = outcomes[case.name]
+    assert outcome.returncode == 2, outcome.stderr[-2000:]
+    lines = outcome.stderr.strip().splitlines()
+    assert len(lines) == 1 and "Traceback" not in outcome.stderr, outcome.stderr[-2000:]
+    assert case.file in lines[0] and case.field in lines[0], lines[0]
+    assert outcome.after == outcome.before, "something was written or an input changed"
+
+
+if __name__ == "__main__":
+    drive(sys.argv[1])
