@@ -40,6 +40,7 @@ from ftc_mj.results import VariantResult
 from ftc_mj.engine.runner import run_batch
 from ftc_mj.config.errors import InputError
 from ftc_mj.outputs.files import parquet_bytes, write_atomic
+from ftc_mj.outputs.palette import declared_colours
 from ftc_mj.spec.loading import load_scenario
 from ftc_mj.spec.scenario import Scenario, series_bytes
 
@@ -431,6 +432,8 @@ def _summary(campaign: Campaign, table: pa.Table, seconds: float, simulated_runs
         "resolved": campaign.spec.model_dump(mode="json"),
         "fingerprint": campaign.fingerprint,
         "variants": campaign.variants,
+        # Every variant's colour as in the scenario's run figures and recordings, for the report's figures.
+        "colours": declared_colours(campaign.scenario.raw.get("variants", {})),
         "runs": len(campaign.runs),
         "groups": len(campaign.groups),
         "rows": table.num_rows,

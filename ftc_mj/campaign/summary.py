@@ -29,7 +29,7 @@ from ftc_mj.campaign import statistics as st
 from ftc_mj.campaign.spec import CampaignSpec
 from ftc_mj.config.errors import InputError
 from ftc_mj.outputs.files import write_atomic
-from ftc_mj.outputs.palette import CAMPAIGN_LINE_STYLES, CAMPAIGN_ORDER
+from ftc_mj.outputs.palette import CAMPAIGN_LINE_STYLES, assign_colours
 
 #: Fine threshold multiples for ROC curves (the held residual peaks are continuous).
 ROC_SCALES = np.concatenate(([0.0], np.geomspace(0.05, 1000.0, 400)))
@@ -44,6 +44,9 @@ class Results:
     spec: CampaignSpec
     variants: list[str]
     columns: dict[str, np.ndarray]
+    #: Variant -> "#rrggbb": the scenario's colours (:func:`ftc_mj.outputs.palette.declared_colours`), as in its
+    #: run figures and recordings.
+    colours: dict[str, str]
 
     def of(self, variant: str, column: str) -> np.ndarray:
         """One column's values for one variant's rows, in run order."""
@@ -80,7 +83,9 @@ def read(directory: Path) -> Results:
     present = set(columns["variant"].tolist()) if "variant" in columns else set()
     variants = [v for v in summary["variants"] if v in present]
     variants += sorted(present - set(variants))  # monitors
-    return Results(directory, summary, CampaignSpec.model_validate(summary["resolved"]), variants, columns)
+    # Results written without the scenario's colours: the palette's order over the variants.
+    colours = {**assign_colours(variants), **summary.get("colours", {})}
+    return Results(directory, summary, CampaignSpec.model_validate(summary["resolved"]), variants, columns, colours)
 
 
 # ------------------------------------------------------------------------------------------------ tables
@@ -346,8 +351,8 @@ def _save(fig: Figure, path: Path) -> Path:
 
 
 def _colour(results: Results, variant: str) -> str:
-    """One colour and line style per variant, in the scenario's order, the same in every figure."""
-    return CAMPAIGN_ORDER[results.variants.index(variant) % len(CAMPAIGN_ORDER)]
+    """The variant's colour in the scenario's run figures and recordings."""
+    return results.colours[variant]
 
 
 def _style(results: Results, variant: str) -> str:

@@ -186,10 +186,12 @@ def main(argv: Sequence[str] | None = None, prog: str = PROG) -> int:
     written: list[Path] = []
     try:
         if not args.no_record:
+            from ftc_mj.outputs.palette import declared_colours
             from ftc_mj.outputs.recording import write_recording  # rerun is heavy to import; only when recording
 
             write_recording(recording_path, scenario=scenario.name, model=scenario.model, results=results,
-                            fault_onsets=onsets, seed=scenario.spec.seed, figures=scenario.figures)
+                            fault_onsets=onsets, seed=scenario.spec.seed, figures=scenario.figures,
+                            colours=declared_colours(scenario.raw["variants"]))
             written.append(recording_path)
         if args.json is not None:
             document = metrics_document(scenario, results, metrics)

@@ -15,7 +15,7 @@ import yaml
 from ftc_mj.analysis.metrics import unit
 from ftc_mj.campaign import statistics as st
 from ftc_mj.outputs.files import write_atomic
-from ftc_mj.outputs.palette import COLOURS
+from ftc_mj.outputs.palette import COLOURS, declared_colours
 from ftc_mj.tuning.optimise import Tuning, aggregate, condition_costs, violations
 
 
@@ -99,13 +99,17 @@ def _convergence_figure(tuning: Tuning, history: list[dict], path: Path) -> None
         best_of.append(min(values))
         median.append(float(np.median(values)))
     x = np.array(generations) + 1
+    # The tuned variant's colour (its colour in the scenario's run figures) for its best and its scenario gains;
+    # the generations' statistics in grey.
+    colour = declared_colours(tuning.campaign.scenario.raw.get("variants", {})).get(tuning.spec.variant,
+                                                                                  COLOURS["blue"])
     fig = Figure(figsize=(5.4, 3.6))
     ax = fig.subplots()
-    ax.plot(x, median, "o-", color=COLOURS["purple"], markersize=3, label="generation median")
-    ax.plot(x, best_of, "s-", color=COLOURS["green"], markersize=3, label="generation best")
-    ax.plot(x, best_so_far, "-", color=COLOURS["blue"], linewidth=2, label="best so far")
+    ax.plot(x, median, "o-", color=COLOURS["grey"], markersize=3, linewidth=0.8, label="generation median")
+    ax.plot(x, best_of, "s:", color=COLOURS["grey"], markersize=3, linewidth=0.8, label="generation best")
+    ax.plot(x, best_so_far, "-", color=colour, linewidth=2, label=f"best so far ({tuning.spec.variant})")
     baseline = aggregate(tuning, np.full((1, tuning.spec.conditions), sum(tuning.spec.cost.weights.values())))[0]
-    ax.axhline(baseline, color=COLOURS["red"], linestyle="--", label="the scenario's gains")
+    ax.axhline(baseline, color=colour, linestyle="--", label="the scenario's gains")
     ax.set_yscale("log")
     ax.set_xlabel("generation")
     ax.set_ylabel("cost (penalised)")
