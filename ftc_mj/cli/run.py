@@ -44,7 +44,33 @@ def build_parser(prog: str = PROG) -> argparse.ArgumentParser:
     parser.add_argument("--json", type=Path, metavar="PATH", help="write the metrics as JSON")
     parser.add_argument("--no-record", action="store_true", help="do not write a Rerun recording")
     parser.add_argument("--quiet", action="store_true", help="no progress display and no table")
+    parser.add_argument("--metrics", default="summary", metavar="WHICH",
+                        help="the table's metrics: summary (default: tracking after convergence, estimation "
+                             "errors, chattering, detection delay and false alarms), all, or a comma-separated "
+                             "list of names")
     return parser
+
+
+def chosen_metrics(which: str, diagnosis: bool) -> list[str]:
+    """The table's metrics for ``--metrics``.
+
+    Raises:
+        InputError: an unknown metric name.
+    """
+    from ftc_mj.analysis.metrics import METRICS
+    from ftc_mj.config.errors import InputError
+    from ftc_mj.outputs.tables import summary_metrics
+
+    if which == "summary":
+        return summary_metrics(diagnosis)
+    if which == "all":
+        return list(METRICS)
+    names = [name.strip() for name in which.split(",") if name.strip()]
+    unknown = [name for name in names if name not in METRICS]
+    if unknown or not names:
+        raise InputError("command line", "--metrics", f"unknown metric {unknown[0] if unknown else which!r} "
+                         f"(summary, all, or among: {', '.join(METRICS)})")
+    return names
 
 
 def _run_with_progress(scenario: Scenario, console: Console | None) -> list[VariantResult]:
@@ -70,15 +96,19 @@ def _run_with_progress(scenario: Scenario, console: Console | None) -> list[Vari
     return results
 
 
-def metrics_table(scenario: Scenario, results: Sequence[VariantResult], metrics: dict[str, dict]) -> Table:
-    """One line per metric and variant (the metric named on its first), one column per joint: a 7-joint arm
-    fits a screen."""
+def metrics_table(scenario: Scenario, results: Sequence[VariantResult], metrics: dict[str, dict],
+                  shown: Sequence[str] | None = None) -> Table:
+    """One line per metric and variant (the metric named on its first, a rule between metrics), one column per
+    joint: a 7-joint arm fits a screen. ``shown``: the metrics (default: all)."""
     from rich.table import Table
 
     from ftc_mj.analysis.metrics import METRICS, unit
 
     n = scenario.n_joints
-    table = Table(title=f"{scenario.name}: metrics, one column per joint", show_lines=False)
+    shown = list(METRICS if shown is None else shown)
+    every = len(shown) == len(METRICS)
+    table = Table(title=f"{scenario.name}: {'metrics' if every else 'summary (--metrics all: every metric)'}, "
+                        "one column per joint", show_lines=False)
     table.add_column("metric", no_wrap=True)
     table.add_column("unit", no_wrap=True)
     table.add_column("variant", no_wrap=True)
@@ -87,11 +117,11 @@ def metrics_table(scenario: Scenario, results: Sequence[VariantResult], metrics:
     names = {r.name: r.name if r.status == "ok" else f"{r.name} [red](diverged at {r.diverged_at:.3f} s)[/red]"
              for r in results}
     space = scenario.diagnoser.space if scenario.diagnoser is not None else None
-    for metric in METRICS:
+    for metric in shown:
         for k, result in enumerate(results):
-            first = k == 0
+            first, last = k == 0, k == len(results) - 1
             table.add_row(metric if first else "", unit(metric, space) if first else "", names[result.name],
-                          *(_format(v) for v in metrics[result.name][metric]))
+                          *(_format(v) for v in metrics[result.name][metric]), end_section=last and not every)
     return table
 
 
@@ -163,6 +193,7 @@ def main(argv: Sequence[str] | None = None, prog: str = PROG) -> int:
 
     try:
         scenario = load_scenario(args.scenario, overrides=args.overrides, duration=args.duration, variants=args.variant)
+        shown = chosen_metrics(args.metrics, scenario.diagnoser is not None)
         recording_path = args.out or scenario.output_path
         for label, target in (("--out", None if args.no_record else recording_path), ("--json", args.json)):
             if target is not None:
@@ -176,10 +207,10 @@ def main(argv: Sequence[str] | None = None, prog: str = PROG) -> int:
     onsets = scenario.fault_onsets
     metrics = {r.name: compute_metrics(r, scenario.spec.metrics, onsets, scenario.joint_fault_onsets) for r in results}
     if not args.quiet:
-        # Wide enough for four variant columns even when the output is piped (rich then assumes 80).
+        # Wide enough for seven joint columns even when the output is piped (rich then assumes 80).
         table_console = Console()
-        table_console.width = max(table_console.width, 120)
-        table_console.print(metrics_table(scenario, results, metrics))
+        table_console.width = max(table_console.width, 100)
+        table_console.print(metrics_table(scenario, results, metrics, shown))
 
     # Recording first, JSON second; if the JSON cannot be written, the new recording goes too (exit 2 writes
     # nothing). Both are written whole or not at all (write_atomic).
