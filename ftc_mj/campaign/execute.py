@@ -82,6 +82,8 @@ class Campaign:
     fingerprint: str
     #: The base scenario (the campaign's ``set`` applied), compiled.
     scenario: Scenario
+    #: The command line that ran it, recorded in ``campaign.json`` ("" when run from Python).
+    command: str = ""
     groups: dict[str, list[Run]] = field(default_factory=dict)
 
     @property
@@ -91,9 +93,10 @@ class Campaign:
 
 
 def load(path: str | Path, runs: int | None = None, variants: list[str] | None = None,
-         duration: float | None = None) -> Campaign:
+         duration: float | None = None, assignments: dict[str, Any] | None = None) -> Campaign:
     """Read a campaign, expand its population and check every run before anything runs: each group's
     scenario compiles and each run's member values pass the scenario's schema and the methods' gain checks.
+    ``assignments`` (scenario field -> value, the command line's ``--set``) join the campaign's ``set``.
 
     Raises:
         InputError: naming the campaign file and the field (a drawn value that is refused names its run).
@@ -107,6 +110,8 @@ def load(path: str | Path, runs: int | None = None, variants: list[str] | None =
         spec.variants = list(variants)
     if duration is not None:
         spec.duration = duration
+    if assignments:
+        spec.set = {**spec.set, **assignments}
     scenario_path = (path.parent / spec.scenario).resolve()
     if not scenario_path.is_file():
         raise InputError(file, "scenario", f"no such file: {spec.scenario}")
@@ -428,6 +433,7 @@ def _summary(campaign: Campaign, table: pa.Table, seconds: float, simulated_runs
     return {
         "name": campaign.spec.name,
         "campaign": str(campaign.path),
+        "command": campaign.command,
         "scenario": str(campaign.scenario_path),
         "resolved": campaign.spec.model_dump(mode="json"),
         "fingerprint": campaign.fingerprint,

@@ -107,8 +107,8 @@ def metrics_table(scenario: Scenario, results: Sequence[VariantResult], metrics:
     n = scenario.n_joints
     shown = list(METRICS if shown is None else shown)
     every = len(shown) == len(METRICS)
-    table = Table(title=f"{scenario.name}: {'metrics' if every else 'summary (--metrics all: every metric)'}, "
-                        "one column per joint", show_lines=False)
+    table = Table(title=f"{scenario.name}: " + ("metrics, one column per joint" if every
+                                                 else "summary (--metrics all: every metric)"), show_lines=False)
     table.add_column("metric", no_wrap=True)
     table.add_column("unit", no_wrap=True)
     table.add_column("variant", no_wrap=True)
