@@ -96,4 +96,9 @@ def compile_method(file: str, field: str, method: MethodSpec, known: Mapping[str
         plugin = known[method.type]
     except PluginError as exc:
         raise InputError(file, f"{field}.type", str(exc)) from None
+    # Gains without defaults, all named in one line (the schema would report the first and a count).
+    needed = [name for name, info in plugin.Config.model_fields.items()
+              if info.is_required() and name not in method.gains]
+    if needed:
+        raise InputError(file, f"{field}.gains", f"{kind} {method.type!r} needs {', '.join(needed)} (no defaults)")
     return plugin, validate(plugin.Config, method.gains, file, f"{field}.gains", context={"n_joints": n})
