@@ -31,6 +31,9 @@ if TYPE_CHECKING:
     from ftc_mj.spec.scenario import Scenario
 
 PROG = "ftc-mj run"
+#: Rerun's default viewer address (``rerun`` listens there).
+DEFAULT_PORT = 9876
+DEFAULT_URL = f"rerun+http://127.0.0.1:{DEFAULT_PORT}/proxy"
 
 
 def build_parser(prog: str = PROG) -> argparse.ArgumentParser:
@@ -44,6 +47,12 @@ def build_parser(prog: str = PROG) -> argparse.ArgumentParser:
     parser.add_argument("--json", type=Path, metavar="PATH", help="write the metrics as JSON")
     parser.add_argument("--no-record", action="store_true", help="do not write a Rerun recording")
     parser.add_argument("--quiet", action="store_true", help="no progress display and no table")
+    viewer = parser.add_mutually_exclusive_group()  # Rerun's conventions (rr.script_add_args)
+    viewer.add_argument("--spawn", action="store_true", help="start a Rerun viewer and send it the recording")
+    viewer.add_argument("--connect", nargs="?", const=DEFAULT_URL, metavar="URL",
+                        help=f"send the recording to a running viewer or server (default: {DEFAULT_URL})")
+    viewer.add_argument("--serve", action="store_true",
+                        help="serve the recording over gRPC for viewers to connect to, until Ctrl-C")
     parser.add_argument("--metrics", default="summary", metavar="WHICH",
                         help="the table's metrics: summary (default: tracking after convergence, estimation "
                              "errors, chattering, detection delay and false alarms), all, or a comma-separated "
@@ -167,6 +176,20 @@ def metrics_document(scenario: Scenario, results: Sequence[VariantResult], metri
     }
 
 
+def _viewer_sinks(args: argparse.Namespace) -> list[object]:
+    """The Rerun sinks of ``--spawn``, ``--connect`` and ``--serve`` (none without them)."""
+    import rerun as rr
+
+    if args.spawn:
+        rr.spawn(port=DEFAULT_PORT, connect=False)
+        return [rr.GrpcSink(DEFAULT_URL)]
+    if args.connect:
+        return [rr.GrpcSink(args.connect)]
+    if args.serve:
+        return [rr.GrpcServerSink(port=DEFAULT_PORT)]
+    return []
+
+
 def _check_writable(file: str, option: str, target: Path) -> None:
     """Refuse, before running, an output path that cannot become a file: a directory, or below a file."""
     from ftc_mj.config.errors import InputError
@@ -195,6 +218,10 @@ def main(argv: Sequence[str] | None = None, prog: str = PROG) -> int:
         scenario = load_scenario(args.scenario, overrides=args.overrides, duration=args.duration, variants=args.variant)
         shown = chosen_metrics(args.metrics, scenario.diagnoser is not None)
         recording_path = args.out or scenario.output_path
+        viewer = next((o for o, on in (("--spawn", args.spawn), ("--connect", args.connect), ("--serve", args.serve))
+                       if on), None)
+        if viewer and args.no_record:
+            raise InputError("command line", viewer, "sends the recording to a viewer: drop --no-record")
         for label, target in (("--out", None if args.no_record else recording_path), ("--json", args.json)):
             if target is not None:
                 _check_writable(str(args.scenario), label, target)
@@ -222,7 +249,7 @@ def main(argv: Sequence[str] | None = None, prog: str = PROG) -> int:
 
             write_recording(recording_path, scenario=scenario.name, model=scenario.model, results=results,
                             fault_onsets=onsets, seed=scenario.spec.seed, figures=scenario.figures,
-                            colours=declared_colours(scenario.raw["variants"]))
+                            colours=declared_colours(scenario.raw["variants"]), sinks=_viewer_sinks(args))
             written.append(recording_path)
         if args.json is not None:
             document = metrics_document(scenario, results, metrics)
@@ -234,6 +261,16 @@ def main(argv: Sequence[str] | None = None, prog: str = PROG) -> int:
         return 2
     if written and not args.quiet:
         print(f"recording: {recording_path}  (open with: rerun {recording_path})", file=sys.stderr)
+    if args.serve and written:
+        print(f"serving the recording: rerun --connect rerun+http://127.0.0.1:{DEFAULT_PORT}/proxy "
+              "(Ctrl-C to stop)", file=sys.stderr, flush=True)
+        try:
+            import time
+
+            while True:
+                time.sleep(3600)
+        except KeyboardInterrupt:
+            pass
     diverged = [r for r in results if r.status != "ok" and "." not in r.name]  # monitors share their host's run
     for r in diverged:  # said whatever --quiet: an exit 1 explains itself
         print(f"diverged: variant {r.name!r} at t = {r.diverged_at:.6g} s", file=sys.stderr)

@@ -120,13 +120,15 @@ def write_recording(
     pose_stride: int = 10,
     figures: Sequence[Figure] | None = None,
     colours: Mapping[str, str] | None = None,
+    sinks: Sequence[object] = (),
 ) -> None:
     """Write all ``results`` of ``scenario`` into one ``.rrd`` at ``path``, atomically.
 
     ``figures`` (a scenario's, :attr:`ftc_mj.spec.scenario.Scenario.figures`) lay out the viewer and are stored
     for ``ftc-mj figures``; without them, one figure per core quantity. ``colours`` (a scenario's,
     :func:`ftc_mj.outputs.palette.declared_colours`) colour the variants, the same whichever of them ran;
-    without them, the palette's order over ``results``. The file is written beside
+    without them, the palette's order over ``results``. ``sinks`` (``rr.GrpcSink``, ``rr.GrpcServerSink``: a
+    viewer's) get the same stream as the file, the blueprint first. The file is written beside
     ``path`` under a temporary name and moved onto ``path`` only once complete, so ``path`` never holds a
     half-written recording; on any error the temporary file is removed and the error re-raised. Body poses (of
     the first variant that has them) are kept every ``pose_stride`` samples plus the last one.
@@ -144,7 +146,11 @@ def write_recording(
         rec = rr.RecordingStream("ftc_mj", recording_id=str(uuid.uuid4()))
         try:
             series = _series(results, len(t), layout.variants)
-            rec.save(tmp, default_blueprint=_blueprint(layout, series, t, posed.name if posed else None))
+            blueprint = _blueprint(layout, series, t, posed.name if posed else None)
+            if sinks:
+                rec.set_sinks(rr.FileSink(tmp), *sinks, default_blueprint=blueprint)
+            else:
+                rec.save(tmp, default_blueprint=blueprint)
             rec.send_recording_name(scenario)
             rec.send_property(LAYOUT_PROPERTY, rr.AnyValues(json=layout.to_json()))
             info = _info_markdown(scenario, seed, results, fault_onsets, layout.variants)
