@@ -58,6 +58,17 @@ def run_files(tmp_path_factory: pytest.TempPathFactory) -> Path:
     return folder
 
 
+def test_variants_a_figure_does_not_list_are_named(tmp_path: Path, capsys: pytest.CaptureFixture) -> None:
+    rrd = tmp_path / "run.rrd"
+    assert run_main([str(SCENARIO), "--duration", "0.02", "--out", str(rrd), "--quiet"]) == 0
+    capsys.readouterr()
+    assert figures_main([str(rrd), "--out", str(tmp_path / "f"), "--only", "fig5_3_velocity_error", "--dpi",
+                         "30"]) == 0
+    captured = capsys.readouterr()
+    assert captured.err.strip() == "fig5_3_velocity_error: not shown (not in its variants): nftsmc"
+    assert captured.out.strip() == str(tmp_path / "f" / "fig5_3_velocity_error.png")
+
+
 def test_assignment_by_declared_order_and_pinned_colours() -> None:
     assert assign_colours(["a", "b", "c"]) == {"a": COLOURS["red"], "b": COLOURS["blue"], "c": COLOURS["green"]}
     # b's own colour is red: a takes the next free one, c too.
