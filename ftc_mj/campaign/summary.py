@@ -182,10 +182,12 @@ def _depends(low: st.Estimate, high: st.Estimate) -> bool:
     return apart and verdict(low) != verdict(high)
 
 
-def _claims(results: Results) -> list[str]:
+def _claims(results: Results) -> tuple[list[str], list[list[str]]]:
+    """The claims' section, and its table's rows (claim, ordering, metric.joint, n, mean difference, win rate,
+    verdict, depends on) for the summary."""
     claims = results.spec.report.claims
     if not claims:
-        return []
+        return [], []
     resamples = results.spec.report.bootstrap
     lines = ["## Claims", "", "Each claim compares `better` with `worse` on the same runs: mean difference = mean of "
              "`better` minus `worse` (negative: the claim's direction), win rate = share of runs where `better` is "
@@ -225,20 +227,16 @@ def _claims(results: Results) -> list[str]:
                           dependence_rows), ""]
     else:
         lines += [f"No claim depends on any of the {len(fields)} varied fields.", ""]
-    return lines
+    return lines, rows
 
 
-def _claim_verdicts(claims: list[str]) -> list[str]:
-    """The summary's claims, from :func:`_claims`'s lines: one row per claim, its joints' win rates and verdicts
+def _claim_verdicts(claim_rows: list[list[str]]) -> list[str]:
+    """The summary's claims, from :func:`_claims`'s rows: one row per claim, its joints' win rates and verdicts
     (separated by " / ") and the fields it depends on."""
-    if not claims:
+    if not claim_rows:
         return []
-    start = claims.index("| claim | ordering | metric | n | mean difference | win rate | verdict | depends on |")
     grouped: dict[tuple[str, str, str], list[list[str]]] = {}
-    for line in claims[start + 2:]:
-        if not line.startswith("|"):
-            break
-        cells = [c.strip() for c in line.strip("|").split("|")]
+    for cells in claim_rows:
         grouped.setdefault((cells[0], cells[1], cells[2].rsplit(".", 1)[0]), []).append(cells)
     rows = []
     for (claim, ordering, metric), joints in grouped.items():
@@ -630,7 +628,7 @@ def write_report(directory: Path) -> list[Path]:
     head.append("")
     details = ["# Details", ""]
     details += _divergence(results)
-    claims = _claims(results)
+    claims, claim_rows = _claims(results)
     details += claims
     details += _metric_tables(results)
     for metric in results.spec.report.metrics:
@@ -642,7 +640,7 @@ def write_report(directory: Path) -> list[Path]:
     details += _diagnosis(results, figures, written)
     details += _heatmap(results, figures, written)
     overview = ["## Summary", ""]
-    verdicts = _claim_verdicts(claims)
+    verdicts = _claim_verdicts(claim_rows)
     if verdicts:
         overview += ["Claims (details and dependence below):", "", *verdicts]
     overview += _headline(results)

@@ -25,9 +25,10 @@ def test_the_same_type_keeps_the_files_gains():
     assert scenario.raw["variants"]["proposed"]["observer"]["gains"] == before
 
 
-@pytest.mark.parametrize("method, needed", [("kalman", "process_d, measurement"), ("eso", "bandwidth")])
-def test_a_new_type_alone_names_the_gains_it_needs(method, needed):
+@pytest.mark.parametrize("method, first, also", [("kalman", "process_d", "; it also needs measurement"),
+                                                 ("eso", "bandwidth", "")])
+def test_a_new_type_alone_names_the_gains_it_needs(method, first, also):
     with pytest.raises(InputError) as error:
         load_scenario(SCENARIO, duration=0.01, overrides=[f"variants.proposed.observer.type={method}"])
-    assert str(error.value) == (f"{SCENARIO}: variants.proposed.observer.gains: observer {method!r} needs {needed} "
-                                "(no defaults)")
+    assert str(error.value) == (f"{SCENARIO}: variants.proposed.observer.gains.{first}: required field is missing "
+                                f"(observer {method!r} has no default for it{also})")
