@@ -63,7 +63,6 @@ os.environ.setdefault("NUMBA_DISABLE_INTEL_SVML", "1")
 import numba  # noqa: E402
 import numpy as np  # noqa: E402
 from pydantic import Field, StrictInt, model_validator  # noqa: E402
-from scipy.signal import lfilter  # noqa: E402
 
 from ftc_mj.config.errors import InputError  # noqa: E402
 from ftc_mj.config.expressions import StateFunction, state_variables  # noqa: E402
@@ -266,6 +265,8 @@ def diagnose_result(diagnoser: Diagnoser | None, result: VariantResult, luaf_tor
 
 def low_pass(x: np.ndarray, dt: float, time_constant: float) -> np.ndarray:
     """First-order low-pass filter along axis 0, exactly discretised, starting at the first sample."""
+    from scipy.signal import lfilter  # imported here: scipy.signal costs more to import than a short run
+
     a = math.exp(-dt / time_constant)
     return lfilter([1.0 - a], [1.0, -a], x, axis=0, zi=a * x[:1])[0]
 

@@ -42,6 +42,7 @@ from ftc_mj.engine.runner import run_batch
 from ftc_mj.config.errors import InputError
 from ftc_mj.config.paths import input_file_problem
 from ftc_mj.outputs.files import parquet_bytes, write_atomic
+from ftc_mj.outputs.palette import declared_colours
 from ftc_mj.spec.loading import load_scenario
 from ftc_mj.spec.scenario import MAX_SEED, Scenario, series_bytes
 
@@ -83,6 +84,8 @@ class Campaign:
     fingerprint: str
     #: The base scenario (the campaign's ``set`` applied), compiled.
     scenario: Scenario
+    #: The command line that ran it, recorded in ``campaign.json`` ("" when run from Python).
+    command: str = ""
     groups: dict[str, list[Run]] = field(default_factory=dict)
 
     @property
@@ -98,9 +101,10 @@ class Campaign:
 
 
 def load(path: str | Path, runs: int | None = None, variants: list[str] | None = None,
-         duration: float | None = None) -> Campaign:
+         duration: float | None = None, assignments: dict[str, Any] | None = None) -> Campaign:
     """Read a campaign, expand its population and check every run before anything runs: each group's
     scenario compiles and each run's member values pass the scenario's schema and the methods' gain checks.
+    ``assignments`` (scenario field -> value, the command line's ``--set``) join the campaign's ``set``.
 
     Raises:
         InputError: naming the campaign file and the field (a drawn value that is refused names its run).
@@ -115,6 +119,8 @@ def load(path: str | Path, runs: int | None = None, variants: list[str] | None =
         spec.variants = list(variants)
     if duration is not None:
         spec.duration = duration
+    if assignments:
+        spec.set = {**spec.set, **assignments}
     scenario_path = (path.parent / spec.scenario).resolve()
     problem = input_file_problem(scenario_path)
     if problem is not None:
@@ -582,10 +588,13 @@ def _summary(campaign: Campaign, table: pa.Table, seconds: float, simulated_runs
     return {
         "name": campaign.spec.name,
         "campaign": str(campaign.path),
+        "command": campaign.command,
         "scenario": str(campaign.scenario_path),
         "resolved": campaign.spec.model_dump(mode="json"),
         "fingerprint": campaign.fingerprint,
         "variants": campaign.variants,
+        # Every variant's colour as in the scenario's run figures and recordings, for the report's figures.
+        "colours": declared_colours(campaign.scenario.raw.get("variants", {})),
         "runs": len(campaign.runs),
         "groups": len(campaign.groups),
         "rows": table.num_rows,

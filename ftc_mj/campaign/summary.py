@@ -29,7 +29,14 @@ from ftc_mj.campaign import statistics as st
 from ftc_mj.campaign.spec import CampaignSpec
 from ftc_mj.config.errors import InputError
 from ftc_mj.outputs.files import write_atomic
-from ftc_mj.outputs.palette import CAMPAIGN_LINE_STYLES, CAMPAIGN_ORDER
+from ftc_mj.outputs.palette import CAMPAIGN_LINE_STYLES, assign_colours
+
+#: Why a paired mean difference and its win rate can point different ways, said beside every paired statistic.
+MEAN_AND_WIN_RATE = ("The two can disagree: the mean weighs each run by the size of its difference, the win rate "
+                     "counts each run once, so a variant a little better on most runs but much worse on a few has "
+                     "a win rate above 1/2 and a positive mean difference.")
+#: The report metrics the summary's headline table shows (the first of the campaign's ``report.metrics``).
+HEADLINE_METRICS = 3
 
 #: Fine threshold multiples for ROC curves (the held residual peaks are continuous).
 ROC_SCALES = np.concatenate(([0.0], np.geomspace(0.05, 1000.0, 400)))
@@ -44,6 +51,9 @@ class Results:
     spec: CampaignSpec
     variants: list[str]
     columns: dict[str, np.ndarray]
+    #: Variant -> "#rrggbb": the scenario's colours (:func:`ftc_mj.outputs.palette.declared_colours`), as in its
+    #: run figures and recordings.
+    colours: dict[str, str]
 
     def of(self, variant: str, column: str) -> np.ndarray:
         """One column's values for one variant's rows, in run order."""
@@ -80,7 +90,9 @@ def read(directory: Path) -> Results:
     present = set(columns["variant"].tolist()) if "variant" in columns else set()
     variants = [v for v in summary["variants"] if v in present]
     variants += sorted(present - set(variants))  # monitors
-    return Results(directory, summary, CampaignSpec.model_validate(summary["resolved"]), variants, columns)
+    # Results written without the scenario's colours: the palette's order over the variants.
+    colours = {**assign_colours(variants), **summary.get("colours", {})}
+    return Results(directory, summary, CampaignSpec.model_validate(summary["resolved"]), variants, columns, colours)
 
 
 # ------------------------------------------------------------------------------------------------ tables
@@ -128,9 +140,11 @@ def _paired_tables(results: Results) -> list[str]:
     if not others:
         return []
     lines = ["## Paired differences", "",
-             f"`{reference}` minus each other variant on the same runs (negative: `{reference}` lower, i.e. better); "
-             f"win rate: share of runs where `{reference}` is lower (ties half), 95% Wilson interval; verdict "
-             "`holds` when both intervals favour it, `reversed` when both favour the other.", ""]
+             f"Each row compares `{reference}` with the variant named in `vs` on the same runs (the same fault, "
+             f"plant and noise): mean difference = mean of `{reference}` minus `vs` (negative: `{reference}` lower, "
+             f"i.e. better), 95% bootstrap interval; win rate = share of runs where `{reference}` is lower (ties "
+             "half), 95% Wilson interval; verdict `holds` when both intervals favour it, `reversed` when both "
+             f"favour the other. {MEAN_AND_WIN_RATE}", ""]
     resamples = results.spec.report.bootstrap
     for metric in results.spec.report.metrics:
         rows = []
@@ -168,16 +182,19 @@ def _depends(low: st.Estimate, high: st.Estimate) -> bool:
     return apart and verdict(low) != verdict(high)
 
 
-def _claims(results: Results) -> list[str]:
+def _claims(results: Results) -> tuple[list[str], list[list[str]]]:
+    """The claims' section, and its table's rows (claim, ordering, metric.joint, n, mean difference, win rate,
+    verdict, depends on) for the summary."""
     claims = results.spec.report.claims
     if not claims:
-        return []
+        return [], []
     resamples = results.spec.report.bootstrap
-    lines = ["## Claims", "", "Each claim: `better` has the lower metric on the same runs. Verdict as for the paired "
-             "differences. Then, per varied field, how the difference depends on it: Spearman's rho (p-value) and the "
-             "win rate in the lowest and the highest third of the field's values; **depends** where the claim's verdict "
-             "differs between the two thirds (holds: the win rate's interval above 1/2; reversed: below; open "
-             "otherwise) and their win rates differ (the intervals do not overlap).", ""]
+    lines = ["## Claims", "", "Each claim compares `better` with `worse` on the same runs: mean difference = mean of "
+             "`better` minus `worse` (negative: the claim's direction), win rate = share of runs where `better` is "
+             f"lower; verdict as for the paired differences. {MEAN_AND_WIN_RATE} `depends on` names the varied "
+             "fields on which the verdict turns: it differs between the lowest and the highest third of the field's "
+             "values (holds: the win rate's interval above 1/2; reversed: below; open otherwise) and their win "
+             "rates differ (the intervals do not overlap); the dependence table below lists those only.", ""]
     rows, dependence_rows = [], []
     fields = _numeric_fields(results)
     for claim in claims:
@@ -195,18 +212,39 @@ def _claims(results: Results) -> list[str]:
                 flips = _depends(low, high)
                 if flips:
                     depends.append(f"`{name}`")
-                dependence_rows.append([claim.name, str(j), name, f"{rho:+.2f} ({pvalue:.2g})", low.text(".2f"),
-                                        high.text(".2f"), "**depends**" if flips else ""])
+                    dependence_rows.append([claim.name, str(j), name, f"{rho:+.2f} ({pvalue:.2g})", low.text(".2f"),
+                                            high.text(".2f")])
             rows.append([claim.name, f"{claim.better} < {claim.worse}", f"{claim.metric}.{j}", str(p.count),
                          p.mean_difference.text(), p.win_rate.text(".3f"), f"**{p.verdict}**",
                          ", ".join(depends) or "-"])
     lines += _table(["claim", "ordering", "metric", "n", "mean difference", "win rate", "verdict", "depends on"],
                     rows) + [""]
+    lines += ["### Dependence on the varied fields", ""]
     if dependence_rows:
-        lines += ["### Dependence on the varied fields", "",
-                  *_table(["claim", "joint", "field", "rho (p)", "win rate, lowest third", "win rate, highest third",
-                           ""], dependence_rows), ""]
-    return lines
+        lines += ["Where a claim depends on a field: Spearman's rho of the paired difference against the field "
+                  "(p-value) and the win rate in the lowest and the highest third of the field's values.", "",
+                  *_table(["claim", "joint", "field", "rho (p)", "win rate, lowest third", "win rate, highest third"],
+                          dependence_rows), ""]
+    else:
+        lines += [f"No claim depends on any of the {len(fields)} varied fields.", ""]
+    return lines, rows
+
+
+def _claim_verdicts(claim_rows: list[list[str]]) -> list[str]:
+    """The summary's claims, from :func:`_claims`'s rows: one row per claim, its joints' win rates and verdicts
+    (separated by " / ") and the fields it depends on."""
+    if not claim_rows:
+        return []
+    grouped: dict[tuple[str, str, str], list[list[str]]] = {}
+    for cells in claim_rows:
+        grouped.setdefault((cells[0], cells[1], cells[2].rsplit(".", 1)[0]), []).append(cells)
+    rows = []
+    for (claim, ordering, metric), joints in grouped.items():
+        depends = dict.fromkeys(f for cells in joints for f in cells[7].split(", ") if f != "-")
+        rows.append([claim, ordering, metric, " / ".join(c[2].rsplit(".", 1)[1] for c in joints),
+                     " / ".join(c[5].split(" ")[0] for c in joints), " / ".join(c[6] for c in joints),
+                     ", ".join(depends) or "-"])
+    return _table(["claim", "ordering", "metric", "joints", "win rate", "verdict", "depends on"], rows) + [""]
 
 
 # ------------------------------------------------------------------------------------------------ diagnosis
@@ -296,23 +334,36 @@ def _delays(results: Results, variant: str, scale: float) -> np.ndarray:
     return values[np.isfinite(values)]
 
 
+def _joint_set(joints: tuple[int, ...]) -> str:
+    """``(2,)`` -> "joint 2", ``(1, 3)`` -> "joints 1+3"."""
+    return f"joint {joints[0]}" if len(joints) == 1 else "joints " + "+".join(map(str, joints))
+
+
 def _confusion(results: Results, variants: list[str], path: Path, written: list[Path]) -> list[str]:
     """True faulty joint (or healthy) against the joints the diagnoser isolates at the scenario's threshold."""
     n = results.joints()
-    labels_true = ["healthy"] + [f"joint {j}" for j in range(1, n + 1)] + ["several"]
-    labels_pred = ["undetected"] + [f"joint {j}" for j in range(1, n + 1)] + ["several"]
-    matrices = {}
+    pairs = {}
     for variant in variants:
         faulty = np.column_stack([np.isfinite(results.of(variant, f"fault_onset.{j}")) for j in range(1, n + 1)])
         isolated = np.column_stack([results.of(variant, f"isolated.{j}").astype(float) > 0.5 for j in range(1, n + 1)])
-        matrix = np.zeros((n + 2, n + 2), dtype=int)
-        for f, i in zip(faulty, isolated):
-            row = 0 if not f.any() else (1 + int(np.flatnonzero(f)[0]) if f.sum() == 1 else n + 1)
-            col = 0 if not i.any() else (1 + int(np.flatnonzero(i)[0]) if i.sum() == 1 else n + 1)
-            matrix[row, col] += 1
+        pairs[variant] = [(tuple(np.flatnonzero(f) + 1), tuple(np.flatnonzero(i) + 1)) for f, i in zip(faulty, isolated)]
+    # Every single joint, then the sets of several joints that occur, each named by its joints.
+    sets = [(j,) for j in range(1, n + 1)]
+    sets += sorted({s for p in pairs.values() for pair in p for s in pair if len(s) > 1}, key=lambda s: (len(s), s))
+    rows_of, cols_of = [(), *sets], [(), *sets]
+    labels_true = ["healthy", *(_joint_set(s) for s in sets)]
+    labels_pred = ["undetected", *(_joint_set(s) for s in sets)]
+    matrices = {}
+    for variant, found in pairs.items():
+        matrix = np.zeros((len(rows_of), len(cols_of)), dtype=int)
+        for true, named in found:
+            matrix[rows_of.index(true), cols_of.index(named)] += 1
         matrices[variant] = matrix
-    keep_rows = [r for r in range(n + 2) if any(m[r].sum() for m in matrices.values())]
-    lines = ["### Isolation", "", "Rows: the true faulty joint; columns: the joints the diagnoser names faulty at the "
+    keep_rows = [r for r in range(len(rows_of)) if any(m[r].sum() for m in matrices.values())]
+    keep_cols = [c for c in range(len(cols_of)) if c <= n or any(m[:, c].sum() for m in matrices.values())]
+    labels_pred = [labels_pred[c] for c in keep_cols]
+    matrices = {v: m[:, keep_cols] for v, m in matrices.items()}
+    lines = ["### Isolation", "", "Rows: the truly faulty joint or joints; columns: the joints the diagnoser names faulty at the "
              "scenario's threshold (counts of runs).", ""]
     for variant, matrix in matrices.items():
         lines += [f"`{variant}`", "", *_table(["true \\ isolated", *labels_pred],
@@ -326,7 +377,7 @@ def _confusion(results: Results, variants: list[str], path: Path, written: list[
         for (r, c), count in np.ndenumerate(shown):
             ax.text(c, r, str(count), ha="center", va="center", fontsize=8,
                     color="white" if share[r, c] > 0.6 else "black")
-        ax.set_xticks(range(n + 2), labels_pred, rotation=45, ha="right", fontsize=8)
+        ax.set_xticks(range(len(labels_pred)), labels_pred, rotation=45, ha="right", fontsize=8)
         ax.set_yticks(range(len(keep_rows)), [labels_true[r] for r in keep_rows], fontsize=8)
         ax.set_title(variant, fontsize=9)
     axes[0][0].set_ylabel("true")
@@ -346,8 +397,8 @@ def _save(fig: Figure, path: Path) -> Path:
 
 
 def _colour(results: Results, variant: str) -> str:
-    """One colour and line style per variant, in the scenario's order, the same in every figure."""
-    return CAMPAIGN_ORDER[results.variants.index(variant) % len(CAMPAIGN_ORDER)]
+    """The variant's colour in the scenario's run figures and recordings."""
+    return results.colours[variant]
 
 
 def _style(results: Results, variant: str) -> str:
@@ -536,32 +587,65 @@ def _heatmap(results: Results, figures: Path, written: list[Path]) -> list[str]:
 # ------------------------------------------------------------------------------------------------ the report
 
 
+def _headline(results: Results) -> list[str]:
+    """Per variant: divergence and the mean of the first :data:`HEADLINE_METRICS` report metrics, the joints'
+    values separated by " / "."""
+    metrics = results.spec.report.metrics[:HEADLINE_METRICS]
+    rows = []
+    for variant in results.variants:
+        status = results.of(variant, "status")
+        cells = [variant, f"{int(np.sum(status == 'diverged'))} / {status.size}"]
+        for metric in metrics:
+            means = []
+            for j in range(1, results.joints() + 1):
+                values = results.of(variant, f"{metric}.{j}").astype(float)
+                values = values[np.isfinite(values)]
+                means.append(f"{values.mean():.3g}" if values.size else "-")
+            cells.append(" / ".join(means))
+        rows.append(cells)
+    header = ["variant", "diverged", *(f"{m} [{unit(m)}], mean per joint" for m in metrics)]
+    return _table(header, rows) + [""]
+
+
 def write_report(directory: Path) -> list[Path]:
-    """Write ``report.md`` and ``figures/*.png`` into ``directory``; the files written."""
+    """Write ``report.md`` and ``figures/*.png`` into ``directory``; the files written. The report opens with a
+    one-screen summary (the claims' verdicts, the headline table, links to the figures); the details follow."""
     results = read(directory)
     summary = results.summary
     figures = directory / "figures"
     written: list[Path] = []
     counts = ", ".join(f"{k}: {v}" for k, v in summary["status_counts"].items())
     per_period = summary["wall_time"] / summary["control_steps"] * 1e6 if summary.get("control_steps") else math.nan
-    lines = [f"# Campaign `{summary['name']}`", "", results.spec.description.strip(), "",
-             f"- base scenario: `{Path(summary['scenario']).name}`; variants: {', '.join(summary['variants'])}",
-             f"- runs: {summary['runs']} ({summary['groups']} structure group{'s' if summary['groups'] != 1 else ''}), rows: {summary['rows']} ({counts})",
-             f"- last `run`: {summary['simulated_runs']} runs simulated in {summary['wall_time']:.1f} s "
-             f"({summary['runs_per_second'] or 0:.3g} runs/s, {per_period:.3g} us per member and control period "
-             f"with {summary['physics_substeps']} physics steps; {summary['scheduler']}, {summary['workers']} "
-             "worker(s))", ""]
-    lines += _divergence(results)
-    lines += _claims(results)
-    lines += _metric_tables(results)
+    head = [f"# Campaign `{summary['name']}`", "", results.spec.description.strip(), "",
+            f"- base scenario: `{Path(summary['scenario']).name}`; variants: {', '.join(summary['variants'])}",
+            f"- runs: {summary['runs']} ({summary['groups']} structure group{'s' if summary['groups'] != 1 else ''}), rows: {summary['rows']} ({counts})",
+            f"- last `run`: {summary['simulated_runs']} runs simulated in {summary['wall_time']:.1f} s "
+            f"({summary['runs_per_second'] or 0:.3g} runs/s, {per_period:.3g} us per member and control period "
+            f"with {summary['physics_substeps']} physics steps; {summary['scheduler']}, {summary['workers']} "
+            "worker(s))"]
+    if summary.get("command"):
+        head.append(f"- command: `{summary['command']}`")
+    head.append("")
+    details = ["# Details", ""]
+    details += _divergence(results)
+    claims, claim_rows = _claims(results)
+    details += claims
+    details += _metric_tables(results)
     for metric in results.spec.report.metrics:
         path = _box_figure(results, metric, figures / f"box_{metric}.png")
         if path is not None:
             written.append(path)
-            lines += [f"![{metric}](figures/{path.name})", ""]
-    lines += _paired_tables(results)
-    lines += _diagnosis(results, figures, written)
-    lines += _heatmap(results, figures, written)
+            details += [f"![{metric}](figures/{path.name})", ""]
+    details += _paired_tables(results)
+    details += _diagnosis(results, figures, written)
+    details += _heatmap(results, figures, written)
+    overview = ["## Summary", ""]
+    verdicts = _claim_verdicts(claim_rows)
+    if verdicts:
+        overview += ["Claims (details and dependence below):", "", *verdicts]
+    overview += _headline(results)
+    if written:
+        overview += ["Figures: " + ", ".join(f"[{p.stem}](figures/{p.name})" for p in written), ""]
     report = directory / "report.md"
-    write_atomic(report, ("\n".join(lines) + "\n").encode())
+    write_atomic(report, ("\n".join(head + overview + details) + "\n").encode())
     return [report, *written]

@@ -1,12 +1,14 @@
 """Campaigns: ``ftc-mj campaign run|report|replay`` (also ``python -m ftc_mj.campaign``).
 
-    ftc-mj campaign run CAMPAIGN.yaml [--out DIR] [--runs N] [--batch-size B] [--workers N]
-                                      [--scheduler ADDRESS] [--quiet]
+    ftc-mj campaign run CAMPAIGN.yaml [--out DIR] [--runs N] [--duration S] [--set KEY=VALUE ...]
+                                      [--batch-size B] [--workers N] [--scheduler ADDRESS] [--quiet]
     ftc-mj campaign report DIR
     ftc-mj campaign replay DIR RUN_ID [--variant NAME ...] [--out FILE.rrd] [--json FILE.json]
 
 ``run`` simulates every run of the campaign's population for every variant (resuming what DIR already has),
-then writes ``runs.parquet``, ``campaign.json`` and the report. ``report`` writes the report again from DIR.
+then writes ``runs.parquet``, ``campaign.json`` and the report. ``--runs``, ``--duration`` and ``--set`` (a
+scenario field for every run, as the campaign's ``set``) make a smoke test of the same file; the command line
+is recorded in ``campaign.json`` and the report. ``report`` writes the report again from DIR.
 ``replay`` simulates one run alone, as ``ftc-mj run`` would, with a recording and its metrics.
 
 Exit status: 0 on success (diverged runs are results, not failures), 2 on bad input (one line naming the
@@ -39,6 +41,10 @@ def build_parser(prog: str = PROG) -> argparse.ArgumentParser:
     run.add_argument("campaign", type=Path)
     run.add_argument("--out", type=Path, metavar="DIR", help="results directory (default: results/<name>/)")
     run.add_argument("--runs", type=int, metavar="N", help="number of sampled points (the first N of the population)")
+    run.add_argument("--duration", type=float, metavar="S", help="override the campaign's duration [s]")
+    run.add_argument("--set", action="append", default=[], metavar="KEY=VALUE", dest="overrides",
+                     help="set a scenario field in every run (joins the campaign's set), e.g. "
+                          "sensors.position.noise_std=0")
     run.add_argument("--batch-size", type=int, metavar="B", help="members stepped together per batch")
     run.add_argument("--workers", type=int, metavar="N", help="worker processes (default: all cores)")
     run.add_argument("--scheduler", metavar="ADDRESS", help="a Dask scheduler, e.g. tcp://127.0.0.1:8786")
@@ -61,6 +67,35 @@ def _positive(value: int | None, option: str) -> None:
         raise InputError("command line", option, f"must be at least 1, not {value}")
 
 
+def assignments(items: Sequence[str], option: str = "--set") -> dict[str, object]:
+    """``KEY=VALUE`` strings as field -> value, each value read as YAML (``0.5``, ``[1, 2]``, ``text``).
+
+    Raises:
+        InputError: an item without ``=`` or a value that is not YAML.
+    """
+    import yaml
+
+    from ftc_mj.config.errors import InputError
+
+    found: dict[str, object] = {}
+    for item in items:
+        key, equals, text = item.partition("=")
+        if not equals or not key.strip():
+            raise InputError("command line", option, f"{item!r} is not KEY=VALUE")
+        try:
+            found[key.strip()] = yaml.safe_load(text)
+        except yaml.YAMLError:
+            raise InputError("command line", option, f"{key.strip()}: {text!r} is not a YAML value") from None
+    return found
+
+
+def command_line(prog: str, argv: Sequence[str]) -> str:
+    """The command as a shell would take it again."""
+    import shlex
+
+    return " ".join([prog, *(shlex.quote(a) for a in argv)])
+
+
 def _run(args: argparse.Namespace, console: Console) -> int:
     from rich.progress import (BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn,
                                TimeRemainingColumn)
@@ -77,7 +112,12 @@ def _run(args: argparse.Namespace, console: Console) -> int:
         check_output(args.out, file, "--out", directory=True, inputs=[args.campaign])
     if args.scheduler is not None:
         execute.check_scheduler_address(args.scheduler, file)
-    campaign = execute.load(args.campaign, args.runs)
+    if args.duration is not None and not args.duration > 0:
+        from ftc_mj.config.errors import InputError
+
+        raise InputError("command line", "--duration", f"must be positive, not {args.duration:g}")
+    campaign = execute.load(args.campaign, args.runs, duration=args.duration, assignments=assignments(args.overrides))
+    campaign.command = args.command_line
     out = args.out or Path("results") / campaign.spec.name
     check_output(out, file, "--out", directory=True, inputs=campaign.inputs)
     if args.scheduler is not None:
@@ -114,7 +154,9 @@ def _run(args: argparse.Namespace, console: Console) -> int:
 
 
 def main(argv: Sequence[str] | None = None, prog: str = PROG) -> int:
+    argv = list(sys.argv[1:] if argv is None else argv)
     args = build_parser(prog).parse_args(argv)
+    args.command_line = command_line(prog, argv)
     from concurrent.futures.process import BrokenProcessPool
 
     from rich.console import Console

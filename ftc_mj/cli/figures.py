@@ -30,6 +30,8 @@ def build_parser(prog: str = PROG) -> argparse.ArgumentParser:
                         help=f"comma-separated formats among {', '.join(FORMATS)} (default: png)")
     parser.add_argument("--dpi", type=int, default=150, help="resolution of PNG files (default: 150)")
     parser.add_argument("--only", nargs="+", default=[], metavar="NAME", help="draw only these figures")
+    parser.add_argument("--scenario-title", action="store_true",
+                        help="end each figure's title with the scenario's name")
     return parser
 
 
@@ -85,7 +87,12 @@ def main(argv: Sequence[str] | None = None, prog: str = PROG) -> int:
         series = read_entities(recording, {e for f in chosen for e in figures.entities_of(f, layout)})
         folder.mkdir(parents=True, exist_ok=True)
         for figure in chosen:
-            for path in figures.save(figures.draw(figure, layout, series), folder / figure.name, formats, args.dpi):
+            # The run's variants the figure's section does not list: one line on stderr (stdout lists files).
+            skipped = [s.name for s in layout.variants if s.name not in figure.variants]
+            if skipped:
+                print(f"{figure.name}: not shown (not in its variants): {', '.join(skipped)}", file=sys.stderr)
+            drawing = figures.draw(figure, layout, series, args.scenario_title)
+            for path in figures.save(drawing, folder / figure.name, formats, args.dpi):
                 print(path)
     return 0
 

@@ -32,6 +32,9 @@ if TYPE_CHECKING:
     from ftc_mj.spec.scenario import Scenario
 
 PROG = "ftc-mj run"
+#: Rerun's default viewer address (``rerun`` listens there).
+DEFAULT_PORT = 9876
+DEFAULT_URL = f"rerun+http://127.0.0.1:{DEFAULT_PORT}/proxy"
 
 
 def build_parser(prog: str = PROG) -> argparse.ArgumentParser:
@@ -49,7 +52,39 @@ def build_parser(prog: str = PROG) -> argparse.ArgumentParser:
                         help="write per variant what a real controller would have logged (PATH.<variant>.csv "
                              "or .mcap, by PATH's extension): time, measured positions and velocities, commanded "
                              "and delivered torques")
+    viewer = parser.add_mutually_exclusive_group()  # Rerun's conventions (rr.script_add_args)
+    viewer.add_argument("--spawn", action="store_true", help="start a Rerun viewer and send it the recording")
+    viewer.add_argument("--connect", nargs="?", const=DEFAULT_URL, metavar="URL",
+                        help=f"send the recording to a running viewer or server (default: {DEFAULT_URL})")
+    viewer.add_argument("--serve", action="store_true",
+                        help="serve the recording over gRPC for viewers to connect to, until Ctrl-C")
+    parser.add_argument("--metrics", default="summary", metavar="WHICH",
+                        help="the table's metrics: summary (default: tracking after convergence, estimation "
+                             "errors, chattering, detection delay and false alarms), all, or a comma-separated "
+                             "list of names")
     return parser
+
+
+def chosen_metrics(which: str, diagnosis: bool) -> list[str]:
+    """The table's metrics for ``--metrics``.
+
+    Raises:
+        InputError: an unknown metric name.
+    """
+    from ftc_mj.analysis.metrics import METRICS
+    from ftc_mj.config.errors import InputError
+    from ftc_mj.outputs.tables import summary_metrics
+
+    if which == "summary":
+        return summary_metrics(diagnosis)
+    if which == "all":
+        return list(METRICS)
+    names = [name.strip() for name in which.split(",") if name.strip()]
+    unknown = [name for name in names if name not in METRICS]
+    if unknown or not names:
+        raise InputError("command line", "--metrics", f"unknown metric {unknown[0] if unknown else which!r} "
+                         f"(summary, all, or among: {', '.join(METRICS)})")
+    return names
 
 
 def _run_with_progress(scenario: Scenario, console: Console | None) -> list[VariantResult]:
@@ -75,15 +110,19 @@ def _run_with_progress(scenario: Scenario, console: Console | None) -> list[Vari
     return results
 
 
-def metrics_table(scenario: Scenario, results: Sequence[VariantResult], metrics: dict[str, dict]) -> Table:
-    """One line per metric and variant (the metric named on its first), one column per joint: a 7-joint arm
-    fits a screen."""
+def metrics_table(scenario: Scenario, results: Sequence[VariantResult], metrics: dict[str, dict],
+                  shown: Sequence[str] | None = None) -> Table:
+    """One line per metric and variant (the metric named on its first, a rule between metrics), one column per
+    joint: a 7-joint arm fits a screen. ``shown``: the metrics (default: all)."""
     from rich.table import Table
 
     from ftc_mj.analysis.metrics import METRICS, unit
 
     n = scenario.n_joints
-    table = Table(title=f"{scenario.name}: metrics, one column per joint", show_lines=False)
+    shown = list(METRICS if shown is None else shown)
+    every = len(shown) == len(METRICS)
+    table = Table(title=f"{scenario.name}: " + ("metrics, one column per joint" if every
+                                                 else "summary (--metrics all: every metric)"), show_lines=False)
     table.add_column("metric", no_wrap=True)
     table.add_column("unit", no_wrap=True)
     table.add_column("variant", no_wrap=True)
@@ -92,11 +131,11 @@ def metrics_table(scenario: Scenario, results: Sequence[VariantResult], metrics:
     names = {r.name: r.name if r.status == "ok" else f"{r.name} [red](diverged at {r.diverged_at:.3f} s)[/red]"
              for r in results}
     space = scenario.diagnoser.space if scenario.diagnoser is not None else None
-    for metric in METRICS:
+    for metric in shown:
         for k, result in enumerate(results):
-            first = k == 0
+            first, last = k == 0, k == len(results) - 1
             table.add_row(metric if first else "", unit(metric, space) if first else "", names[result.name],
-                          *(_format(v) for v in metrics[result.name][metric]))
+                          *(_format(v) for v in metrics[result.name][metric]), end_section=last and not every)
     return table
 
 
@@ -142,6 +181,20 @@ def metrics_document(scenario: Scenario, results: Sequence[VariantResult], metri
     }
 
 
+def _viewer_sinks(args: argparse.Namespace) -> list[object]:
+    """The Rerun sinks of ``--spawn``, ``--connect`` and ``--serve`` (none without them)."""
+    import rerun as rr
+
+    if args.spawn:
+        rr.spawn(port=DEFAULT_PORT, connect=False)
+        return [rr.GrpcSink(DEFAULT_URL)]
+    if args.connect:
+        return [rr.GrpcSink(args.connect)]
+    if args.serve:
+        return [rr.GrpcServerSink(port=DEFAULT_PORT)]
+    return []
+
+
 def main(argv: Sequence[str] | None = None, prog: str = PROG) -> int:
     args = build_parser(prog).parse_args(argv)
     from rich.console import Console
@@ -157,7 +210,12 @@ def main(argv: Sequence[str] | None = None, prog: str = PROG) -> int:
             if target is not None:  # before loading: the scenario is an input whatever it inherits
                 check_output(target, file, option, inputs=[args.scenario])
         scenario = load_scenario(args.scenario, overrides=args.overrides, duration=args.duration, variants=args.variant)
+        shown = chosen_metrics(args.metrics, scenario.diagnoser is not None)
         recording_path = args.out or scenario.output_path
+        viewer = next((o for o, on in (("--spawn", args.spawn), ("--connect", args.connect), ("--serve", args.serve))
+                       if on), None)
+        if viewer and args.no_record:
+            raise InputError("command line", viewer, "sends the recording to a viewer: drop --no-record")
         outputs = [("--out", None if args.no_record else recording_path), ("--json", args.json)]
         for option, target in outputs:
             if target is not None:
@@ -188,18 +246,20 @@ def main(argv: Sequence[str] | None = None, prog: str = PROG) -> int:
         metrics = {r.name: compute_metrics(r, scenario.spec.metrics, onsets, scenario.joint_fault_onsets)
                    for r in results}
         if not args.quiet:
-            # Wide enough for four variant columns even when the output is piped (rich then assumes 80).
+            # Wide enough for seven joint columns even when the output is piped (rich then assumes 80).
             table_console = Console()
-            table_console.width = max(table_console.width, 120)
-            table_console.print(metrics_table(scenario, results, metrics))
+            table_console.width = max(table_console.width, 100)
+            table_console.print(metrics_table(scenario, results, metrics, shown))
 
         # Recording first, JSON second, exported logs last; if one cannot be written, those written before go too
         # (exit 2 writes nothing). Each is written whole or not at all (write_atomic).
         if not args.no_record:
+            from ftc_mj.outputs.palette import declared_colours
             from ftc_mj.outputs.recording import write_recording  # rerun is heavy to import; only when recording
 
             write_recording(recording_path, scenario=scenario.name, model=scenario.model, results=results,
-                            fault_onsets=onsets, seed=scenario.spec.seed, figures=scenario.figures)
+                            fault_onsets=onsets, seed=scenario.spec.seed, figures=scenario.figures,
+                            colours=declared_colours(scenario.raw["variants"]), sinks=_viewer_sinks(args))
             written.append(recording_path)
         if args.json is not None:
             document = metrics_document(scenario, results, metrics)
@@ -227,6 +287,16 @@ def main(argv: Sequence[str] | None = None, prog: str = PROG) -> int:
         return 130
     if recording_path in written and not args.quiet:
         print(f"recording: {recording_path}  (open with: rerun {recording_path})", file=sys.stderr)
+    if args.serve and written:
+        print(f"serving the recording: rerun --connect rerun+http://127.0.0.1:{DEFAULT_PORT}/proxy "
+              "(Ctrl-C to stop)", file=sys.stderr, flush=True)
+        try:
+            import time
+
+            while True:
+                time.sleep(3600)
+        except KeyboardInterrupt:
+            pass
     diverged = [r for r in results if r.status != "ok" and r.host is None]  # monitors share their host's run
     for r in diverged:  # said whatever --quiet: an exit 1 explains itself
         print(f"diverged: variant {r.name!r} at t = {r.diverged_at:.6g} s", file=sys.stderr)

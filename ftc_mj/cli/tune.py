@@ -4,6 +4,9 @@ CMA-ES over a variant's gains on a campaign's population of conditions (faults, 
 detector's false alarms and delays as constraints; then the tuned gains and the scenario's own on held-out
 conditions. Writes into DIR (default ``results/tuning/<name>/``): ``best.yaml``, ``history.parquet``,
 ``report.md`` with ``convergence.png``, and ``report.json``. The same command on the same DIR resumes.
+``--conditions``, ``--held-out``, ``--population``, ``--generations``, ``--duration`` and ``--set`` (a
+scenario field in every run) shrink a tuning to a smoke test of the same file; the command line is recorded
+in ``best.yaml`` (a comment), ``report.json`` and ``report.md``.
 
 Exit status: 0 on success, 2 on bad input (one line naming the file, the field and the problem), 130 when
 interrupted (finished generations are kept).
@@ -26,6 +29,12 @@ def build_parser(prog: str = PROG) -> argparse.ArgumentParser:
     parser.add_argument("tuning", type=Path, help="tuning YAML file")
     parser.add_argument("--out", type=Path, metavar="DIR", help="results directory (default: results/tuning/<name>/)")
     parser.add_argument("--generations", type=int, metavar="G", help="override the optimizer's generations")
+    parser.add_argument("--population", type=int, metavar="P", help="override the candidates per generation")
+    parser.add_argument("--conditions", type=int, metavar="N", help="override the training conditions")
+    parser.add_argument("--held-out", type=int, metavar="N", help="override the held-out conditions")
+    parser.add_argument("--duration", type=float, metavar="S", help="override the runs' duration [s]")
+    parser.add_argument("--set", action="append", default=[], metavar="KEY=VALUE", dest="overrides",
+                        help="set a scenario field in every run (joins the campaign's set)")
     parser.add_argument("--workers", type=int, metavar="N", help="worker processes (default: all cores)")
     parser.add_argument("--scheduler", metavar="ADDRESS", help="a Dask scheduler, e.g. tcp://127.0.0.1:8786")
     parser.add_argument("--quiet", action="store_true", help="no progress and no summary")
@@ -33,7 +42,9 @@ def build_parser(prog: str = PROG) -> argparse.ArgumentParser:
 
 
 def main(argv: Sequence[str] | None = None, prog: str = PROG) -> int:
+    argv = list(sys.argv[1:] if argv is None else argv)
     args = build_parser(prog).parse_args(argv)
+    from ftc_mj.cli.campaign import assignments, command_line
     from ftc_mj.config.errors import InputError
 
     try:
@@ -48,7 +59,19 @@ def main(argv: Sequence[str] | None = None, prog: str = PROG) -> int:
             check_output(args.out, file, "--out", directory=True, inputs=[args.tuning])
         if args.scheduler is not None:
             execute.check_scheduler_address(args.scheduler, file)
-        tuning = optimise.prepare(args.tuning, args.generations)
+        fields = {}
+        for option, field, value in (("--population", "optimizer.population", args.population),
+                                     ("--conditions", "conditions", args.conditions),
+                                     ("--held-out", "held_out", args.held_out)):
+            if value is not None:
+                if value < 1:
+                    raise InputError("command line", option, f"must be at least 1, not {value}")
+                fields[field] = value
+        if args.duration is not None:
+            if not args.duration > 0:
+                raise InputError("command line", "--duration", f"must be positive, not {args.duration:g}")
+            fields["duration"] = args.duration
+        tuning = optimise.prepare(args.tuning, args.generations, fields, assignments(args.overrides))
         out = args.out or Path("results") / "tuning" / tuning.spec.name
         check_output(out, file, "--out", directory=True, inputs=[args.tuning, *tuning.campaign.inputs])
         if args.scheduler is not None:
@@ -59,7 +82,7 @@ def main(argv: Sequence[str] | None = None, prog: str = PROG) -> int:
                 print(f"generation {generation}/{total}: best cost {best:.4g}", file=sys.stderr, flush=True)
 
         result = optimise.optimise(tuning, out, workers=args.workers, scheduler=args.scheduler, progress=progress)
-        document = outcome.write(tuning, out, result)
+        document = outcome.write(tuning, out, result, command=command_line(prog, argv))
     except InputError as exc:
         print(f"error: {exc}", file=sys.stderr)
         return 2

@@ -96,4 +96,11 @@ def compile_method(file: str, field: str, method: MethodSpec, known: Mapping[str
         plugin = known[method.type]
     except PluginError as exc:
         raise InputError(file, f"{field}.type", str(exc)) from None
+    # Gains without defaults, all named in one line (the schema would report the first and a count).
+    needed = [name for name, info in plugin.Config.model_fields.items()
+              if info.is_required() and name not in method.gains]
+    if needed:
+        also = f"; it also needs {', '.join(needed[1:])}" if len(needed) > 1 else ""
+        raise InputError(file, f"{field}.gains.{needed[0]}", f"required field is missing ({kind} {method.type!r} "
+                                                             f"has no default for it{also})")
     return plugin, validate(plugin.Config, method.gains, file, f"{field}.gains", context={"n_joints": n})

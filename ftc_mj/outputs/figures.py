@@ -62,8 +62,9 @@ def _tex(unit: str) -> str:
     return unit.replace("^2", "$^2$").replace("^-1", "$^{-1}$")
 
 
-def draw(figure: Figure, layout: Layout, series: Series) -> Drawing:
-    """One figure: a row per joint (overview, and the zoom panel when there is one), a legend above."""
+def draw(figure: Figure, layout: Layout, series: Series, scenario_in_title: bool = False) -> Drawing:
+    """One figure: a row per joint (overview, and the zoom panel when there is one), a legend above; the
+    scenario's name after the title when ``scenario_in_title``."""
     zoom = zoom_span(figure, layout.duration)
     columns = 2 if zoom else 1
     rows = len(figure.joints)
@@ -100,7 +101,7 @@ def draw(figure: Figure, layout: Layout, series: Series) -> Drawing:
     if zoom:
         which = "" if figure.zoom_variants is None else f", {', '.join(figure.shown_in_zoom())}"
         axes[0, 1].set_title(f"zoom: {zoom[0]:g}-{zoom[1]:g} s{which}", fontsize=8)
-    fig.suptitle(f"{figure.title}  ({layout.scenario})", fontsize=10)
+    fig.suptitle(f"{figure.title}  ({layout.scenario})" if scenario_in_title else figure.title, fontsize=10)
     handles = _legend(figure, layout, kind)
     fig.legend(handles=handles, loc="outside lower center", ncol=min(5, len(handles)), fontsize=7.5, frameon=False)
     fig.get_layout_engine().set(h_pad=0.02, w_pad=0.04, hspace=0.02)
@@ -160,11 +161,15 @@ def _legend(figure: Figure, layout: Layout, kind: str | None) -> list[Line2D]:
     return handles
 
 
+#: Colours of a PNG's palette: line plots look the same at a third of the size of full colour.
+PNG_COLOURS = 64
+
+
 def save(fig: Drawing, stem: Path, formats: Sequence[str], dpi: int) -> list[Path]:
     """Write ``fig`` as ``stem.<format>`` for each format, without time stamps (a regenerated figure is the same
-    file). PNGs are stored with a 64-colour palette: line plots look the same at a third of the size."""
-    from PIL import Image
-
+    file). PNGs are stored with a :data:`PNG_COLOURS`-colour palette that holds every opaque colour of the
+    figure's legends exactly (:func:`png_palette`), so a swatch keeps its variant's colour even when its lines
+    cover few pixels."""
     written = []
     for fmt in formats:
         path = stem.with_suffix(f".{fmt}")
@@ -172,10 +177,47 @@ def save(fig: Drawing, stem: Path, formats: Sequence[str], dpi: int) -> list[Pat
             buffer = io.BytesIO()
             fig.savefig(buffer, format="png", dpi=dpi, metadata={"Software": None})
             buffer.seek(0)
-            image = Image.open(buffer).convert("RGB").quantize(colors=64, method=Image.Quantize.MEDIANCUT, dither=Image.Dither.NONE)
-            image.save(path, optimize=True)
+            _quantised(buffer, legend_colours(fig)).save(path, optimize=True)
         else:
             metadata = {"Date": None} if fmt == "svg" else {"CreationDate": None, "ModDate": None}
             fig.savefig(path, format=fmt, metadata=metadata)
         written.append(path)
     return written
+
+
+def legend_colours(fig: Drawing) -> list[tuple[int, int, int]]:
+    """The opaque line colours of the figure's legends (8-bit RGB), in order, without repeats."""
+    from matplotlib.colors import to_rgba
+
+    found: list[tuple[int, int, int]] = []
+    for legend in fig.legends:
+        for handle in legend.legend_handles:
+            get = getattr(handle, "get_color", None)
+            if get is None:
+                continue
+            r, g, b, a = to_rgba(get(), handle.get_alpha())
+            rgb = (round(r * 255), round(g * 255), round(b * 255))
+            if a == 1 and rgb not in found:
+                found.append(rgb)
+    return found
+
+
+def png_palette(image, fixed: Sequence[tuple[int, int, int]], size: int = PNG_COLOURS) -> list[int]:
+    """A flat RGB palette of ``size`` colours: ``fixed`` first, exactly, then the median-cut colours of the
+    image (white included) not already there."""
+    from PIL import Image
+
+    cut = image.quantize(colors=size, method=Image.Quantize.MEDIANCUT, dither=Image.Dither.NONE)
+    flat = cut.getpalette()[:3 * size]
+    colours = list(dict.fromkeys([*fixed, *(tuple(flat[i:i + 3]) for i in range(0, len(flat), 3))]))[:size]
+    colours += [colours[-1]] * (size - len(colours))
+    return [c for colour in colours for c in colour]
+
+
+def _quantised(buffer: io.BytesIO, fixed: Sequence[tuple[int, int, int]]):
+    from PIL import Image
+
+    image = Image.open(buffer).convert("RGB")
+    palette = Image.new("P", (1, 1))
+    palette.putpalette(png_palette(image, fixed))
+    return image.quantize(palette=palette, dither=Image.Dither.NONE)

@@ -21,7 +21,7 @@ from pydantic import Field, model_validator
 
 from ftc_mj.config.errors import InputError
 from ftc_mj.config.types import FiniteFloat, JointSelection, NonNegativeFloat, Strict, joint_indices
-from ftc_mj.outputs.palette import RUN_ORDER
+from ftc_mj.outputs.palette import assign_colours
 
 #: The scenario's validated spec (:class:`ftc_mj.spec.scenario.ScenarioSpec`, which assembles this module's
 #: section): read for its variants, terms, metrics and diagnosis. Not imported, since the scenario is above.
@@ -195,12 +195,16 @@ class VariantStyle:
     dash: Literal["solid", "dashed"]
 
 
-def variant_styles(names: Sequence[str], monitors: Collection[str] = ()) -> list[VariantStyle]:
-    """One colour per variant in order; ``monitors`` (the names of estimators beside a loop, feeding nothing:
-    :attr:`ftc_mj.results.VariantResult.host` is set) dashed, loops solid. The same in every figure and in the
-    viewer."""
-    return [VariantStyle(name, RUN_ORDER[i % len(RUN_ORDER)], "dashed" if name in monitors else "solid")
-            for i, name in enumerate(names)]
+def variant_styles(names: Sequence[str], monitors: Collection[str] = (),
+                   colours: Mapping[str, str] | None = None) -> list[VariantStyle]:
+    """One colour per variant: its colour in ``colours`` (a scenario's, :func:`ftc_mj.outputs.palette.
+    declared_colours`: the same whichever variants run), a name it lacks the first colour free after them
+    (:func:`ftc_mj.outputs.palette.assign_colours`); ``monitors`` (the names of estimators beside a loop,
+    feeding nothing: :attr:`ftc_mj.results.VariantResult.host` is set) dashed, loops solid. The same in every
+    figure and in the viewer."""
+    known = dict(colours or {})
+    chosen = assign_colours([*known, *(n for n in names if n not in known)], known)
+    return [VariantStyle(name, chosen[name], "dashed" if name in monitors else "solid") for name in names]
 
 
 def _units(spec: ScenarioSpec) -> dict[str, str]:

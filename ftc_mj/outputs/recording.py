@@ -33,7 +33,7 @@ from __future__ import annotations
 
 import contextlib
 import uuid
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 from pathlib import Path
 
 import mujoco
@@ -43,7 +43,8 @@ import rerun.blueprint as rrb
 
 from ftc_mj.results import VariantResult
 from ftc_mj.outputs.files import atomic_path
-from ftc_mj.outputs.layout import Figure, Layout, data_range, generic_figures, variant_styles, zoom_span
+from ftc_mj.outputs.layout import (Figure, Layout, VariantStyle, data_range, generic_figures, variant_styles,
+                                   zoom_span)
 from ftc_mj.outputs.palette import colour_name
 
 TIMELINE = "sim_time"
@@ -118,11 +119,16 @@ def write_recording(
     seed: int | None = None,
     pose_stride: int = 10,
     figures: Sequence[Figure] | None = None,
+    colours: Mapping[str, str] | None = None,
+    sinks: Sequence[object] = (),
 ) -> None:
     """Write all ``results`` of ``scenario`` into one ``.rrd`` at ``path``, atomically.
 
     ``figures`` (a scenario's, :attr:`ftc_mj.spec.scenario.Scenario.figures`) lay out the viewer and are stored
-    for ``ftc-mj figures``; without them, one figure per core quantity. The file is written beside
+    for ``ftc-mj figures``; without them, one figure per core quantity. ``colours`` (a scenario's,
+    :func:`ftc_mj.outputs.palette.declared_colours`) colour the variants, the same whichever of them ran;
+    without them, the palette's order over ``results``. ``sinks`` (``rr.GrpcSink``, ``rr.GrpcServerSink``: a
+    viewer's) get the same stream as the file, the blueprint first. The file is written beside
     ``path`` under a temporary name and moved onto ``path`` only once complete, so ``path`` never holds a
     half-written recording; on any error the temporary file is removed and the error re-raised. Body poses (of
     the first variant that has them) are kept every ``pose_stride`` samples plus the last one.
@@ -134,17 +140,21 @@ def write_recording(
     path = Path(path)
     posed = next((r for r in results if r.body_xpos.size > 0), None)
     t = _common_time(results)
-    layout = _layout(scenario, model, results, t, fault_onsets, figures)
+    layout = _layout(scenario, model, results, t, fault_onsets, figures, colours)
     with atomic_path(path) as tmp:
         # A fresh stream per call (never the global one), so several recordings in one process do not mix.
         rec = rr.RecordingStream("ftc_mj", recording_id=str(uuid.uuid4()))
         try:
-            series = _series(results, len(t))
-            rec.save(tmp, default_blueprint=_blueprint(layout, series, t, posed.name if posed else None))
+            series = _series(results, len(t), layout.variants)
+            blueprint = _blueprint(layout, series, t, posed.name if posed else None)
+            if sinks:
+                rec.set_sinks(rr.FileSink(tmp), *sinks, default_blueprint=blueprint)
+            else:
+                rec.save(tmp, default_blueprint=blueprint)
             rec.send_recording_name(scenario)
             rec.send_property(LAYOUT_PROPERTY, rr.AnyValues(json=layout.to_json()))
-            rec.log("/info", rr.TextDocument(_info_markdown(scenario, seed, results, fault_onsets),
-                                             media_type=rr.MediaType.MARKDOWN), static=True)
+            info = _info_markdown(scenario, seed, results, fault_onsets, layout.variants)
+            rec.log("/info", rr.TextDocument(info, media_type=rr.MediaType.MARKDOWN), static=True)
             _log_events(rec, results, fault_onsets)
             time = _time_column(t)
             for entity, (values, names, colors, widths) in series.items():
@@ -243,7 +253,8 @@ def _monitors(results: Sequence[VariantResult]) -> set[str]:
 
 
 def _layout(scenario: str, model: mujoco.MjModel, results: Sequence[VariantResult], t: np.ndarray,
-            fault_onsets: Sequence[float], figures: Sequence[Figure] | None) -> Layout:
+            fault_onsets: Sequence[float], figures: Sequence[Figure] | None,
+            colours: Mapping[str, str] | None = None) -> Layout:
     names = [r.name for r in results]
     dt = float(t[1] - t[0]) if len(t) > 1 else 0.0
     joints = [_dof_name(model, dof) for dof in range(model.nv)]
@@ -252,7 +263,7 @@ def _layout(scenario: str, model: mujoco.MjModel, results: Sequence[VariantResul
     else:  # a figure's variants that did not run are left out
         chosen = [f for f in (_with_variants(f, names) for f in figures) if f.variants]
     return Layout(scenario=scenario, duration=float(t[-1]) + dt if len(t) else 0.0,
-                  fault_onsets=[float(x) for x in fault_onsets], joints=joints, variants=variant_styles(names, _monitors(results)),
+                  fault_onsets=[float(x) for x in fault_onsets], joints=joints, variants=variant_styles(names, _monitors(results), colours),
                   samples={r.name: len(r.t) for r in results}, figures=chosen)
 
 
@@ -288,9 +299,9 @@ def _pale(rgb: list[int]) -> list[int]:
 Series = dict[str, tuple[np.ndarray, list[str], list[list[int]], list[float]]]
 
 
-def _series(results: Sequence[VariantResult], n_samples: int) -> Series:
-    """Every entity to log: (N, V) float32 values (NaN where a variant has none), line names, colours, widths."""
-    styles = variant_styles([r.name for r in results], _monitors(results))
+def _series(results: Sequence[VariantResult], n_samples: int, styles: Sequence[VariantStyle]) -> Series:
+    """Every entity to log: (N, V) float32 values (NaN where a variant has none), line names, colours (one
+    style per result, in order), widths."""
     rgb = [_hex_rgb(s.color) for s in styles]
     sources: list[tuple[str, str, str, list]] = []  # (prefix, attribute, kind, per-variant source or None)
     for prefix, attr, kind in SERIES:
@@ -354,11 +365,11 @@ def _log_events(rec: rr.RecordingStream, results: Sequence[VariantResult], fault
 
 
 def _info_markdown(scenario: str, seed: int | None, results: Sequence[VariantResult],
-                   fault_onsets: Sequence[float]) -> str:
+                   fault_onsets: Sequence[float], styles: Sequence[VariantStyle]) -> str:
     lines = [f"# {scenario}", "", f"- seed: {seed if seed is not None else 'not set'}",
              f"- fault onsets [s]: {', '.join(f'{t:g}' for t in fault_onsets) or 'none'}", "",
              "| variant | colour | observer | controller | samples | status |", "|---|---|---|---|---|---|"]
-    for r, style in zip(results, variant_styles([r.name for r in results], _monitors(results))):
+    for r, style in zip(results, styles):
         status = r.status if r.diverged_at is None else f"{r.status} at t = {r.diverged_at:g} s"
         colour = colour_name(style.color)
         lines.append(f"| {r.name} | {colour} | {r.observer} | {r.controller} | {len(r.t)} | {status} |")

@@ -12,6 +12,25 @@ from collections.abc import Sequence
 
 from ftc_mj.analysis.metrics import UNITS
 
+#: The run's summary (``ftc-mj run``'s table unless ``--metrics all``): metric groups, each one line per
+#: variant: tracking after convergence, estimation error, chattering and, with a diagnosis, its delay and false
+#: alarms.
+SUMMARY: tuple[tuple[str, str], ...] = (
+    ("tracking (converged)", "rms_error_converged"),
+    ("velocity estimation", "rms_velocity_error"),
+    ("LUaF estimation", "rms_luaf_error"),
+    ("chattering", "chattering"),
+    ("detection delay", "detection_delay"),
+    ("false alarms", "false_alarms"),
+)
+#: The summary's groups that need a ``diagnosis`` section.
+DIAGNOSIS_GROUPS = ("detection_delay", "false_alarms")
+
+
+def summary_metrics(diagnosis: bool) -> list[str]:
+    """The metrics of the summary table, without the diagnosis's when there is none."""
+    return [metric for _, metric in SUMMARY if diagnosis or metric not in DIAGNOSIS_GROUPS]
+
 
 def _cell(values: Sequence[float | None]) -> str:
     return " / ".join("-" if v is None or not math.isfinite(v) else f"{v:.3g}" for v in values)

@@ -29,6 +29,9 @@ class RobotSpec(Strict):
     #: Instead of ``model``: a MuJoCo Menagerie robot by name (``universal_robots_ur5e``), through the
     #: ``mujoco-menagerie`` package (downloaded on first use; a local checkout from ``MENAGERIE_ROOT``).
     menagerie: str | None = None
+    #: Instead of ``model``: a robot shipped with ftc_mj, by name (``puma560``, ``two_link``, ``ur5e``,
+    #: ``panda``; ``puma560.urdf`` for a URDF): found wherever the scenario file is (:data:`BUILTIN_MODELS`).
+    builtin: str | None = None
     #: The Menagerie entry point (an XML of the robot's folder); default: the robot alone (its default model).
     menagerie_entry: str | None = None
     #: The controlled joints, by name, in the model's order. With an MJCF it rebuilds the model as a testbed
@@ -60,8 +63,26 @@ class PlantSpec(Strict):
     mass_scale: PositiveFloat = 1.0
 
 
+#: The folder of the robots ``robot.builtin`` names.
+BUILTIN_MODELS = Path(__file__).resolve().parents[2] / "models"
+
+
+def builtin_model(name: str, file: str) -> Path:
+    """The shipped model file ``robot.builtin`` names (``.xml`` unless the name gives its suffix)."""
+    path = BUILTIN_MODELS / (name if Path(name).suffix else f"{name}.xml")
+    known = sorted(p.stem if p.suffix == ".xml" else p.name for p in BUILTIN_MODELS.glob("*.*")
+                   if p.suffix in (".xml", ".urdf"))
+    if Path(name).name != name or not path.is_file():
+        raise InputError(file, "robot.builtin", f"no shipped robot {name!r} (shipped: {', '.join(known)})")
+    return path
+
+
 def load_robot(scenario_path: Path, robot: RobotSpec, file: str) -> tuple[Path, mujoco.MjModel]:
     """The robot's model file and its checked MjModel."""
+    if robot.builtin is not None:
+        if robot.model is not None or robot.menagerie is not None:
+            raise InputError(file, "robot.builtin", "give one of robot.builtin, robot.model and robot.menagerie")
+        robot = robot.model_copy(update={"model": str(builtin_model(robot.builtin, file))})
     if robot.menagerie is not None:
         if robot.model is not None:
             raise InputError(file, "robot.menagerie", "give either robot.model or robot.menagerie, not both")
@@ -103,7 +124,9 @@ def _model_file(scenario_path: Path, name: str, file: str) -> Path:
     model_path = (scenario_path.parent / name).resolve()
     problem = input_file_problem(model_path)
     if problem is not None:
-        raise InputError(file, "robot.model", f"model file {name!r} {problem}")
+        raise InputError(file, "robot.model", f"model file {name!r} {problem}: looked for {str(model_path)!r} "
+                                              "(relative to the scenario's folder; a shipped robot can be named "
+                                              "anywhere as robot.builtin)")
     return model_path
 
 

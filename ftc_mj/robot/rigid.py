@@ -46,6 +46,11 @@ per-function switch: it reads the setting once, when ``numba`` is first imported
 the whole process. The setting is therefore made here, where the kernels are built, before Numba is
 imported; a program that imports Numba before ftc_mj must set the variable itself (without SVML installed,
 ``numba.config.USING_SVML`` is False and nothing changes).
+
+**First run.** The kernel compiles on its first call on a machine and is cached by Numba: beside this file
+when its folder is writable (an editable install), else in the user's cache folder (a read-only install), or
+in ``NUMBA_CACHE_DIR`` when set. A call that has to compile says so in one line on stderr
+(:func:`announce_compilation`); ``benchmarks/first_compile.py`` measures what it costs.
 """
 
 from __future__ import annotations
@@ -54,6 +59,7 @@ import os
 
 os.environ.setdefault("NUMBA_DISABLE_INTEL_SVML", "1")  # before Numba is imported: see the module docstring
 
+import sys  # noqa: E402
 from dataclasses import dataclass  # noqa: E402
 
 import mujoco  # noqa: E402
@@ -174,11 +180,35 @@ class RigidTree:
         the other points' rows are left as they are. None: nowhere (nothing computed, nothing written)."""
         if momentum_points is None:
             momentum_points, coriolis_transpose, gravity = _NO_POINTS, _NO_TERMS, _NO_TERMS
+        if not _evaluate.signatures:
+            announce_compilation()
         _evaluate(self.parent, self.offset_position, self.offset_rotation, self.hinge, self.axis, self.anchor,
                   self.reference, self.gravity, self.sparse_row, self.sparse_column,
                   mass, first_moment, inertia, armature, qpos, qvel, applied,
                   sparse_M, factor, diagonal_inverse, qacc, bias, with_velocity,
                   momentum_points, coriolis_transpose, gravity)
+
+
+def cache_is_cold() -> bool:
+    """Whether the kernel's first call in this process will compile: Numba's cache holds no index of it, or
+    one older than this file (Numba then compiles again)."""
+    cache = getattr(_evaluate, "_cache", None)
+    index = getattr(getattr(cache, "_cache_file", None), "_index_path", None)
+    if index is None:  # a Numba without this layout: say nothing rather than something wrong
+        return False
+    try:
+        return os.stat(index).st_mtime < os.stat(__file__).st_mtime
+    except OSError:
+        return True
+
+
+def announce_compilation() -> None:
+    """One line on stderr when the kernel is about to compile (the first run on a machine, or after an update):
+    where the compiled code is cached, so that the wait is explained and happens once."""
+    if cache_is_cold():
+        where = getattr(_evaluate._cache, "_cache_path", "Numba's cache")
+        print(f"compiling the rigid-body model (first run on this machine, some seconds; cached in {where})",
+              file=sys.stderr, flush=True)
 
 
 @numba.njit(cache=True, nogil=True, inline="always")

@@ -11,7 +11,7 @@ one that wrote the value (the scenario or one of its bases).
 
 from __future__ import annotations
 
-from collections.abc import Mapping
+from collections.abc import Mapping, Sequence
 from pathlib import Path
 from typing import Any
 
@@ -23,6 +23,36 @@ from ftc_mj.spec.scenario import Scenario, ScenarioSpec, compile_scenario
 #: The scenario fields that hold a path relative to the scenario file (:func:`ftc_mj.robot.model.load_robot`):
 #: written in a base in another folder, they are rewritten to keep naming the same file.
 FILE_RELATIVE_FIELDS = ("robot.model",)
+
+
+def _method_of_type(key: str) -> tuple[str, ...] | None:
+    """The path of the method whose ``type`` ``key`` sets (a variant's observer or controller, or a monitor),
+    else None."""
+    parts = tuple(key.split("."))
+    if len(parts) < 4 or parts[0] != "variants" or parts[-1] != "type":
+        return None
+    method = parts[:-1]
+    return method if method[-1] in ("observer", "controller") or method[-2] == "monitors" else None
+
+
+def _lookup(raw: Any, path: Sequence[str]) -> Any:
+    for part in path:
+        raw = raw.get(part) if isinstance(raw, dict) else None
+    return raw
+
+
+def _drop_replaced_gains(raw: dict[str, Any], keys: Sequence[str], types_before: Mapping[tuple[str, ...], Any]) -> None:
+    """A method whose ``type`` an override changes keeps only the gains the overrides set (the file's are those
+    of the method it replaces): the new method starts from its own defaults, and the gains it has none for
+    are named in one line (:func:`ftc_mj.methods.registry.compile_method`)."""
+    for method, before in types_before.items():
+        node = _lookup(raw, method)
+        prefix = ".".join(method) + ".gains"
+        if not isinstance(node, dict) or node.get("type") == before or prefix in keys:
+            continue
+        gains = node.get("gains") if isinstance(node.get("gains"), dict) else {}
+        chosen = {key[len(prefix) + 1:].split(".")[0] for key in keys if key.startswith(prefix + ".")}
+        node["gains"] = {name: value for name, value in gains.items() if name in chosen}
 
 
 def load_scenario(
@@ -46,9 +76,12 @@ def load_scenario(
     file = str(path)
     resolved = resolve_bases(path, FILE_RELATIVE_FIELDS)
     raw, provenance = resolved.raw, resolved.provenance
+    keys = [item.partition("=")[0].strip() for item in overrides]
+    types_before = {m: _lookup(raw, (*m, "type")) for m in map(_method_of_type, keys) if m is not None}
     for item in overrides:
         apply_override(raw, item, file)
         provenance.claim(tuple(item.partition("=")[0].strip().split(".")), file)
+    _drop_replaced_gains(raw, keys, types_before)
     for key, value in (assignments or {}).items():
         set_path(raw, key, unshared(value), file)
         provenance.claim(tuple(key.split(".")), file)

@@ -27,7 +27,7 @@ from typing import Annotated, Any, Literal
 import mujoco
 import numpy as np
 import sympy
-from pydantic import Field, field_validator, model_validator
+from pydantic import AfterValidator, Field, field_validator, model_validator
 
 from ftc_mj.analysis.diagnosis import Diagnoser, DiagnosisSpec, compile_diagnoser
 from ftc_mj.analysis.metrics import MetricsSpec
@@ -64,6 +64,7 @@ from ftc_mj.outputs.layout import (
     check_figure_names,
     compile_figures,
 )
+from ftc_mj.outputs.palette import parse_colour
 from ftc_mj.robot.model import PlantSpec, RobotSpec, load_robot
 from ftc_mj.robot.nominal import NominalSpec
 
@@ -104,6 +105,10 @@ class VariantSpec(Strict):
     #: an open-loop comparison of estimators on one closed-loop trajectory. Each is reported as the variant
     #: ``<variant>.<name>`` (its tracking metrics are the host's).
     monitors: dict[str, MethodSpec] = {}
+    #: The variant's colour in every figure and the viewer: a palette name (red, blue, ...) or "#rrggbb".
+    #: Default: the first palette colour free after the earlier variants, in the file's order
+    #: (:func:`ftc_mj.outputs.palette.declared_colours`).
+    colour: Annotated[str, AfterValidator(parse_colour)] | None = None
 
     @field_validator("monitors")
     @classmethod

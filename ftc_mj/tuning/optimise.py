@@ -68,15 +68,19 @@ class Tuning:
             "campaign": self.campaign.fingerprint}, 24)
 
 
-def prepare(path: Path, generations: int | None = None) -> Tuning:
+def prepare(path: Path, generations: int | None = None, fields: dict[str, Any] | None = None,
+            assignments: dict[str, Any] | None = None) -> Tuning:
     """Read the tuning file and its campaign, pick the training and held-out conditions, and check that the
     gains exist, that the scenario's own lie within the bounds, and that the bounds' corners are valid gains.
+
+    ``fields`` override the tuning file's (:func:`~ftc_mj.tuning.spec.load_tuning`), ``assignments`` (scenario
+    field -> value) join the campaign's ``set``: the command line's smoke-test options.
 
     Raises:
         InputError: naming the tuning file (or the campaign file) and the field.
     """
     file = str(path)
-    spec = load_tuning(path, generations)
+    spec = load_tuning(path, generations, fields)
     campaign_path = (path.parent / spec.campaign).resolve()
     if not campaign_path.is_file():
         raise InputError(file, "campaign", f"no such file: {spec.campaign}")
@@ -86,7 +90,8 @@ def prepare(path: Path, generations: int | None = None) -> Tuning:
     if campaign_spec.samples is not None:
         per_sample = population_size(campaign_spec) // campaign_spec.samples.runs
         runs = math.ceil(need / per_sample)
-    campaign = execute.load(campaign_path, runs=runs, variants=[spec.variant], duration=spec.duration)
+    campaign = execute.load(campaign_path, runs=runs, variants=[spec.variant], duration=spec.duration,
+                            assignments=assignments)
     if len(campaign.runs) < need:
         raise InputError(file, "held_out", f"the campaign has {len(campaign.runs)} runs, fewer than conditions + "
                          f"held_out = {need}")

@@ -15,7 +15,7 @@ import yaml
 from ftc_mj.analysis.metrics import unit
 from ftc_mj.campaign import statistics as st
 from ftc_mj.outputs.files import write_atomic
-from ftc_mj.outputs.palette import COLOURS
+from ftc_mj.outputs.palette import COLOURS, declared_colours
 from ftc_mj.tuning.optimise import Tuning, aggregate, condition_costs, violations
 
 
@@ -41,8 +41,10 @@ def _clean(value: Any) -> Any:
     return value
 
 
-def write(tuning: Tuning, out: Path, result: dict[str, Any]) -> dict[str, Any]:
-    """Write the four files; returns the report.json document."""
+def write(tuning: Tuning, out: Path, result: dict[str, Any], command: str = "") -> dict[str, Any]:
+    """Write the four files; returns the report.json document. ``command``: the command line that ran the
+    tuning (default: ``ftc-mj tune`` and the file), recorded in each."""
+    command = command or f"ftc-mj tune {tuning.path}"
     spec = tuning.spec
     held = result["held"]
     costs = condition_costs(tuning, held, held)  # relative to the scenario's gains on each held-out condition
@@ -58,6 +60,7 @@ def write(tuning: Tuning, out: Path, result: dict[str, Any]) -> dict[str, Any]:
 
     document = {
         "name": spec.name,
+        "command": command,
         "variant": spec.variant,
         "gains": {"baseline": tuning.baseline, "tuned": result["best_gains"]},
         "training": {"conditions": spec.conditions, "generations": spec.optimizer.generations,
@@ -81,11 +84,20 @@ def write(tuning: Tuning, out: Path, result: dict[str, Any]) -> dict[str, Any]:
     }
     document = _clean(document)
     write_atomic(out / "report.json", (json.dumps(document, indent=2) + "\n").encode())
-    best = {"# tuned by": f"ftc-mj tune {tuning.path}", **_nested(result["best_gains"])}
-    write_atomic(out / "best.yaml", yaml.safe_dump(best, sort_keys=False).encode())
+    write_atomic(out / "best.yaml", best_yaml(result["best_gains"], command, spec.variant).encode())
     _convergence_figure(tuning, result["history"], out / "convergence.png")
     write_atomic(out / "report.md", _markdown(tuning, document, paired).encode())
     return document
+
+
+def best_yaml(gains: dict[str, float], command: str, variant: str) -> str:
+    """The tuned gains as a partial scenario (the nested mapping a scenario file holds: a ``base:`` of one, or
+    pasted into one), the provenance and the equivalent ``--set`` options in comments."""
+    nested = _nested(gains)
+    sets = " ".join(f"--set {path}={value:.6g}" for path, value in gains.items())
+    return "\n".join([f"# tuned gains of variant {variant}, by: {command}",
+                      f"# as options of ftc-mj run: {sets}",
+                      yaml.safe_dump(nested, sort_keys=False).rstrip(), ""])
 
 
 def _convergence_figure(tuning: Tuning, history: list[dict], path: Path) -> None:
@@ -99,13 +111,17 @@ def _convergence_figure(tuning: Tuning, history: list[dict], path: Path) -> None
         best_of.append(min(values))
         median.append(float(np.median(values)))
     x = np.array(generations) + 1
+    # The tuned variant's colour (its colour in the scenario's run figures) for its best and its scenario gains;
+    # the generations' statistics in grey.
+    colour = declared_colours(tuning.campaign.scenario.raw.get("variants", {})).get(tuning.spec.variant,
+                                                                                  COLOURS["blue"])
     fig = Figure(figsize=(5.4, 3.6))
     ax = fig.subplots()
-    ax.plot(x, median, "o-", color=COLOURS["purple"], markersize=3, label="generation median")
-    ax.plot(x, best_of, "s-", color=COLOURS["green"], markersize=3, label="generation best")
-    ax.plot(x, best_so_far, "-", color=COLOURS["blue"], linewidth=2, label="best so far")
+    ax.plot(x, median, "o-", color=COLOURS["grey"], markersize=3, linewidth=0.8, label="generation median")
+    ax.plot(x, best_of, "s:", color=COLOURS["grey"], markersize=3, linewidth=0.8, label="generation best")
+    ax.plot(x, best_so_far, "-", color=colour, linewidth=2, label=f"best so far ({tuning.spec.variant})")
     baseline = aggregate(tuning, np.full((1, tuning.spec.conditions), sum(tuning.spec.cost.weights.values())))[0]
-    ax.axhline(baseline, color=COLOURS["red"], linestyle="--", label="the scenario's gains")
+    ax.axhline(baseline, color=colour, linestyle="--", label="the scenario's gains")
     ax.set_yscale("log")
     ax.set_xlabel("generation")
     ax.set_ylabel("cost (penalised)")
@@ -128,6 +144,7 @@ def _markdown(tuning: Tuning, doc: dict, paired: st.Paired) -> str:
              f"{sum(spec.cost.weights.values()):g}); aggregated as {spec.cost.aggregate}"
              + (f" (CVaR of the worst {spec.cost.fraction:g})" if spec.cost.aggregate == "mean_cvar" else "")
              + f"; plus {spec.optimizer.penalty:g} x the share of conditions violating a constraint.", "",
+             f"Command: `{doc['command']}`", "",
              "## Gains", "", "| gain | bounds | scenario | tuned |", "|---|---|---|---|"]
     for path in tuning.paths:
         b = spec.gains[path]

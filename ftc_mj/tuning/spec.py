@@ -24,7 +24,7 @@ from __future__ import annotations
 
 import math
 from pathlib import Path
-from typing import Annotated, Literal
+from typing import Annotated, Any, Literal
 
 from pydantic import Field, StrictBool, StrictInt, StrictStr, field_validator, model_validator
 
@@ -125,10 +125,19 @@ class TuningSpec(Strict):
         return self
 
 
-def load_tuning(path: Path, generations: int | None = None) -> TuningSpec:
-    """Read and validate a tuning file; ``generations`` overrides the optimizer's."""
+def load_tuning(path: Path, generations: int | None = None, fields: dict[str, Any] | None = None) -> TuningSpec:
+    """Read and validate a tuning file; ``generations`` overrides the optimizer's, ``fields`` (dotted path ->
+    value: the command line's size options, e.g. ``optimizer.population``) the file's before validation."""
     file = str(path)
     raw = read_yaml_mapping(path, "a tuning")
+    for dotted, value in (fields or {}).items():
+        node = raw
+        *parents, leaf = dotted.split(".")
+        for part in parents:
+            if not isinstance(node.get(part), dict):
+                node[part] = {}
+            node = node[part]
+        node[leaf] = value
     spec = validate(TuningSpec, raw, file)
     if generations is not None:
         if generations < 1:

@@ -409,7 +409,7 @@ def test_persistence_time_in_samples(tmp_path: Path) -> None:
 def test_table_json_and_recording(tmp_path: Path, capsys: pytest.CaptureFixture) -> None:
     rec, out = tmp_path / "rec.rrd", tmp_path / "out.json"
     status = main([str(FAULTS / "puma_loss_of_effectiveness.yaml"), "--variant", "proposed", "--duration", "9",
-                   "--out", str(rec), "--json", str(out)])
+                   "--out", str(rec), "--json", str(out), "--metrics", "all"])
     assert status == 0
     table = capsys.readouterr().out
     for metric in ("detection_delay", "false_alarms", "isolation_correct", "fault_estimate_rms"):

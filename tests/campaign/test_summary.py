@@ -51,3 +51,35 @@ def test_a_grid_of_two_numbers_gets_a_heat_map(tmp_path):
     written = write_report(out)
     assert out / "figures" / "heatmap.png" in written
     assert "## Grid" in (out / "report.md").read_text()
+
+
+def test_the_report_opens_with_a_summary(results):
+    text = (results / "report.md").read_text()
+    head, _, details = text.partition("# Details")
+    assert "## Summary" in head and "## Claims" in details
+    assert "| claim | ordering | metric | joints | win rate | verdict | depends on |" in head
+    assert "figures/roc.png" in head  # links to the figures
+    assert len(head.splitlines()) <= 40
+    assert "can disagree" in details.split("## Paired differences")[1]  # why mean and win rate differ
+    assert "several" not in text  # the isolation table names joints
+
+
+def test_smoke_options_shrink_the_run_and_are_recorded(tmp_path):
+    import json
+
+    path = small_campaign.write(tmp_path)
+    out = tmp_path / "out"
+    argv = ["run", str(path), "--out", str(out), "--quiet", "--workers", "1", "--runs", "2", "--duration", "0.4",
+            "--set", "sensors.position.noise_std=0"]
+    assert main(argv) == 0
+    summary = json.loads((out / "campaign.json").read_text())
+    assert summary["command"] == "ftc-mj campaign " + " ".join(argv)
+    assert summary["resolved"]["duration"] == 0.4 and summary["resolved"]["samples"]["runs"] == 2
+    assert summary["resolved"]["set"]["sensors.position.noise_std"] == 0
+    assert summary["command"] in (out / "report.md").read_text()
+
+
+def test_a_bad_set_is_one_line(tmp_path, capsys):
+    path = small_campaign.write(tmp_path)
+    assert main(["run", str(path), "--out", str(tmp_path / "out"), "--set", "duration"]) == 2
+    assert capsys.readouterr().err.strip() == "error: command line: --set: 'duration' is not KEY=VALUE"

@@ -29,6 +29,7 @@ import yaml
 
 from ftc_mj.analysis.metrics import METRICS
 from ftc_mj.cli.run import main
+from ftc_mj.outputs.tables import summary_metrics
 
 ROOT = Path(__file__).resolve().parents[2]
 PUMA_YAML = ROOT / "scenarios" / "puma_fault.yaml"
@@ -324,13 +325,34 @@ def test_short_run_metric_values_are_plausible(outcomes):
         assert metrics["chattering"] == [None, None, None], name
 
 
-def test_short_run_prints_the_table(outcomes):
+def test_short_run_prints_the_summary_on_one_screen(outcomes):
     stdout = outcomes["short_run"].stdout
     for name in VARIANTS:
         assert name in stdout
-    for metric in METRICS:
+    for metric in summary_metrics(diagnosis=True):
         assert metric in stdout
+    assert "rms_torque" not in stdout  # --metrics all only
     assert "puma_fault" in stdout
+    lines = stdout.splitlines()
+    assert len(lines) <= 36 and max(len(line) for line in lines) <= 100  # a 100 x 40 terminal, progress beside
+
+
+def test_metrics_all_prints_every_metric(tmp_path, monkeypatch, capsys):
+    case = Case(REFERENCE, ["--duration", "0.01", "--variant", "proposed", "--no-record", "--metrics", "all"])
+    outcome = run_in_process(tmp_path, case, monkeypatch, capsys)
+    assert outcome.returncode == 0, outcome.stderr
+    for metric in METRICS:
+        assert metric in outcome.stdout, metric
+
+
+def test_metrics_names_and_a_bad_name(tmp_path, monkeypatch, capsys):
+    case = Case(REFERENCE, ["--duration", "0.01", "--variant", "proposed", "--no-record", "--metrics", "rms_torque"])
+    outcome = run_in_process(tmp_path, case, monkeypatch, capsys)
+    assert outcome.returncode == 0 and "rms_torque" in outcome.stdout and "chattering" not in outcome.stdout
+    case = Case(REFERENCE, ["--duration", "0.01", "--no-record", "--metrics", "rms_torq"])
+    outcome = run_in_process(tmp_path, case, monkeypatch, capsys)
+    assert outcome.returncode == 2 and outcome.lines == [
+        f"error: command line: --metrics: unknown metric 'rms_torq' (summary, all, or among: {', '.join(METRICS)})"]
 
 
 # --------------------------------------------------------------------------------------------- diverging

@@ -190,3 +190,40 @@ def test_the_momentum_terms_equal_mujocos_and_are_a_points_own(name):
     alone = terms(slice(4, 5))
     np.testing.assert_array_equal(alone[0][0], transpose[4])
     np.testing.assert_array_equal(alone[1][0], gravity[4])
+
+
+FIRST_CALL = """
+import mujoco, numpy as np
+from ftc_mj.robot.nominal import rigid_body_model
+from ftc_mj.robot.rigid import RigidTree
+model = rigid_body_model(mujoco.MjModel.from_xml_path({model!r}))
+tree = RigidTree.from_model(model)
+n, points = model.nv, 1
+mass, first, inertia, armature = tree.scaled(np.ones(points))
+q, qd, applied = np.zeros((points, n)), np.zeros((points, n)), np.zeros((points, n))
+out = [np.zeros((points, len(tree.sparse_row))), np.zeros((points, len(tree.sparse_row))), np.zeros((points, n)),
+       np.zeros((points, n)), np.zeros((points, n))]
+tree.evaluate(mass, first, inertia, armature, q, qd, applied, *out, True)
+"""
+
+
+def test_the_first_compilation_is_announced_once_and_cached(tmp_path):
+    """An empty cache (a fresh NUMBA_CACHE_DIR): one line on stderr naming the cache; the next process loads
+    the cached kernel and says nothing."""
+    import os
+    import subprocess
+    import sys
+
+    env = {**os.environ, "NUMBA_CACHE_DIR": str(tmp_path), "PYTHONPATH": str(Path(__file__).resolve().parents[2])}
+    code = FIRST_CALL.format(model=str(MODELS / "puma560.xml"))
+
+    def stderr() -> list[str]:
+        done = subprocess.run([sys.executable, "-c", code], env=env, capture_output=True, text=True, timeout=600)
+        assert done.returncode == 0, done.stderr
+        return [line for line in done.stderr.splitlines() if line.strip()]
+
+    first = stderr()
+    assert len(first) == 1 and first[0].startswith("compiling the rigid-body model (first run on this machine")
+    assert str(tmp_path) in first[0]
+    assert any(tmp_path.rglob("*.nbi"))
+    assert stderr() == []

@@ -52,7 +52,10 @@ def test_the_files_a_user_gets(tuned):
     assert set(held["baseline"]) >= {"cost", "metrics"} and len(held["paired_difference"]["ci95"]) == 2
     # The scenario's gains cost the sum of the weights on every condition: the cost is relative to them.
     assert held["baseline"]["mean_condition_cost"] == pytest.approx(1.2)
-    best = yaml.safe_load((out / "best.yaml").read_text())
+    text = (out / "best.yaml").read_text()
+    best = yaml.safe_load(text)
+    assert list(best) == ["variants"]  # the provenance is a comment, not a key
+    assert text.startswith("# tuned gains of variant hs, by: ftc-mj tune ") and "--workers 1" in text.splitlines()[0]
     tuned_gains = report["gains"]["tuned"]
     assert best["variants"]["hs"]["controller"]["gains"]["mu"] == pytest.approx(
         tuned_gains["variants.hs.controller.gains.mu"], rel=1e-5)
@@ -65,6 +68,40 @@ def test_the_files_a_user_gets(tuned):
         assert 0.05 <= row["variants.hs.controller.gains.mu"] <= 5.0
     assert (out / "convergence.png").stat().st_size > 5000
     assert "## Held-out check" in (out / "report.md").read_text()
+
+
+def test_best_yaml_below_a_base_line_is_the_tuned_scenario(tuned):
+    from ftc_mj import load_scenario
+
+    path, out = tuned
+    report = json.loads((out / "report.json").read_text())
+    tuned_file = path.parent / "tuned_scenario.yaml"
+    tuned_file.write_text("base: scenario.yaml\n" + (out / "best.yaml").read_text())
+    scenario = load_scenario(tuned_file)
+    assert scenario.raw["variants"]["hs"]["controller"]["gains"]["mu"] == pytest.approx(
+        report["gains"]["tuned"]["variants.hs.controller.gains.mu"], rel=1e-5)
+
+
+def test_size_options_make_a_smoke_test_and_are_recorded(tmp_path):
+    path = write(tmp_path)
+    out = tmp_path / "smoke"
+    argv = [str(path), "--out", str(out), "--workers", "1", "--quiet", "--conditions", "1", "--held-out", "1",
+            "--population", "2", "--generations", "1", "--duration", "0.5", "--set", "sensors.position.noise_std=0"]
+    assert main(argv) == 0
+    report = json.loads((out / "report.json").read_text())
+    assert report["training"]["conditions"] == 1 and report["held_out"]["runs"] == 1
+    assert report["training"]["generations"] == 1 and report["training"]["population"] == 2
+    assert report["command"] == "ftc-mj tune " + " ".join(argv)
+    assert report["command"] in (out / "report.md").read_text()
+
+
+@pytest.mark.parametrize("option, value", [("--conditions", "0"), ("--population", "-1"), ("--duration", "nan"),
+                                           ("--set", "nokey")])
+def test_bad_size_options(tmp_path, capsys, option, value):
+    path = write(tmp_path)
+    assert main([str(path), "--out", str(tmp_path / "x"), option, value]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and err[0].startswith(f"error: command line: {option}: ")
 
 
 def test_resuming_gives_the_uninterrupted_tuning(tuned, tmp_path):
