@@ -23,7 +23,7 @@ from ftc_mj.bench import score as sc
 from ftc_mj.bench.execute import Found
 from ftc_mj.bench.spec import Bench
 from ftc_mj.outputs.files import parquet_bytes, write_atomic
-from ftc_mj.outputs.palette import CAMPAIGN_LINE_STYLES, CAMPAIGN_ORDER
+from ftc_mj.outputs.palette import CAMPAIGN_LINE_STYLES, ORDER, assign_colours
 
 PACKAGES = ("ftc_mj", "mujoco", "numpy")
 SCORES = {"diagnosis": sc.DIAGNOSIS_SCORES, "tracking": sc.TRACKING_SCORES}
@@ -163,8 +163,10 @@ def markdown(bench: Bench, tier: str, rows: list[dict[str, Any]], info: dict[str
 
 
 def _colours(entries: list[str]) -> dict[str, tuple[str, str]]:
-    return {name: (CAMPAIGN_ORDER[i % len(CAMPAIGN_ORDER)],
-                   CAMPAIGN_LINE_STYLES[(i // len(CAMPAIGN_ORDER)) % len(CAMPAIGN_LINE_STYLES)])
+    """Each entry's colour (the palette's rule over the bench file's order) and a line style that changes once
+    the colours are used up, so overlapping curves stay apart."""
+    colours = assign_colours(entries)
+    return {name: (colours[name], CAMPAIGN_LINE_STYLES[(i // len(ORDER)) % len(CAMPAIGN_LINE_STYLES)])
             for i, name in enumerate(entries)}
 
 

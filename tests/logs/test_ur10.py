@@ -30,7 +30,7 @@ def _residual_rms(results, name: str) -> np.ndarray:
 
 def test_free_motion_command_writes_table_json_recording(tmp_path, capsys):
     assert main([str(FREE), "--json", str(tmp_path / "m.json"), "--out", str(tmp_path / "r.rrd")]) == 0
-    assert "ur10_free_motion: metrics" in capsys.readouterr().out
+    assert "ur10_free_motion: summary" in capsys.readouterr().out
     document = json.loads((tmp_path / "m.json").read_text())
     assert set(document["variants"]) == {"tosmo", "hs_tosmo", "sosmo", "eso", "do", "momentum"}
     do = document["variants"]["do"]

@@ -13,7 +13,8 @@ from ftc_mj.spec.loading import load_scenario
 
 ROOT = Path(__file__).resolve().parents[2]
 #: Between them, every built-in observer and controller.
-SCENARIOS = ["two_link_do.yaml", "two_link_tosmo_simple.yaml", "puma_fault.yaml"]
+SCENARIOS = ["two_link_do.yaml", "two_link_tosmo_simple.yaml", "puma_fault.yaml", "baselines/observers_diagnosis.yaml",
+             "baselines/ctc_pd.yaml", "baselines/super_twisting.yaml", "baselines/pid.yaml"]
 
 
 def test_the_default_is_undeclared():

@@ -59,6 +59,7 @@ class ComputedTorque(Controller):
     Siciliano et al. 8.5.2) with C x2 + g = -M Psi of (5.2)."""
 
     name: ClassVar[str] = "computed_torque"
+    signal_names: ClassVar[frozenset[str] | None] = frozenset()
     Config: ClassVar[type[ComputedTorqueConfig]] = ComputedTorqueConfig
 
     def __init__(self, config: ComputedTorqueConfig, n_joints: int, dt: float, members: int | None = None):

@@ -45,6 +45,7 @@ class PID(Controller):
     section 3.5)."""
 
     name: ClassVar[str] = "pid"
+    signal_names: ClassVar[frozenset[str] | None] = frozenset({"integral"})
     Config: ClassVar[type[PIDConfig]] = PIDConfig
 
     def __init__(self, config: PIDConfig, n_joints: int, dt: float, members: int | None = None):

@@ -64,6 +64,7 @@ class SuperTwisting(SlidingModeController):
     """Super-twisting control (Levant 1993; Moreno and Osorio 2012) on s = e_dot + c e."""
 
     name: ClassVar[str] = "super_twisting"
+    signal_names: ClassVar[frozenset[str] | None] = frozenset({"twisting_integral"})
     Config: ClassVar[type[SuperTwistingConfig]] = SuperTwistingConfig
 
     def __init__(self, config: SuperTwistingConfig, n_joints: int, dt: float, members: int | None = None):

@@ -155,6 +155,7 @@ class KalmanObserver(Observer):
     """Per-joint Kalman filter on (q, qd, d) with the nominal model as known input (see the module docstring)."""
 
     name: ClassVar[str] = "kalman"
+    signal_names: ClassVar[frozenset[str] | None] = frozenset({"innovation"})
     Config: ClassVar[type[KalmanConfig]] = KalmanConfig
     #: The longest period of the covariance's steady state looked for (0: always the full recursion). 24 is a
     #: common multiple of the periods 1, 2, 3, 4, 6, 8 the recursion ends in.

@@ -153,6 +153,7 @@ class Levant(Observer):
     estimate gives the LUaF (see the module docstring)."""
 
     name: ClassVar[str] = "levant"
+    signal_names: ClassVar[frozenset[str] | None] = frozenset()
     Config: ClassVar[type[LevantConfig]] = LevantConfig
 
     def __init__(self, config: LevantConfig, n_joints: int, dt: float, members: int | None = None):

@@ -65,6 +65,7 @@ class MomentumObserver(Observer):
     """De Luca and Mattone's generalized momentum observer on the measured velocity; LUaF estimate M^-1 r."""
 
     name: ClassVar[str] = "momentum"
+    signal_names: ClassVar[frozenset[str] | None] = frozenset({"residual"})
     Config: ClassVar[type[MomentumConfig]] = MomentumConfig
     requires: ClassVar[frozenset[str]] = frozenset({"position", "velocity"})
     needs: ClassVar[frozenset[str]] = frozenset({"coriolis_transpose", "gravity"})

@@ -55,6 +55,7 @@ class NDOB(Observer):
     """Chen et al. 2000's NDOB on the measured velocity; LUaF estimate M^-1 d_hat."""
 
     name: ClassVar[str] = "ndob"
+    signal_names: ClassVar[frozenset[str] | None] = frozenset()
     Config: ClassVar[type[NDOBConfig]] = NDOBConfig
     requires: ClassVar[frozenset[str]] = frozenset({"position", "velocity"})
 
