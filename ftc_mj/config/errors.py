@@ -4,6 +4,8 @@ schema and raises that error."""
 
 from __future__ import annotations
 
+import difflib
+import typing
 from collections.abc import Callable
 from typing import Any, TypeVar
 
@@ -38,9 +40,12 @@ def _is_union_tag(part: Any) -> bool:
 
 
 def validation_error(file: str, prefix: str, exc: ValidationError,
-                     file_of: Callable[[tuple[str | int, ...]], str] | None = None) -> InputError:
+                     file_of: Callable[[tuple[str | int, ...]], str] | None = None,
+                     schema: type[BaseModel] | None = None) -> InputError:
     """The first problem of a pydantic validation failure as one :class:`InputError`, its field path under
-    ``prefix`` (union member tags dropped), with a count of the other problems.
+    ``prefix`` (union member tags dropped), with a count of the other problems. An unknown key comes first
+    (a misspelt ``durration`` is the mistake, not the ``duration`` it leaves missing), with the closest key
+    ``schema`` knows at its place, if one is close.
 
     ``file_of`` picks the file to name from the field path (relative to the validated model): the file that
     wrote the value, when a scenario inherits from a base (:mod:`ftc_mj.config.inheritance`); default ``file``.
@@ -52,7 +57,8 @@ def validation_error(file: str, prefix: str, exc: ValidationError,
         loc = error["loc"]
         cut = next((i for i, part in enumerate(loc) if _is_union_tag(part)), len(loc))
         groups.setdefault(tuple(loc[:cut]), []).append(error)
-    first_group = next(iter(groups.values()))
+    unknown = [group for group in groups.values() if any(error["type"] == "extra_forbidden" for error in group)]
+    first_group = unknown[0] if unknown else next(iter(groups.values()))
     # The member error that got furthest into the value (e.g. a bad list element) says the most.
     best = max(first_group, key=lambda error: len(error["loc"]))
     parts = tuple(part for part in best["loc"] if not _is_union_tag(part))
@@ -61,6 +67,9 @@ def validation_error(file: str, prefix: str, exc: ValidationError,
     message = best["msg"].removeprefix("Value error, ")
     if best["type"] == "extra_forbidden":
         message = "unknown key"
+        close = _closest_key(schema, parts)
+        if close is not None:
+            message += f" (did you mean {close!r}?)"
     elif best["type"] == "missing":
         message = "required field is missing"
     if len(groups) > 1:
@@ -78,4 +87,35 @@ def validate(schema: type[Model] | TypeAdapter, raw: Any, file: str, field: str 
             return schema.validate_python(raw, context=context)
         return schema.model_validate(raw, context=context)
     except ValidationError as exc:
-        raise validation_error(file, field, exc, file_of) from None
+        raise validation_error(file, field, exc, file_of,
+                               schema if isinstance(schema, type) and issubclass(schema, BaseModel) else None) from None
+
+
+def _closest_key(schema: type[BaseModel] | None, loc: tuple[str | int, ...]) -> str | None:
+    """The known key closest to the unknown last part of ``loc`` in the model that holds it, or None: the
+    models are followed along ``loc`` (a list index or a mapping's own key stays on the model it is in)."""
+    model = schema
+    for part in loc[:-1]:
+        fields = getattr(model, "model_fields", None)
+        if fields is None:
+            return None
+        if isinstance(part, str) and part in fields:
+            model = _model_in(fields[part].annotation)
+    fields = getattr(model, "model_fields", None)
+    if fields is None or not isinstance(loc[-1], str):
+        return None
+    close = difflib.get_close_matches(loc[-1], list(fields), n=1, cutoff=0.75)
+    return close[0] if close else None
+
+
+def _model_in(annotation: Any, depth: int = 0) -> type[BaseModel] | None:
+    """The first pydantic model in a field's annotation (through Optional, Annotated, list and dict)."""
+    if isinstance(annotation, type) and issubclass(annotation, BaseModel):
+        return annotation
+    if depth > 8:
+        return None
+    for argument in typing.get_args(annotation):
+        found = _model_in(argument, depth + 1)
+        if found is not None:
+            return found
+    return None

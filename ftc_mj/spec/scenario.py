@@ -19,6 +19,7 @@ Reading a file (YAML, ``--set``) is :mod:`ftc_mj.spec.loading`.
 
 from __future__ import annotations
 
+import math
 import os
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -327,6 +328,9 @@ def series_bytes(spec: ScenarioSpec, n: int) -> float:
 def _check_run_size(spec: ScenarioSpec, n: int, file: str) -> None:
     """Refuse a run whose control periods or kept series cannot fit, before anything is allocated."""
     periods = spec.duration / spec.control_dt
+    if not math.isfinite(periods):  # the ratio of two finite numbers can overflow: say so, not "inf GiB"
+        raise InputError(file, "duration", f"{spec.duration:g} s is too long: more control periods of "
+                         f"{spec.control_dt:g} s than a number can hold (shorten the run)")
     needed = series_bytes(spec, n)
     available = MEMORY_SHARE * machine_memory()
     if needed > available:

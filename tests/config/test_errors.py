@@ -1,0 +1,56 @@
+"""The one-line error of a failed validation (:mod:`ftc_mj.config.errors`): an unknown key is the mistake to
+name first, with the closest key its place knows."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import pytest
+import yaml
+
+from ftc_mj.config.errors import InputError
+from ftc_mj.spec.loading import load_scenario
+
+ROOT = Path(__file__).resolve().parents[2]
+BASE = ROOT / "scenarios" / "puma_fault.yaml"
+
+
+def _error(tmp_path: Path, text: str) -> InputError:
+    path = tmp_path / "s.yaml"
+    path.write_text(f"base: {BASE}\n{text}")
+    with pytest.raises(InputError) as caught:
+        load_scenario(path)
+    return caught.value
+
+
+@pytest.mark.parametrize(("text", "field", "suggestion"), [
+    ("durration: 3.0\n", "durration", "'duration'"),
+    ("variants:\n  proposed:\n    observer: {type: hs_tosmo, gainz: {D: 22}}\n", "variants.proposed.observer.gainz",
+     "'gains'"),
+    ("diagnosis:\n  threshhold: {k: 5}\n", "diagnosis.threshhold", "'threshold'"),
+])
+def test_an_unknown_key_is_named_with_the_closest_known_one(tmp_path, text, field, suggestion):
+    error = _error(tmp_path, text)
+    assert error.field == field and error.problem.startswith("unknown key") and suggestion in error.problem, error
+
+
+def test_no_suggestion_where_nothing_is_close(tmp_path):
+    error = _error(tmp_path, "zzzz: 1\n")
+    assert error.field == "zzzz" and error.problem == "unknown key", error
+
+
+def test_the_unknown_key_comes_before_the_value_it_leaves_missing(tmp_path):
+    raw = yaml.safe_load(BASE.read_text())
+    raw["robot"]["model"] = str((BASE.parent / raw["robot"]["model"]).resolve())
+    raw["metricz"] = raw.pop("metrics")  # the required metrics section is now missing too
+    path = tmp_path / "s.yaml"
+    path.write_text(yaml.safe_dump(raw))
+    with pytest.raises(InputError) as caught:
+        load_scenario(path)
+    assert caught.value.field == "metricz" and "did you mean 'metrics'" in caught.value.problem
+    assert "(and 1 more problem)" in caught.value.problem
+
+
+def test_a_duration_beyond_any_count_of_periods_says_so(tmp_path):
+    error = _error(tmp_path, "duration: 1.0e+308\n")
+    assert error.field == "duration" and "too long" in error.problem and "inf" not in error.problem, error
