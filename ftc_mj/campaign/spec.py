@@ -32,7 +32,7 @@ from pathlib import Path
 from typing import Annotated, Any, Literal
 
 import yaml
-from pydantic import Field, StrictInt, StrictStr, field_validator, model_validator
+from pydantic import AfterValidator, Field, StrictInt, StrictStr, field_validator, model_validator
 
 from ftc_mj.analysis.metrics import METRICS
 from ftc_mj.config.errors import InputError, validate
@@ -54,6 +54,15 @@ DEFAULT_REPORT_METRICS = ("rms_error_converged", "max_error_converged", "fault_p
                           "rms_velocity_error", "rms_luaf_error", "observer_convergence_time", "chattering",
                           "detection_delay")
 
+
+def _known_metric(metric: str) -> str:
+    if metric not in METRICS:
+        raise ValueError(f"unknown metric {metric!r}")
+    return metric
+
+
+#: A metric of :data:`ftc_mj.analysis.metrics.METRICS`, by name.
+MetricName = Annotated[StrictStr, AfterValidator(_known_metric)]
 
 class Distribution(Strict):
     """Exactly one of: ``uniform: [low, high]``, ``log_uniform: [low, high]`` (0 < low), ``normal: [mean, std]``,
@@ -118,18 +127,11 @@ class ClaimSpec(Strict):
     """An ordering to test over the population: ``better`` has a lower ``metric`` than ``worse``."""
 
     name: StrictStr
-    metric: StrictStr
+    metric: MetricName
     better: StrictStr
     worse: StrictStr
     #: 1-based joints (all when absent).
     joints: list[Annotated[StrictInt, Field(ge=1)]] | None = None
-
-    @field_validator("metric")
-    @classmethod
-    def _known_metric(cls, metric: str) -> str:
-        if metric not in METRICS:
-            raise ValueError(f"unknown metric {metric!r}")
-        return metric
 
 
 class DiagnosisStatsSpec(Strict):
@@ -145,19 +147,12 @@ class DiagnosisStatsSpec(Strict):
 
 
 class HeatmapSpec(Strict):
-    metric: StrictStr = "rms_error_converged"
+    metric: MetricName = "rms_error_converged"
     joint: Annotated[StrictInt, Field(ge=1)] = 1
-
-    @field_validator("metric")
-    @classmethod
-    def _known_metric(cls, metric: str) -> str:
-        if metric not in METRICS:
-            raise ValueError(f"unknown metric {metric!r}")
-        return metric
 
 
 class ReportSpec(Strict):
-    metrics: list[StrictStr] = list(DEFAULT_REPORT_METRICS)
+    metrics: list[MetricName] = list(DEFAULT_REPORT_METRICS)
     #: Paired differences are taken against this variant (default: the first).
     reference: StrictStr | None = None
     #: The column that measures the fault's size (a case value or a varied field), for P_d against size.
@@ -171,14 +166,6 @@ class ReportSpec(Strict):
     heatmap: HeatmapSpec = HeatmapSpec()
     #: Bootstrap resamples of every confidence interval.
     bootstrap: Annotated[StrictInt, Field(ge=100)] = 2000
-
-    @field_validator("metrics")
-    @classmethod
-    def _known_metrics(cls, metrics: list[str]) -> list[str]:
-        for metric in metrics:
-            if metric not in METRICS:
-                raise ValueError(f"unknown metric {metric!r}")
-        return metrics
 
 
 class CampaignSpec(Strict):

@@ -290,13 +290,13 @@ def main(argv: Sequence[str] | None = None, prog: str = PROG) -> int:
     if args.serve and written:
         print(f"serving the recording: rerun --connect rerun+http://127.0.0.1:{DEFAULT_PORT}/proxy "
               "(Ctrl-C to stop)", file=sys.stderr, flush=True)
-        try:
-            import time
+        import time
 
-            while True:
+        try:
+            while True:  # the server lives in this process: keep it until the user stops it
                 time.sleep(3600)
-        except KeyboardInterrupt:
-            pass
+        except KeyboardInterrupt:  # Ctrl-C ends the serving, the run's exit status follows
+            print("stopped serving", file=sys.stderr)
     diverged = [r for r in results if r.status != "ok" and r.host is None]  # monitors share their host's run
     for r in diverged:  # said whatever --quiet: an exit 1 explains itself
         print(f"diverged: variant {r.name!r} at t = {r.diverged_at:.6g} s", file=sys.stderr)

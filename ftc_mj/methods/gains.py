@@ -12,7 +12,7 @@ from __future__ import annotations
 from typing import Annotated, Any
 
 import numpy as np
-from pydantic import AfterValidator, BaseModel, ConfigDict, Field, ValidationInfo
+from pydantic import AfterValidator, BaseModel, ConfigDict, Field, ValidationInfo, model_validator
 
 from ftc_mj.config.types import NonNegativeFloat, PositiveFloat, joint_vector
 
@@ -35,3 +35,29 @@ class GainConfig(BaseModel):
     """Base of every plugin's gains: strict keys, immutable, NumPy vectors allowed."""
 
     model_config = ConfigDict(extra="forbid", frozen=True, arbitrary_types_allowed=True)
+
+
+class SuperTwistingGains(GainConfig):
+    """The gains of a super-twisting term k1 |x|^(1/2) sign(x) + integral k2 sign(x): either ``L``, the bound
+    that Levant's rule takes them from (k1 = 1.5 L^(1/2), k2 = 1.1 L; Levant 1998, 2003), or both ``k1`` and
+    ``k2``. Shared by the super-twisting observer (4.37) and the super-twisting controller."""
+
+    L: PositiveJoints | None = None
+    k1: PositiveJoints | None = None
+    k2: PositiveJoints | None = None
+
+    @model_validator(mode="after")
+    def _gains_given(self) -> "SuperTwistingGains":
+        explicit = (self.k1 is not None, self.k2 is not None)
+        if self.L is None and not all(explicit):
+            raise ValueError("give L (k1 = 1.5 L^(1/2), k2 = 1.1 L) or both k1 and k2")
+        if self.L is not None and any(explicit):
+            raise ValueError("give either L or k1, k2, not both")
+        return self
+
+    def gains(self) -> tuple[np.ndarray, np.ndarray]:
+        """(k1, k2), from Levant's rule when only L is given."""
+        if self.L is not None:
+            return 1.5 * np.sqrt(self.L), 1.1 * self.L
+        return self.k1, self.k2
+

@@ -28,37 +28,17 @@ from __future__ import annotations
 from typing import ClassVar
 
 import numpy as np
-from pydantic import model_validator
 
 from ftc_mj.methods.controllers.base import Compensation, Controller, SlidingModeController
-from ftc_mj.methods.gains import GainConfig, PositiveJoints
+from ftc_mj.methods.gains import PositiveJoints, SuperTwistingGains
 from ftc_mj.methods.primitives import signed_power
 
 
-class SuperTwistingConfig(GainConfig):
+class SuperTwistingConfig(SuperTwistingGains):
     """Slope ``c`` of s = e_dot + c e; either ``L`` (k1 = 1.5 L^(1/2), k2 = 1.1 L) or both ``k1``, ``k2``."""
 
     c: PositiveJoints
-    L: PositiveJoints | None = None
-    k1: PositiveJoints | None = None
-    k2: PositiveJoints | None = None
     compensation: Compensation = "none"
-
-    @model_validator(mode="after")
-    def _gains_given(self) -> "SuperTwistingConfig":
-        explicit = (self.k1 is not None, self.k2 is not None)
-        if self.L is None and not all(explicit):
-            raise ValueError("give L (k1 = 1.5 L^(1/2), k2 = 1.1 L) or both k1 and k2")
-        if self.L is not None and any(explicit):
-            raise ValueError("give either L or k1, k2, not both")
-        return self
-
-    def gains(self) -> tuple[np.ndarray, np.ndarray]:
-        """(k1, k2), from Levant's rule when only L is given."""
-        if self.L is not None:
-            return 1.5 * np.sqrt(self.L), 1.1 * self.L
-        return self.k1, self.k2
-
 
 class SuperTwisting(SlidingModeController):
     """Super-twisting control (Levant 1993; Moreno and Osorio 2012) on s = e_dot + c e."""

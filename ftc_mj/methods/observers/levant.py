@@ -148,6 +148,37 @@ class Differentiator:
             state += term
 
 
+class LevantVelocity:
+    """An observer built on a measured velocity, run instead on the velocity estimate of Levant's differentiator
+    (position-only): mixed in before the observer's class (``class LevantNDOB(LevantVelocity, NDOB)``), whose
+    ``Config`` must include :class:`DifferentiatorGains`. The differentiator's z0 and z1 are the observer's
+    ``q_hat`` and ``qd_hat``; it takes the reading in ``update`` before the observer and steps after it."""
+
+    requires: ClassVar[frozenset[str]] = frozenset({"position"})
+
+    def __init__(self, config: DifferentiatorGains, n_joints: int, dt: float, members: int | None = None):
+        super().__init__(config, n_joints, dt, members)
+        self.differentiator = Differentiator(config, self.shape, self.dt)
+        if self.differentiator.order < 1:  # pragma: no cover - the schema's orders start at 1
+            raise ValueError("the differentiator must estimate the velocity")
+        self.q_hat, self.qd_hat = self.differentiator.z[0], self.differentiator.z[1]
+
+    def reset(self, q_hat: np.ndarray, qd_hat: np.ndarray) -> None:
+        super().reset(q_hat, qd_hat)
+        self.differentiator.reset(q_hat, qd_hat)
+
+    def measure(self, q_meas: np.ndarray, qd_meas: np.ndarray | None) -> None:
+        """The velocity is the differentiator's: nothing to read."""
+
+    def update(self, t: float, q_meas: np.ndarray, model: StepModel) -> None:
+        self.differentiator.update(q_meas)
+        super().update(t, q_meas, model)
+
+    def advance(self, tau: np.ndarray, model: StepModel) -> None:
+        super().advance(tau, model)
+        self.differentiator.advance()
+
+
 class Levant(Observer):
     """Levant's robust exact differentiator, Levant 2003 eqs. (8)-(9); with the nominal model its acceleration
     estimate gives the LUaF (see the module docstring)."""

@@ -46,7 +46,7 @@ import numpy as np
 
 from ftc_mj.methods.gains import GainConfig, PositiveJoints
 from ftc_mj.methods.observers.base import Observer
-from ftc_mj.methods.observers.levant import Differentiator, DifferentiatorGains
+from ftc_mj.methods.observers.levant import DifferentiatorGains, LevantVelocity
 from ftc_mj.methods.primitives import scalar
 from ftc_mj.robot.nominal import StepModel
 
@@ -123,31 +123,8 @@ class MomentumObserver(Observer):
         self._integral += self._model_terms
 
 
-class LevantMomentumObserver(MomentumObserver):
+class LevantMomentumObserver(LevantVelocity, MomentumObserver):
     """The momentum observer on the velocity estimate of Levant's differentiator: position-only."""
 
     name: ClassVar[str] = "momentum_levant"
     Config: ClassVar[type[LevantMomentumConfig]] = LevantMomentumConfig
-    requires: ClassVar[frozenset[str]] = frozenset({"position"})
-
-    def __init__(self, config: LevantMomentumConfig, n_joints: int, dt: float, members: int | None = None):
-        super().__init__(config, n_joints, dt, members)
-        self.differentiator = Differentiator(config, self.shape, self.dt)
-        if self.differentiator.order < 1:  # pragma: no cover - the schema's orders start at 1
-            raise ValueError("the differentiator must estimate the velocity")
-        self.q_hat, self.qd_hat = self.differentiator.z[0], self.differentiator.z[1]
-
-    def reset(self, q_hat: np.ndarray, qd_hat: np.ndarray) -> None:
-        super().reset(q_hat, qd_hat)
-        self.differentiator.reset(q_hat, qd_hat)
-
-    def measure(self, q_meas: np.ndarray, qd_meas: np.ndarray | None) -> None:
-        """The velocity is the differentiator's: nothing to read."""
-
-    def update(self, t: float, q_meas: np.ndarray, model: StepModel) -> None:
-        self.differentiator.update(q_meas)
-        super().update(t, q_meas, model)
-
-    def advance(self, tau: np.ndarray, model: StepModel) -> None:
-        super().advance(tau, model)
-        self.differentiator.advance()

@@ -36,7 +36,7 @@ import numpy as np
 
 from ftc_mj.methods.gains import GainConfig, PositiveJoints
 from ftc_mj.methods.observers.base import Observer
-from ftc_mj.methods.observers.levant import Differentiator, DifferentiatorGains
+from ftc_mj.methods.observers.levant import DifferentiatorGains, LevantVelocity
 from ftc_mj.robot.nominal import StepModel
 
 
@@ -92,31 +92,8 @@ class NDOB(Observer):
         self._integral += rate
 
 
-class LevantNDOB(NDOB):
+class LevantNDOB(LevantVelocity, NDOB):
     """The NDOB on the velocity estimate of Levant's differentiator: position-only."""
 
     name: ClassVar[str] = "ndob_levant"
     Config: ClassVar[type[LevantNDOBConfig]] = LevantNDOBConfig
-    requires: ClassVar[frozenset[str]] = frozenset({"position"})
-
-    def __init__(self, config: LevantNDOBConfig, n_joints: int, dt: float, members: int | None = None):
-        super().__init__(config, n_joints, dt, members)
-        self.differentiator = Differentiator(config, self.shape, self.dt)
-        if self.differentiator.order < 1:  # pragma: no cover - the schema's orders start at 1
-            raise ValueError("the differentiator must estimate the velocity")
-        self.q_hat, self.qd_hat = self.differentiator.z[0], self.differentiator.z[1]
-
-    def reset(self, q_hat: np.ndarray, qd_hat: np.ndarray) -> None:
-        super().reset(q_hat, qd_hat)
-        self.differentiator.reset(q_hat, qd_hat)
-
-    def measure(self, q_meas: np.ndarray, qd_meas: np.ndarray | None) -> None:
-        """The velocity is the differentiator's: nothing to read."""
-
-    def update(self, t: float, q_meas: np.ndarray, model: StepModel) -> None:
-        self.differentiator.update(q_meas)
-        super().update(t, q_meas, model)
-
-    def advance(self, tau: np.ndarray, model: StepModel) -> None:
-        super().advance(tau, model)
-        self.differentiator.advance()

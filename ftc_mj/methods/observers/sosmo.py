@@ -19,36 +19,17 @@ from __future__ import annotations
 from typing import ClassVar
 
 import numpy as np
-from pydantic import model_validator
 
-from ftc_mj.methods.gains import GainConfig, PositiveFloat, PositiveJoints
+from ftc_mj.methods.gains import PositiveFloat, SuperTwistingGains
 from ftc_mj.methods.observers.base import Observer
 from ftc_mj.methods.primitives import exp, signed_power
 from ftc_mj.robot.nominal import StepModel
 
 
-class SOSMOConfig(GainConfig):
+class SOSMOConfig(SuperTwistingGains):
     """Gains of (4.37): ``L`` (Levant's rule) or both ``k1, k2``; the LUaF filter's time constant [s]."""
 
-    L: PositiveJoints | None = None
-    k1: PositiveJoints | None = None
-    k2: PositiveJoints | None = None
     filter_time_constant: PositiveFloat
-
-    @model_validator(mode="after")
-    def _gains_given(self) -> "SOSMOConfig":
-        explicit = [k is not None for k in (self.k1, self.k2)]
-        if self.L is None and not all(explicit):
-            raise ValueError("give L or both k1 and k2")
-        if self.L is not None and any(explicit):
-            raise ValueError("give either L or k1, k2, not both")
-        return self
-
-    def gains(self) -> tuple[np.ndarray, np.ndarray]:
-        if self.L is not None:
-            return 1.5 * np.sqrt(self.L), 1.1 * self.L
-        return self.k1, self.k2
-
 
 class SOSMO(Observer):
     """Super-twisting observer, eq. (4.37); LUaF from (4.39) through a first-order low-pass filter."""
