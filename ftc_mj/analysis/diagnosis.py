@@ -46,6 +46,11 @@ actuator fault; sensor effects are not faults):
 * ``false_alarm_rate``: that count per second of armed fault-free time [1/s].
 * ``isolation_correct``: 1 if the diagnoser names the joint faulty (an alarm at or after the first fault
   onset; at any armed time in a run without faults) exactly when it is faulty, else 0.
+
+A metric whose window holds no armed sample is undefined (NaN), never 0 or 1: the detection metrics of a
+joint whose onset comes after the run's last armed sample (a run shortened below its fault's onset: the fault
+never acted), ``isolation_correct`` of every joint when the first onset does, and the false alarms of a joint
+with no armed fault-free sample.
 * ``fault_estimate_rms``: per detected faulty joint, RMS of the fault estimate minus the injected fault
   (both in the diagnosis space: rad/s^2 for ``acceleration``, N m for ``torque``) from detection to the end.
 """
@@ -371,13 +376,19 @@ def diagnosis_metrics(
     raised = diagnosis.raised
     faulty = np.isfinite(joint_onsets)
     isolated = diagnosis.isolated(first_fault)
+    # A window with no armed sample (the run ends before the onset or before the diagnoser is armed) leaves its
+    # metrics undefined: a fault that never acted within the run is neither detected nor missed.
+    isolation_window = diagnosis.armed & (t >= first_fault) if math.isfinite(first_fault) else diagnosis.armed
     for joint in range(n):
         onset = joint_onsets[joint] if faulty[joint] else np.inf
         fault_free = diagnosis.armed & (t < onset)
-        out["false_alarms"][joint] = raised[fault_free, joint].sum()
-        seconds = fault_free.sum() * dt
-        if seconds > 0:
-            out["false_alarm_rate"][joint] = out["false_alarms"][joint] / seconds
+        if fault_free.any():
+            out["false_alarms"][joint] = raised[fault_free, joint].sum()
+            out["false_alarm_rate"][joint] = out["false_alarms"][joint] / (fault_free.sum() * dt) if dt > 0 \
+                else np.nan
+        observed = diagnosis.armed & (t >= onset)
+        if not isolation_window.any() or (faulty[joint] and not observed.any()):
+            continue
         out["isolation_correct"][joint] = float(isolated[joint] == faulty[joint])
         if not faulty[joint]:
             continue
@@ -411,7 +422,8 @@ def detection_statistics(
       fault-free at c times the threshold) and ``detection_delay_<tag>`` (first alarm at or after the onset
       minus the onset; NaN if missed or healthy): the scenario's own diagnoser with a scaled threshold, so at
       c = 1 they equal ``false_alarms`` and ``detection_delay``;
-    * ``isolated``: 1 where the diagnoser names the joint faulty (at the scenario's threshold), else 0.
+    * ``isolated``: 1 where the diagnoser names the joint faulty (at the scenario's threshold), else 0; NaN
+      when no armed sample lies at or after the first onset (the run ends first).
 
     All NaN without a diagnosis."""
     names = ["residual_peak_healthy", "residual_peak_fault", "healthy_time", "isolated"]
@@ -432,7 +444,9 @@ def detection_statistics(
     faulty = np.isfinite(joint_onsets)
     onsets = np.where(faulty, joint_onsets, np.inf)
     first_fault = np.nanmin(joint_onsets) if faulty.any() else np.inf
-    out["isolated"] = diagnosis.isolated(first_fault).astype(float)
+    window = diagnosis.armed & (t >= first_fault) if math.isfinite(first_fault) else diagnosis.armed
+    if window.any():  # else undefined: the run ends before the first onset or before the diagnoser is armed
+        out["isolated"] = diagnosis.isolated(first_fault).astype(float)
     for j in range(n):
         before, after = held[held_t < onsets[j], j], held[held_t >= onsets[j], j]
         out["residual_peak_healthy"][j] = np.nanmax(before) if np.isfinite(before).any() else np.nan

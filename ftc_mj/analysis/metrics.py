@@ -295,3 +295,28 @@ def compute_metrics(
         "chattering": chattering,
         **diagnosis_metrics(result.diagnosis, joint_onsets, first_fault, n),
     }
+
+
+
+def windows_after_the_end(result: VariantResult, spec: MetricsSpec, fault_onsets: Sequence[float]) -> dict[str, str]:
+    """The metrics of ``result`` left undefined (NaN) because their window starts after its last sample, each
+    with that start (``{"rms_error_converged": "metrics.window_start = 5 s"}``): a run shortened below its
+    windows says why they are empty instead of showing a number."""
+    end = result.t[-1] if result.t.size else -np.inf
+    first_fault = min(fault_onsets, default=np.inf)
+    windows = [
+        (spec.window_start, "metrics.window_start", ("rms_error_converged", "max_error_converged", "chattering")),
+        (spec.estimation_window_start, "metrics.estimation_window_start",
+         ("rms_velocity_error", "rms_luaf_error", "rms_luaf_error_fault")),
+        (first_fault, "the first fault onset", ("rms_luaf_error_fault", "fault_peak_error", "recovery_time",
+                                                "detection_delay", "missed_detection", "isolation_correct",
+                                                "fault_estimate_rms")),
+    ]
+    undefined: dict[str, str] = {}
+    for start, name, metrics in windows:
+        if np.isfinite(start) and start > end:
+            undefined.update({metric: f"{name} = {start:g} s" for metric in metrics if metric not in undefined})
+    diagnosis = result.diagnosis
+    if diagnosis is not None and diagnosis.t.size and not diagnosis.armed.any():
+        undefined.update({metric: "the diagnoser's start" for metric in DIAGNOSIS_METRICS if metric not in undefined})
+    return undefined

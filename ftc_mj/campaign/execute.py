@@ -43,7 +43,7 @@ from ftc_mj.config.errors import InputError
 from ftc_mj.config.paths import input_file_problem
 from ftc_mj.outputs.files import parquet_bytes, write_atomic
 from ftc_mj.outputs.palette import declared_colours
-from ftc_mj.spec.loading import load_scenario
+from ftc_mj.spec.loading import UnknownVariant, load_scenario
 from ftc_mj.spec.scenario import MAX_SEED, Scenario, series_bytes
 
 #: Memory for the series of one batch in one worker [bytes] (the batch engine steps members in chunks that fit).
@@ -126,7 +126,13 @@ def load(path: str | Path, runs: int | None = None, variants: list[str] | None =
     if problem is not None:
         raise InputError(file, "scenario", f"no such file: {spec.scenario}" if problem == "not found"
                          else f"{spec.scenario} {problem}")
-    base = compiled_scenario(str(scenario_path), tuple(spec.variants or ()), spec.duration, frozen(spec.set))
+    try:
+        base = compiled_scenario(str(scenario_path), tuple(spec.variants or ()), spec.duration, frozen(spec.set))
+    except UnknownVariant as exc:  # the campaign chose it (a tuning that narrows the campaign names its own)
+        if narrowed:
+            raise
+        raise InputError(file, f"variants.{spec.variants.index(exc.name)}", f"unknown variant {exc.name!r} "
+                         f"(the scenario's: {', '.join(exc.known)})") from None
     _check_paths(spec, base, file)
     variants = [v.name for v in base.variants]
     base_seed = spec.seed if spec.seed is not None else base.spec.seed
@@ -362,9 +368,10 @@ LOCK = "lock"
 
 
 @contextlib.contextmanager
-def directory_lock(out: Path, file: str) -> Iterator[None]:
-    """Hold ``out``'s lock while the block runs: a second campaign on the same directory is refused instead of
-    simulating everything again beside the first. Without ``fcntl`` (not POSIX) nothing is locked."""
+def directory_lock(out: Path, file: str, holder: str = "campaign run") -> Iterator[None]:
+    """Hold ``out``'s lock while the block runs: a second campaign (or tuning, ``holder``) on the same
+    directory is refused instead of simulating everything again beside the first. Without ``fcntl`` (not
+    POSIX) nothing is locked."""
     try:
         import fcntl
     except ImportError:
@@ -377,7 +384,7 @@ def directory_lock(out: Path, file: str) -> Iterator[None]:
         try:
             fcntl.flock(handle.fileno(), fcntl.LOCK_EX | fcntl.LOCK_NB)
         except OSError:
-            raise InputError(file, "--out", f"{out} is in use by another campaign run (it holds {out / LOCK}); "
+            raise InputError(file, "--out", f"{out} is in use by another {holder} (it holds {out / LOCK}); "
                              "wait for it to end") from None
         try:
             yield

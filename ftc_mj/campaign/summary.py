@@ -252,7 +252,8 @@ def _claim_verdicts(claim_rows: list[list[str]]) -> list[str]:
 
 def _run_peaks(results: Results, variant: str) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Per run: the largest held residual level on a fault-free part (any joint), the largest after the onset
-    on a faulty joint (NaN for a healthy run), and whether the run has a faulty joint."""
+    on a faulty joint (NaN for a healthy run, and for a faulty one with no armed sample after its onsets: it
+    ended first, so the fault is neither detected nor missed), and whether the run has a faulty joint."""
     n = results.joints()
     healthy = np.column_stack([results.of(variant, f"residual_peak_healthy.{j}") for j in range(1, n + 1)])
     fault = np.column_stack([results.of(variant, f"residual_peak_fault.{j}") for j in range(1, n + 1)])
@@ -261,7 +262,7 @@ def _run_peaks(results: Results, variant: str) -> tuple[np.ndarray, np.ndarray, 
     peak_fault = np.max(np.where(faulty & np.isfinite(fault), fault, -np.inf), axis=1)
     peak_healthy[np.isinf(peak_healthy)] = np.nan
     peak_fault[~faulty.any(axis=1)] = np.nan
-    peak_fault[np.isinf(peak_fault)] = 0.0  # faulty, never armed after the onset: never detected
+    peak_fault[np.isinf(peak_fault)] = np.nan  # faulty, never armed after the onset: undefined, not a miss
     return peak_healthy, peak_fault, faulty.any(axis=1)
 
 
@@ -293,7 +294,7 @@ def _diagnosis(results: Results, figures: Path, written: list[Path]) -> list[str
         p_fa, p_d = st.roc(basis, peak_fault[faulty], ROC_SCALES)
         curves[variant] = (p_fa, p_d)
         fa1 = st.proportion(float(np.sum(basis > 1.0)), int(np.isfinite(basis).sum()))
-        d1 = st.proportion(float(np.sum(peak_fault[faulty] > 1.0)), int(faulty.sum()))
+        d1 = st.proportion(float(np.sum(peak_fault[faulty] > 1.0)), int(np.isfinite(peak_fault[faulty]).sum()))
         # False alarms per hour on the same runs as P_fa: joint-hours of armed fault-free operation.
         runs = ~faulty if (~faulty).sum() else np.ones_like(faulty)
         alarms = sum(np.nansum(results.of(variant, f"false_alarms_x1.{j}").astype(float)[runs])
@@ -345,8 +346,10 @@ def _confusion(results: Results, variants: list[str], path: Path, written: list[
     pairs = {}
     for variant in variants:
         faulty = np.column_stack([np.isfinite(results.of(variant, f"fault_onset.{j}")) for j in range(1, n + 1)])
-        isolated = np.column_stack([results.of(variant, f"isolated.{j}").astype(float) > 0.5 for j in range(1, n + 1)])
-        pairs[variant] = [(tuple(np.flatnonzero(f) + 1), tuple(np.flatnonzero(i) + 1)) for f, i in zip(faulty, isolated)]
+        isolated = np.column_stack([results.of(variant, f"isolated.{j}").astype(float) for j in range(1, n + 1)])
+        # A run with no armed sample after its first onset isolates nothing: undefined, left out.
+        pairs[variant] = [(tuple(np.flatnonzero(f) + 1), tuple(np.flatnonzero(i > 0.5) + 1))
+                          for f, i in zip(faulty, isolated) if np.isfinite(i).all()]
     # Every single joint, then the sets of several joints that occur, each named by its joints.
     sets = [(j,) for j in range(1, n + 1)]
     sets += sorted({s for p in pairs.values() for pair in p for s in pair if len(s) > 1}, key=lambda s: (len(s), s))
@@ -490,6 +493,7 @@ def _pd_size_figure(results: Results, variants: list[str], curves: dict, size: s
             if op is None:
                 continue
             _, peak_fault, faulty = _run_peaks(results, variant)
+            faulty = faulty & np.isfinite(peak_fault)
             if kind is not None:
                 faulty = faulty & (results.of(variant, kind_column) == kind)
             if not faulty.any():

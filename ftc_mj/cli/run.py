@@ -250,6 +250,9 @@ def main(argv: Sequence[str] | None = None, prog: str = PROG) -> int:
             table_console = Console()
             table_console.width = max(table_console.width, 100)
             table_console.print(metrics_table(scenario, results, metrics, shown))
+            note = undefined_note(scenario, results)
+            if note is not None:
+                print(note, file=sys.stderr)
 
         # Recording first, JSON second, exported logs last; if one cannot be written, those written before go too
         # (exit 2 writes nothing). Each is written whole or not at all (write_atomic).
@@ -301,6 +304,25 @@ def main(argv: Sequence[str] | None = None, prog: str = PROG) -> int:
     for r in diverged:  # said whatever --quiet: an exit 1 explains itself
         print(f"diverged: variant {r.name!r} at t = {r.diverged_at:.6g} s", file=sys.stderr)
     return 1 if diverged else 0
+
+
+def undefined_note(scenario: Scenario, results: Sequence[VariantResult]) -> str | None:
+    """One line naming the metrics that are undefined (``null``, ``-``) because their window starts after the
+    run's end, grouped by that window (:func:`ftc_mj.analysis.metrics.windows_after_the_end`); None if none."""
+    from ftc_mj.analysis.metrics import METRICS, windows_after_the_end
+
+    reasons: dict[str, str] = {}
+    for result in results:
+        reasons.update(windows_after_the_end(result, scenario.spec.metrics, scenario.fault_onsets))
+    if not reasons:
+        return None
+    groups: dict[str, list[str]] = {}
+    for metric in METRICS:
+        if metric in reasons:
+            groups.setdefault(reasons[metric], []).append(metric)
+    parts = "; ".join(f"{', '.join(names)} ({reason})" for reason, names in groups.items())
+    return f"note: the run ends at {scenario.spec.duration:g} s, before these metrics' windows start, so they " \
+           f"are undefined (null, -): {parts}"
 
 
 if __name__ == "__main__":

@@ -81,8 +81,11 @@ def main(argv: Sequence[str] | None = None, prog: str = PROG) -> int:
             if not args.quiet:
                 print(f"generation {generation}/{total}: best cost {best:.4g}", file=sys.stderr, flush=True)
 
-        result = optimise.optimise(tuning, out, workers=args.workers, scheduler=args.scheduler, progress=progress)
-        document = outcome.write(tuning, out, result, command=command_line(prog, argv))
+        optimise.check_directory(tuning, out)  # before the lock file is made in it
+        with execute.directory_lock(out, file, holder="tuning"):  # a second tuning on DIR is refused
+            result = optimise.optimise(tuning, out, workers=args.workers, scheduler=args.scheduler,
+                                       progress=progress)
+            document = outcome.write(tuning, out, result, command=command_line(prog, argv))
     except InputError as exc:
         print(f"error: {exc}", file=sys.stderr)
         return 2

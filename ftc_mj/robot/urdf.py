@@ -184,6 +184,8 @@ def _check_xml(file: str, root: etree._Element) -> None:
 def _check_tree(file: str, urdf: yourdfpy.URDF) -> list[str]:
     """Names unique, joints between existing links, one root, a tree; the movable joints in kinematic order."""
     links = [link.name for link in urdf.robot.links]
+    if not links:
+        raise InputError(file, "<robot>", "has no <link> elements (a robot is a tree of links joined by joints)")
     for kind, names in (("link", links), ("joint", [joint.name for joint in urdf.robot.joints])):
         for name in names:
             if not name:

@@ -55,6 +55,15 @@ def _drop_replaced_gains(raw: dict[str, Any], keys: Sequence[str], types_before:
         node["gains"] = {name: value for name, value in gains.items() if name in chosen}
 
 
+class UnknownVariant(InputError):
+    """A variant to keep that the scenario does not have; ``name`` and the scenario's ``known`` variants let a
+    caller that chose it (a campaign's ``variants``) name its own file and field."""
+
+    def __init__(self, file: str, name: str, known: list[str]):
+        self.name, self.known = name, known
+        super().__init__(file, "variants", f"unknown variant {name!r} (known: {', '.join(known)})")
+
+
 def load_scenario(
     path: str | Path, overrides: list[str] = (), duration: float | None = None, variants: list[str] = (),
     assignments: Mapping[str, Any] | None = None,
@@ -92,7 +101,7 @@ def load_scenario(
     if variants:
         unknown = [v for v in variants if v not in spec.variants]
         if unknown:
-            raise InputError(file, "variants", f"unknown variant {unknown[0]!r} (known: {', '.join(spec.variants)})")
+            raise UnknownVariant(file, unknown[0], list(spec.variants))
         spec.variants = {name: spec.variants[name] for name in variants}
     try:
         scenario = compile_scenario(path, spec)

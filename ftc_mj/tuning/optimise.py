@@ -36,6 +36,7 @@ from ftc_mj.engine.members import members_from_overrides
 from ftc_mj.config.errors import InputError
 from ftc_mj.outputs.files import parquet_bytes, write_atomic
 from ftc_mj.tuning.spec import TuningSpec, load_tuning
+from ftc_mj.spec.loading import UnknownVariant
 
 #: A diverged condition's cost, as a multiple of the scenario's gains' cost (sum of the weights).
 DIVERGED_COST = 10.0
@@ -90,8 +91,12 @@ def prepare(path: Path, generations: int | None = None, fields: dict[str, Any] |
     if campaign_spec.samples is not None:
         per_sample = population_size(campaign_spec) // campaign_spec.samples.runs
         runs = math.ceil(need / per_sample)
-    campaign = execute.load(campaign_path, runs=runs, variants=[spec.variant], duration=spec.duration,
-                            assignments=assignments)
+    try:
+        campaign = execute.load(campaign_path, runs=runs, variants=[spec.variant], duration=spec.duration,
+                                assignments=assignments)
+    except UnknownVariant as exc:
+        raise InputError(file, "variant", f"unknown variant {exc.name!r} (the scenario's: {', '.join(exc.known)})") \
+            from None
     if len(campaign.runs) < need:
         raise InputError(file, "held_out", f"the campaign has {len(campaign.runs)} runs, fewer than conditions + "
                          f"held_out = {need}")
@@ -149,6 +154,7 @@ def evaluate(tuning: Tuning, candidates: list[dict[str, float]], conditions: lis
     false_alarms = np.zeros(shape)
     worst_delay = np.full(shape, np.nan)
     n = tuning.campaign.n_joints
+    end = tuning.campaign.scenario.spec.duration
     for _, rows in execute.results(tasks, workers, scheduler):
         for row in rows:
             if row["variant"] != tuning.spec.variant:
@@ -159,7 +165,8 @@ def evaluate(tuning: Tuning, candidates: list[dict[str, float]], conditions: lis
                 values = np.array([row[f"{m}.{q}"] for q in range(1, n + 1)], dtype=float)
                 metrics[m][i, j] = np.nanmean(values) if np.isfinite(values).any() else np.nan
             false_alarms[i, j] = np.nansum([row[f"false_alarms.{q}"] for q in range(1, n + 1)])
-            faulty = [q for q in range(1, n + 1) if math.isfinite(row[f"fault_onset.{q}"])]
+            # A fault whose onset is after the run's end never acted: neither detected nor missed.
+            faulty = [q for q in range(1, n + 1) if row[f"fault_onset.{q}"] < end]
             if faulty:
                 delays = [row[f"detection_delay.{q}"] for q in faulty]
                 worst_delay[i, j] = max(d if math.isfinite(d) else math.inf for d in delays)
@@ -214,14 +221,24 @@ def _load_rows(path: Path) -> list[dict]:
     return pq.read_table(path).to_pylist() if path.is_file() else []
 
 
-def _prepare_directory(tuning: Tuning, out: Path) -> None:
+def check_directory(tuning: Tuning, out: Path) -> None:
+    """Refuse an ``out`` that holds anything but this tuning's results (its lock file aside).
+
+    Raises:
+        InputError: naming the tuning file and ``--out``.
+    """
     marker = out / "fingerprint"
-    if out.is_dir() and any(out.iterdir()):
+    if out.is_dir() and any(entry.name != execute.LOCK for entry in out.iterdir()):
         if not marker.is_file():
             raise InputError(str(tuning.path), "--out", f"{out} is not empty and holds no tuning's results")
         if marker.read_text().strip() != tuning.fingerprint:
             raise InputError(str(tuning.path), "--out", f"{out} holds another tuning (or this one before it "
                              "changed); choose another --out or remove it")
+
+
+def _prepare_directory(tuning: Tuning, out: Path) -> None:
+    check_directory(tuning, out)
+    marker = out / "fingerprint"
     out.mkdir(parents=True, exist_ok=True)
     if not marker.is_file():
         write_atomic(marker, (tuning.fingerprint + "\n").encode())
