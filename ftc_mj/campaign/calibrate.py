@@ -47,7 +47,7 @@ from ftc_mj.engine.members import members_from_overrides
 from ftc_mj.engine.runner import run_batch
 from ftc_mj.results import VariantResult
 from ftc_mj.spec.loading import load_scenario
-from ftc_mj.spec.scenario import Scenario
+from ftc_mj.spec.scenario import MAX_SEED, Scenario
 
 #: Euler-Mascheroni constant: the mean of the standard Gumbel distribution.
 _EULER_GAMMA = 0.5772156649015329
@@ -165,6 +165,10 @@ def calibrate(path: Path, *, runs: int, false_alarm_rate: float, overrides: Sequ
         raise InputError(file, "--false-alarm-rate", f"must be in (0, 1), not {false_alarm_rate}")
     scenario = healthy_scenario(path, overrides, duration, variants)
     first = scenario.spec.seed + SEED_OFFSET if first_seed is None else first_seed
+    if not 0 <= first <= MAX_SEED - (runs - 1):
+        raise InputError(file, "--first-seed" if first_seed is not None else "seed",
+                         f"the healthy runs' seeds {first} to {first + runs - 1} must lie in 0 to {MAX_SEED}"
+                         + ("" if first_seed is not None else f" (the scenario's seed + {SEED_OFFSET} on)"))
     seeds = list(range(first, first + runs))
     statistics, diverged = exceedance_statistics(scenario, seeds)
     per_variant = {}

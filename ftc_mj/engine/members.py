@@ -194,7 +194,8 @@ class _Columns:
         spec, n = scenario.spec, scenario.n_joints
         self.scenario, self.spec, self.n, self.file = scenario, spec, n, str(scenario.path)
         self.count = count
-        self.seeds = spec.seed + np.arange(count)
+        # Unsigned: seed + k stays exact up to 2**64 - 1 (a seed near MAX_SEED = 2**63 - 1 would wrap in int64).
+        self.seeds = np.uint64(spec.seed) + np.arange(count, dtype=np.uint64)
         self.q0 = np.repeat(scenario.q0[None], count, axis=0)
         self.qd0 = np.repeat(scenario.qd0[None], count, axis=0)
         self.parameter_index = {name: i for i, name in enumerate(spec.parameters)}

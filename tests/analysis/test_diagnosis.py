@@ -20,7 +20,7 @@ from nominal_oracle import NominalModel
 from rerun.chunk import RrdReader
 
 from ftc_mj.analysis.diagnosis import Diagnoser, low_pass, persistent
-from ftc_mj.analysis.diagnosis import diagnosis_metrics
+from ftc_mj.analysis.diagnosis import detection_statistics, diagnosis_metrics
 from ftc_mj.analysis.metrics import compute_metrics
 from ftc_mj.outputs.recording import read_series
 from ftc_mj.run import main
@@ -130,6 +130,33 @@ def test_false_alarms_missed_detection_and_isolation() -> None:
     assert m["detection_delay"][0] == pytest.approx(19 * DT)  # the first alarm at or after the onset
     assert np.isnan(m["detection_delay"][2]) and np.isnan(m["fault_estimate_rms"][2])
     np.testing.assert_array_equal(diagnosis.isolated(6.0), [True, True, False])
+
+
+def test_a_fault_after_the_runs_end_is_neither_detected_nor_missed() -> None:
+    """A run shortened below a fault's onset: the fault never acted, so its detection metrics are undefined
+    (NaN), not a miss; the fault-free metrics keep their values over the samples there are."""
+    luaf = healthy_signal()
+    luaf[6000:6030, 1] += 3.0  # a false alarm on healthy joint 2, inside the run
+    diagnosis = diagnose(synthetic(), luaf)
+    end = T[-1]
+    m = diagnosis_metrics(diagnosis, np.array([end + 1.0, np.nan, np.nan]), end + 1.0, NJ)
+    for name in ("missed_detection", "detection_delay", "isolation_correct", "fault_estimate_rms"):
+        assert np.isnan(m[name]).all(), name
+    np.testing.assert_array_equal(m["false_alarms"], [0, 1, 0])
+    # The fault at the last sample acts for one sample: defined again.
+    m = diagnosis_metrics(diagnosis, np.array([end, np.nan, np.nan]), end, NJ)
+    np.testing.assert_array_equal(m["missed_detection"], [1, np.nan, np.nan])
+    np.testing.assert_array_equal(m["isolation_correct"], [0, 1, 1])
+    statistics = detection_statistics(diagnosis, 20, np.array([end + 1.0, np.nan, np.nan]), [1.0], NJ)
+    assert np.isnan(statistics["isolated"]).all() and np.isnan(statistics["residual_peak_fault"]).all()
+
+
+def test_a_diagnoser_never_armed_counts_no_false_alarms() -> None:
+    """A run that ends before the diagnoser is armed: no fault-free armed sample, so no count of false alarms."""
+    diagnosis = diagnose(synthetic(baseline=(1.0, 20.0), start=20.0), healthy_signal())
+    m = diagnosis_metrics(diagnosis, np.array([6.0, np.nan, np.nan]), 6.0, NJ)
+    for name in ("false_alarms", "false_alarm_rate", "missed_detection", "isolation_correct"):
+        assert np.isnan(m[name]).all(), name
 
 
 # Staggered onsets: joint 1 faulty from 2 s, joint 2 from 5 s, joint 3 healthy. Every metric that uses an onset
