@@ -2,6 +2,9 @@
 
 from __future__ import annotations
 
+from pathlib import Path
+
+import numpy as np
 import pytest
 
 import small_campaign
@@ -83,3 +86,19 @@ def test_a_bad_set_is_one_line(tmp_path, capsys):
     path = small_campaign.write(tmp_path)
     assert main(["run", str(path), "--out", str(tmp_path / "out"), "--set", "duration"]) == 2
     assert capsys.readouterr().err.strip() == "error: command line: --set: 'duration' is not KEY=VALUE"
+
+
+def test_a_fault_after_the_runs_end_is_no_miss_in_the_detection_statistics() -> None:
+    """A faulty run with no armed sample after its onset (it ended first) has no fault peak: it is left out of
+    the detection probability instead of counting as a missed fault (peak 0)."""
+    from ftc_mj.campaign.summary import Results, _run_peaks
+
+    columns = {"variant": np.array(["a", "a", "a"]), "rms_error.1": np.zeros(3),
+               "residual_peak_healthy.1": np.array([0.5, 0.4, 0.3]),
+               "residual_peak_fault.1": np.array([np.nan, 5.0, np.nan]),
+               "fault_onset.1": np.array([np.nan, 0.3, 10.0])}
+    results = Results(directory=Path("."), summary={}, spec=None, variants=["a"], columns=columns, colours={})
+    peak_healthy, peak_fault, faulty = _run_peaks(results, "a")
+    np.testing.assert_array_equal(faulty, [False, True, True])
+    np.testing.assert_array_equal(peak_fault, [np.nan, 5.0, np.nan])
+    np.testing.assert_array_equal(peak_healthy, [0.5, 0.4, 0.3])

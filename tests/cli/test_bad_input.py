@@ -2,7 +2,8 @@
 :data:`CASES`: YAML structure (alias bombs, deep nesting, oversized files), special files (devices, pipes,
 directories), outputs (an input overwritten, a kernel file system, a device node), numbers (seeds beyond 64
 bits, a reference that is NaN on the run's grid), names (a signal no method records), campaigns and tuning
-(a claim on an unknown variant, a scheduler where nothing listens, optimizer bounds).
+(a claim or a variant that does not exist, a scheduler where nothing listens, optimizer bounds, a results
+directory another process holds), robots (a URDF without links).
 
 Each case must exit 2 with one line on stderr that names the file and the field, print no traceback, write
 nothing (the folder's listing and every input's bytes are the same afterwards) and end within
@@ -141,6 +142,44 @@ def tuning_case(optimizer: dict) -> Callable[[Path], list[str]]:
     return setup
 
 
+def tuning_variant(folder: Path) -> list[str]:
+    argv = tuning_case({})(folder)
+    data = yaml.safe_load((folder / "tuning.yaml").read_text())
+    data.update(variant="nope", gains={"variants.nope.controller.gains.mu": {"low": 0.1, "high": 1.0}})
+    (folder / "tuning.yaml").write_text(dump(data))
+    return argv
+
+
+def locked_tuning(folder: Path) -> list[str]:
+    """A tuning whose --out another live process holds locked (as a running tuning or campaign does)."""
+    argv = tuning_case({})(folder)
+    (folder / "results").mkdir()
+    (folder / "results" / "lock").touch()
+    holder = subprocess.Popen([sys.executable, "-c", "import fcntl, sys, time; handle = open(sys.argv[1], 'a+'); "
+                               "fcntl.flock(handle, fcntl.LOCK_EX); print('held', flush=True); time.sleep(60)",
+                               str(folder / "results" / "lock")], stdout=subprocess.PIPE)
+    assert holder.stdout.readline().strip() == b"held"
+    HOLDERS.append(holder)
+    return argv
+
+
+#: The processes that hold a lock for a case, ended when the corpus has run.
+HOLDERS: list[subprocess.Popen] = []
+
+
+def urdf_case(text: str) -> Callable[[Path], list[str]]:
+    def setup(folder: Path) -> list[str]:
+        (folder / "robot.urdf").write_text(text)
+        return run_case(mutated("robot.model", "robot.urdf"))(folder)
+    return setup
+
+
+def calibrate_near_the_largest_seed(folder: Path) -> list[str]:
+    """The healthy runs start at the scenario's seed + 1000: beyond the largest seed."""
+    (folder / "s.yaml").write_text(dump(scenario(seed=2**63 - 100)))
+    return ["calibrate", "s.yaml", "--false-alarm-rate", "0.1", "--runs", "3", "--out", "c.yaml"]
+
+
 def figures_case(recording: str, *extra: str) -> Callable[[Path], list[str]]:
     def setup(folder: Path) -> list[str]:
         (folder / "rec.rrd").write_bytes(b"not a recording")
@@ -206,6 +245,14 @@ CASES = [
     Case("optimizer.sigma NaN", tuning_case({"sigma": float("nan")}), "tuning.yaml", "optimizer.sigma: Input should be a finite"),
     Case("optimizer.population 1", tuning_case({"population": 1}), "tuning.yaml", "optimizer.population"),
     Case("optimizer.seed beyond 32 bits", tuning_case({"seed": 2**40}), "tuning.yaml", "optimizer.seed"),
+    Case("campaign variant unknown", campaign_case(lambda data: data.update(variants=["hs", "nope"])),
+         "campaign.yaml", "variants.1: unknown variant 'nope'"),
+    Case("tuning variant unknown", tuning_variant, "tuning.yaml", "variant: unknown variant 'nope'"),
+    Case("tuning --out held by a live process", locked_tuning, "tuning.yaml", "--out"),
+    # robots
+    Case("URDF without links", urdf_case('<robot name="empty"></robot>\n'), "robot.urdf", "<robot>: has no <link>"),
+    # numbers: seeds derived from the scenario's
+    Case("calibrate seeds beyond 64 bits", calibrate_near_the_largest_seed, "s.yaml", "seed: the healthy runs' seeds"),
 ]
 
 
@@ -311,8 +358,13 @@ def outcomes(tmp_path_factory) -> dict[str, Outcome]:
     jobs_path = base / "jobs.json"
     jobs_path.write_text(json.dumps(jobs))
     env = {**os.environ, "PYTHONPATH": str(ROOT)}
-    subprocess.run([sys.executable, __file__, str(jobs_path)], env=env, check=True,
-                   timeout=60 + TIMEOUT * len(jobs))
+    try:
+        subprocess.run([sys.executable, __file__, str(jobs_path)], env=env, check=True,
+                       timeout=60 + TIMEOUT * len(jobs))
+    finally:
+        for holder in HOLDERS:
+            holder.kill()
+            holder.wait()
     codes = json.loads(jobs_path.with_suffix(".codes").read_text())
     return {case.name: Outcome(code, Path(job[2]).read_text() if Path(job[2]).exists() else "", before,
                                listing(Path(job[1])))

@@ -355,6 +355,28 @@ def test_metrics_names_and_a_bad_name(tmp_path, monkeypatch, capsys):
         f"error: command line: --metrics: unknown metric 'rms_torq' (summary, all, or among: {', '.join(METRICS)})"]
 
 
+def test_a_run_ending_before_its_fault_leaves_the_fault_metrics_undefined(tmp_path):
+    """A run shortened below its fault's onset: the detection metrics are null in the JSON and ``-`` in the
+    table, with one note naming them and the window, never a miss (missed_detection 1, isolation_correct 0)."""
+    sys.path.insert(0, str(ROOT / "tests" / "campaign"))
+    import small_campaign
+
+    (tmp_path / "s.yaml").write_text(yaml.safe_dump(small_campaign.scenario()))  # fault at 0.3 s
+    env = {**os.environ, "PYTHONPATH": str(ROOT), "COLUMNS": "200"}
+    done = subprocess.run([sys.executable, "-m", "ftc_mj.run", "s.yaml", "--duration", "0.28", "--no-record",
+                           "--json", "out.json", "--metrics", "all", "--variant", "hs"], cwd=tmp_path, env=env,
+                          capture_output=True, text=True, timeout=120)
+    assert done.returncode == 0, done.stderr
+    metrics = json.loads((tmp_path / "out.json").read_text())["variants"]["hs"]["metrics"]
+    for name in ("missed_detection", "isolation_correct", "detection_delay", "fault_peak_error", "recovery_time"):
+        assert metrics[name] == [None, None, None], name
+    assert metrics["false_alarms"] == [0.0, 0.0, 0.0] and all(v is not None for v in metrics["rms_error"])
+    notes = [line for line in done.stderr.splitlines() if line.startswith("note:")]
+    assert len(notes) == 1 and "missed_detection" in notes[0] and "the first fault onset = 0.3 s" in notes[0]
+    row = next(line for line in done.stdout.splitlines() if "missed_detection" in line)
+    assert row.count(" - ") >= 3 and "1 " not in row.split("0/1")[1], row
+
+
 # --------------------------------------------------------------------------------------------- diverging
 
 
