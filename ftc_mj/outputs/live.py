@@ -98,7 +98,7 @@ class LiveRecording:
                         samples={n: len(times) for n in names}, figures=chosen)
         rec = rr.RecordingStream("ftc_mj", recording_id=str(uuid.uuid4()))
         skeleton = _skeleton(layout, len(times), optional, diagnosis)
-        rec.set_sinks(*sinks, default_blueprint=_blueprint(layout, skeleton, times, names[0] if posed else None))
+        rec.set_sinks(*sinks, default_blueprint=_blueprint(layout, skeleton, times, names[0] if posed else None, model))
         rec.send_recording_name(scenario)
         rec.send_property(LAYOUT_PROPERTY, rr.AnyValues(json=layout.to_json()))
         rec.log("/info", rr.TextDocument(f"# {scenario}\n\nrunning: {len(times)} samples of "
@@ -187,7 +187,7 @@ class LiveRecording:
             kept = np.unique(np.append(np.arange(-(-start // POSE_STRIDE) * POSE_STRIDE, n, POSE_STRIDE), n - 1))
             _send_poses(rec, self.bodies, np.asarray(posed.t)[kept], np.asarray(posed.body_xpos)[kept],
                         np.asarray(posed.body_xquat)[kept])
-        rec.send_blueprint(_blueprint(layout, series, t, posed.name if posed else None), make_active=True)
+        rec.send_blueprint(_blueprint(layout, series, t, posed.name if posed else None, model), make_active=True)
         rec.flush()
         rec.disconnect()
 
