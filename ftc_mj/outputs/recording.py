@@ -512,7 +512,7 @@ def _eye(model: mujoco.MjModel) -> rrb.archetypes.EyeControls3D:
     for its extent (MuJoCo's ``stat.center`` and ``stat.extent``, the robot at its initial pose) to fit."""
     centre, extent = np.asarray(model.stat.center, dtype=np.float64), float(model.stat.extent)
     direction = np.array([1.0, -1.4, 0.8])
-    position = centre + direction / np.linalg.norm(direction) * 1.0 * extent
+    position = centre + direction / np.linalg.norm(direction) * 0.85 * extent
     return rrb.archetypes.EyeControls3D(kind="Orbital", position=position, look_target=centre, eye_up=[0, 0, 1])
 
 
