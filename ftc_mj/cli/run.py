@@ -225,7 +225,6 @@ def main(argv: Sequence[str] | None = None, prog: str = PROG) -> int:
     args = build_parser(prog).parse_args(argv)
     from rich.console import Console
 
-    from ftc_mj.analysis.metrics import compute_metrics
     from ftc_mj.config.errors import InputError
     from ftc_mj.outputs.files import check_output, write_atomic
     from ftc_mj.spec.loading import load_scenario
@@ -263,6 +262,8 @@ def main(argv: Sequence[str] | None = None, prog: str = PROG) -> int:
     except KeyboardInterrupt:
         print("interrupted: nothing written", file=sys.stderr)
         return 130
+
+    from ftc_mj.analysis.metrics import compute_metrics  # scipy's signal module: not needed for a bad input
 
     console = None if args.quiet else Console(stderr=True)
     written: list[Path] = []
