@@ -166,8 +166,8 @@ class Figure:
     window: tuple[float, float] | None = None
     zoom: tuple[float, float | None] | None = None
     zoom_range: tuple[float, float] | None = None
-    zoom_variants: tuple[str, ...] | None = Field(None,
-        description="The variants of the zoom panel (default: the figure's).")
+    #: The variants of the zoom panel (default: the figure's).
+    zoom_variants: tuple[str, ...] | None = None
 
     def shown_in_zoom(self) -> tuple[str, ...]:
         return tuple(v for v in self.variants if self.zoom_variants is None or v in self.zoom_variants)
