@@ -49,6 +49,7 @@ from __future__ import annotations
 from collections.abc import Sequence
 
 import numpy as np
+from pydantic import Field
 
 from ftc_mj.analysis.diagnosis import DIAGNOSIS_METRICS, diagnosis_metrics
 from ftc_mj.results import VariantResult
@@ -58,22 +59,20 @@ from ftc_mj.config.types import NonNegativeFloat, PositiveFloat, Strict
 class MetricsSpec(Strict):
     """The scenario's ``metrics`` section: evaluation windows and tolerances."""
 
-    #: Tracking metrics "after convergence" are taken from this time on [s].
-    window_start: NonNegativeFloat
-    #: Estimation metrics (velocity, LUaF) are taken from this time on [s].
-    estimation_window_start: NonNegativeFloat
-    #: Interval excluded after each fault onset [s].
-    fault_settle: NonNegativeFloat = 1.0
-    #: fault_peak_error looks at [onset, onset + fault_window) after a joint's fault onset [s].
-    fault_window: PositiveFloat = 2.0
-    #: |e| tolerance of convergence_time [rad].
-    tracking_tolerance: PositiveFloat = 0.01
-    #: |velocity error| tolerance of observer_convergence_time [rad/s].
-    velocity_tolerance: PositiveFloat = 0.05
-    #: |LUaF estimation error| tolerance of luaf_convergence_time [rad/s^2].
-    luaf_tolerance: PositiveFloat = 0.5
-    #: |sliding variable| tolerance of reaching_time (units of the surface, rad/s for every built-in law).
-    sliding_tolerance: PositiveFloat = 0.01
+    window_start: NonNegativeFloat = Field(0.0, description="Tracking metrics \"after convergence\" are taken "
+                                           "from this time on [s]; default 0: the whole run (no zoom panel).")
+    estimation_window_start: NonNegativeFloat = Field(0.0, description="Estimation metrics (velocity, LUaF) are "
+                                                      "taken from this time on [s]; default 0: the whole run.")
+    fault_settle: NonNegativeFloat = Field(1.0, description="Interval excluded after each fault onset [s].")
+    fault_window: PositiveFloat = Field(2.0,
+        description="fault_peak_error looks at [onset, onset + fault_window) after a joint's fault onset [s].")
+    tracking_tolerance: PositiveFloat = Field(0.01, description="|e| tolerance of convergence_time [rad].")
+    velocity_tolerance: PositiveFloat = Field(0.05,
+        description="|velocity error| tolerance of observer_convergence_time [rad/s].")
+    luaf_tolerance: PositiveFloat = Field(0.5,
+        description="|LUaF estimation error| tolerance of luaf_convergence_time [rad/s^2].")
+    sliding_tolerance: PositiveFloat = Field(0.01,
+        description="|sliding variable| tolerance of reaching_time (units of the surface, rad/s for every built-in law).")
 
 
 METRICS: tuple[str, ...] = (

@@ -28,6 +28,8 @@ if TYPE_CHECKING:
     from rich.console import Console
     from rich.table import Table
 
+    from ftc_mj.engine.loop import ChunkCallback
+    from ftc_mj.outputs.live import LiveRecording
     from ftc_mj.results import VariantResult
     from ftc_mj.spec.scenario import Scenario
 
@@ -87,12 +89,13 @@ def chosen_metrics(which: str, diagnosis: bool) -> list[str]:
     return names
 
 
-def _run_with_progress(scenario: Scenario, console: Console | None) -> list[VariantResult]:
+def _run_with_progress(scenario: Scenario, console: Console | None,
+                       on_chunk: ChunkCallback | None = None) -> list[VariantResult]:
     """:func:`run_scenario` with a progress bar on ``console`` (none when None): the variants step together."""
     from ftc_mj.engine.runner import run_scenario
 
     if console is None:
-        return run_scenario(scenario)
+        return run_scenario(scenario, on_chunk=on_chunk)
     from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn
 
     steps = len(scenario.times)
@@ -106,7 +109,7 @@ def _run_with_progress(scenario: Scenario, console: Console | None) -> list[Vari
             tasks[variants] = task = display.add_task(variants, total=steps)
             return lambda advance: display.advance(task, advance)
 
-        results = run_scenario(scenario, progress=start)
+        results = run_scenario(scenario, progress=start, on_chunk=on_chunk)
     return results
 
 
@@ -195,11 +198,33 @@ def _viewer_sinks(args: argparse.Namespace) -> list[object]:
     return []
 
 
+def start_live(scenario: Scenario, sinks: Sequence[object]) -> tuple[LiveRecording, ChunkCallback]:
+    """The stream to a viewer's ``sinks`` opened before the run (blueprint first) and the loop's per-chunk
+    hook that feeds it (:class:`ftc_mj.outputs.live.LiveRecording`)."""
+    from ftc_mj.outputs.live import LiveRecording
+    from ftc_mj.outputs.palette import declared_colours
+
+    optional = ["torque_delivered", "fault_torque", "fault_acceleration"]
+    if scenario.measures_velocity:
+        optional.append("velocity/measured")
+    live = LiveRecording.start(
+        sinks, scenario=scenario.name, model=scenario.model, variants=[v.name for v in scenario.variants],
+        monitors={v.name: [m.name for m in v.monitors] for v in scenario.variants}, times=scenario.times,
+        fault_onsets=scenario.fault_onsets, seed=scenario.spec.seed, figures=scenario.figures,
+        colours=declared_colours(scenario.raw["variants"]), optional=optional,
+        diagnosis=scenario.diagnoser is not None)
+
+    def on_chunk(stop: int, series, reference) -> None:
+        if live.due():  # cheap test first: most chunks send nothing
+            live.send(stop, series.rows, series.monitors, reference[0], series.body_xpos, series.body_xquat)
+
+    return live, on_chunk
+
+
 def main(argv: Sequence[str] | None = None, prog: str = PROG) -> int:
     args = build_parser(prog).parse_args(argv)
     from rich.console import Console
 
-    from ftc_mj.analysis.metrics import compute_metrics
     from ftc_mj.config.errors import InputError
     from ftc_mj.outputs.files import check_output, write_atomic
     from ftc_mj.spec.loading import load_scenario
@@ -238,10 +263,15 @@ def main(argv: Sequence[str] | None = None, prog: str = PROG) -> int:
         print("interrupted: nothing written", file=sys.stderr)
         return 130
 
+    from ftc_mj.analysis.metrics import compute_metrics  # scipy's signal module: not needed for a bad input
+
     console = None if args.quiet else Console(stderr=True)
     written: list[Path] = []
+    live, on_chunk = start_live(scenario, _viewer_sinks(args)) if viewer else (None, None)
+    if args.serve:
+        print(f"serving the run as it goes: rerun --connect {DEFAULT_URL}", file=sys.stderr, flush=True)
     try:
-        results = _run_with_progress(scenario, console)
+        results = _run_with_progress(scenario, console, on_chunk)
         onsets = scenario.fault_onsets
         metrics = {r.name: compute_metrics(r, scenario.spec.metrics, onsets, scenario.joint_fault_onsets)
                    for r in results}
@@ -262,8 +292,10 @@ def main(argv: Sequence[str] | None = None, prog: str = PROG) -> int:
 
             write_recording(recording_path, scenario=scenario.name, model=scenario.model, results=results,
                             fault_onsets=onsets, seed=scenario.spec.seed, figures=scenario.figures,
-                            colours=declared_colours(scenario.raw["variants"]), sinks=_viewer_sinks(args))
+                            colours=declared_colours(scenario.raw["variants"]))
             written.append(recording_path)
+        if live is not None:
+            live.finish(scenario.model, results, onsets, scenario.spec.seed, scenario.figures)
         if args.json is not None:
             document = metrics_document(scenario, results, metrics)
             write_atomic(args.json, (json.dumps(document, indent=2) + "\n").encode("utf-8"))

@@ -55,6 +55,10 @@ from ftc_mj.robot.nominal import NEEDS, NominalBatch, SparseSolver, StepModel, a
 from ftc_mj.spec.scenario import Scenario
 
 ProgressCallback = Callable[[int], None]
+#: Called every :data:`PROGRESS_EVERY` periods with the number of samples written so far (``stop``: samples
+#: ``[0, stop)`` of every series are final), the run's series and its reference ``(q_d, qd_d, qdd_d)``: a
+#: live viewer's stream reads them there. It must not write to them.
+ChunkCallback = Callable[[int, Series, tuple[np.ndarray, np.ndarray, np.ndarray]], None]
 PROGRESS_EVERY = 500
 
 
@@ -145,15 +149,17 @@ def simulate(
     record_poses: bool = False,
     progress: ProgressCallback | None = None,
     nthread: int = 0,
+    on_chunk: ChunkCallback | None = None,
 ) -> BatchRun:
-    """Run every variant of ``scenario`` for every member of ``members``, stepped together.
+    """Run every variant of ``scenario`` for every member of ``members``, stepped together; ``on_chunk``
+    (:data:`ChunkCallback`) sees the series every :data:`PROGRESS_EVERY` periods.
 
     MuJoCo's printed warnings are silenced meanwhile: the bad-state warnings are each row's divergence, which
     the run reports itself (with the variant, the member and the time)."""
     previous = mujoco.get_mju_user_warning()
     mujoco.set_mju_user_warning(_quiet)
     try:
-        return _simulate(scenario, members, record_poses, progress, nthread)
+        return _simulate(scenario, members, record_poses, progress, nthread, on_chunk)
     finally:
         mujoco.set_mju_user_warning(previous)
 
@@ -163,7 +169,7 @@ def _quiet(message: str) -> None:
 
 
 def _simulate(scenario: Scenario, members: Members, record_poses: bool, progress: ProgressCallback | None,
-              nthread: int) -> BatchRun:
+              nthread: int, on_chunk: ChunkCallback | None = None) -> BatchRun:
     run = _Run.set_up(scenario, members, record_poses, nthread)
     with np.errstate(all="ignore"):  # stopped rows may hold NaN; they are cut off from their time on
         for k in range(run.steps):
@@ -176,8 +182,11 @@ def _simulate(scenario: Scenario, members: Members, record_poses: bool, progress
             run.control(k, t)
             run.actuate(k, t)
             run.advance(k)
-            if progress is not None and (k + 1) % PROGRESS_EVERY == 0:
-                progress(PROGRESS_EVERY)
+            if (k + 1) % PROGRESS_EVERY == 0:
+                if progress is not None:
+                    progress(PROGRESS_EVERY)
+                if on_chunk is not None:
+                    on_chunk(k + 1, run.series, run.reference)
         run.finish_truth()
     if progress is not None:
         progress(run.steps % PROGRESS_EVERY)

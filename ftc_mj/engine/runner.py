@@ -23,7 +23,7 @@ import numpy as np
 
 from ftc_mj.analysis.diagnosis import diagnose_result
 from ftc_mj.analysis.metrics import compute_metrics
-from ftc_mj.engine.loop import BatchRun, ProgressCallback, simulate
+from ftc_mj.engine.loop import BatchRun, ChunkCallback, ProgressCallback, simulate
 from ftc_mj.engine.members import Members, single
 from ftc_mj.results import VariantResult
 from ftc_mj.spec.scenario import Scenario, Variant, series_bytes
@@ -43,6 +43,7 @@ def run_scenario(
     record_poses: bool = True,
     progress: RunProgress | None = None,
     nthread: int = 0,
+    on_chunk: ChunkCallback | None = None,
 ) -> list[VariantResult]:
     """Every variant of the scenario as written (one member, all variants stepped together), with its whole
     series and diagnosis, in the scenario's order; each variant's monitors follow it (``<variant>.<monitor>``).
@@ -52,9 +53,12 @@ def run_scenario(
         record_poses: keep the body poses of the first variant, for the recording's 3-D view.
         progress: progress display, e.g. the command line's bar; None: none.
         nthread: threads of the physics batches (0: as many as cores and rows allow).
+        on_chunk: sees the series as the run goes (:data:`ftc_mj.engine.loop.ChunkCallback`), e.g. to stream
+            them to a viewer (:class:`ftc_mj.outputs.live.LiveRecording`).
     """
     advance = None if progress is None else progress(", ".join(v.name for v in scenario.variants))
-    run = simulate(scenario, single(scenario), record_poses=record_poses, progress=advance, nthread=nthread)
+    run = simulate(scenario, single(scenario), record_poses=record_poses, progress=advance, nthread=nthread,
+                   on_chunk=on_chunk)
     results = []
     for v in range(len(scenario.variants)):
         result = variant_result(scenario, run, v, 0, poses=v == 0)

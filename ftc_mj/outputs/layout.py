@@ -77,8 +77,8 @@ _EXTRA = re.compile(r"^extras\.[A-Za-z][A-Za-z0-9_]*$")
 class Span(Strict):
     """A time span [s]."""
 
-    start: NonNegativeFloat
-    end: Annotated[float, Field(gt=0, allow_inf_nan=False)]
+    start: NonNegativeFloat = Field(description="Start of the span [s] (required).")
+    end: Annotated[float, Field(gt=0, allow_inf_nan=False)] = Field(description="End of the span [s] (required).")
 
     @model_validator(mode="after")
     def _ordered(self) -> "Span":
@@ -91,9 +91,12 @@ class ZoomSpec(Span):
     """A second panel per joint on ``[start, end]`` (default end: the end of the run); ``range`` fixes its
     vertical axis (default: the data); ``variants`` shows only these of the figure's (default: all)."""
 
-    end: Annotated[float, Field(gt=0, allow_inf_nan=False)] | None = None  # type: ignore[assignment]
-    range: Annotated[list[FiniteFloat], Field(min_length=2, max_length=2)] | None = None
-    variants: Annotated[list[str], Field(min_length=1)] | None = None
+    end: Annotated[float, Field(gt=0, allow_inf_nan=False)] | None = Field(  # type: ignore[assignment]
+        None, description="End of the zoom [s]; default: the end of the run.")
+    range: Annotated[list[FiniteFloat], Field(min_length=2, max_length=2)] | None = Field(
+        None, description="The zoom's vertical axis [low, high] in the quantity's unit; default: the data.")
+    variants: Annotated[list[str], Field(min_length=1)] | None = Field(
+        None, description="The variants shown in the zoom; default: all of the figure's.")
 
     @model_validator(mode="after")
     def _ordered(self) -> "ZoomSpec":
@@ -107,20 +110,17 @@ class ZoomSpec(Span):
 class FigureSpec(Strict):
     """One entry of the scenario's ``figures`` section."""
 
-    #: File name (without extension) and the viewer tab's key: letters, digits, '_' and '-'.
-    name: Annotated[str, Field(pattern=r"^[A-Za-z0-9_-]+$")]
-    #: Heading; default: the quantity's title.
-    title: str | None = None
-    #: One of QUANTITIES, or ``extras.NAME`` for a plugin's own signal (e.g. ``extras.switching_gain``).
-    quantity: str
-    #: Variants (and monitors, ``variant.monitor``) in the order of the legend; default: all.
-    variants: Annotated[list[str], Field(min_length=1)] | None = None
-    #: Joints, by 1-based number or MJCF joint name; default: all.
-    joints: JointSelection = None
-    #: The time span of the main panels; default: the whole run.
-    window: Span | None = None
-    #: A zoomed panel beside each joint's, e.g. the steady state after convergence.
-    zoom: ZoomSpec | None = None
+    name: Annotated[str, Field(pattern=r"^[A-Za-z0-9_-]+$")] = Field(
+        description="File name (without extension) and the viewer tab's key: letters, digits, '_' and '-'.")
+    title: str | None = Field(None, description="Heading; default: the quantity's title.")
+    quantity: str = Field(
+        description="One of QUANTITIES, or ``extras.NAME`` for a plugin's own signal (e.g. ``extras.switching_gain``).")
+    variants: Annotated[list[str], Field(min_length=1)] | None = Field(None,
+        description="Variants (and monitors, ``variant.monitor``) in the order of the legend; default: all.")
+    joints: JointSelection = Field(None, description="Joints, by 1-based number or MJCF joint name; default: all.")
+    window: Span | None = Field(None, description="The time span of the main panels; default: the whole run.")
+    zoom: ZoomSpec | None = Field(None,
+        description="A zoomed panel beside each joint's, e.g. the steady state after convergence.")
 
     @model_validator(mode="after")
     def _known_quantity(self) -> "FigureSpec":

@@ -146,7 +146,7 @@ def write_recording(
         rec = rr.RecordingStream("ftc_mj", recording_id=str(uuid.uuid4()))
         try:
             series = _series(results, len(t), layout.variants)
-            blueprint = _blueprint(layout, series, t, posed.name if posed else None)
+            blueprint = _blueprint(layout, series, t, posed.name if posed else None, model)
             if sinks:
                 rec.set_sinks(rr.FileSink(tmp), *sinks, default_blueprint=blueprint)
             else:
@@ -366,13 +366,14 @@ def _log_events(rec: rr.RecordingStream, results: Sequence[VariantResult], fault
 
 def _info_markdown(scenario: str, seed: int | None, results: Sequence[VariantResult],
                    fault_onsets: Sequence[float], styles: Sequence[VariantStyle]) -> str:
-    lines = [f"# {scenario}", "", f"- seed: {seed if seed is not None else 'not set'}",
-             f"- fault onsets [s]: {', '.join(f'{t:g}' for t in fault_onsets) or 'none'}", "",
-             "| variant | colour | observer | controller | samples | status |", "|---|---|---|---|---|---|"]
+    # One heading line and a narrow table: it must read whole in the side panel (a third of a laptop screen).
+    lines = [f"**{scenario}** · seed {seed if seed is not None else 'not set'} · fault onsets [s]: "
+             f"{', '.join(f'{t:g}' for t in fault_onsets) or 'none'} · {len(results[0].t) if results else 0} "
+             "samples", "", "| variant | colour | observer | controller | status |", "|---|---|---|---|---|"]
     for r, style in zip(results, styles):
-        status = r.status if r.diverged_at is None else f"{r.status} at t = {r.diverged_at:g} s"
+        status = r.status if r.diverged_at is None else f"diverged at {r.diverged_at:g} s"
         colour = colour_name(style.color)
-        lines.append(f"| {r.name} | {colour} | {r.observer} | {r.controller} | {len(r.t)} | {status} |")
+        lines.append(f"| {r.name} | {colour} | {r.observer} | {r.controller} | {status} |")
     return "\n".join(lines) + "\n"
 
 
@@ -442,10 +443,40 @@ def _log_poses(rec: rr.RecordingStream, model: mujoco.MjModel, result: VariantRe
                                                         quaternion=_xyzw(xquat[rows, b])))
 
 
-def _blueprint(layout: Layout, series: Series, t: np.ndarray, posed: str | None) -> rrb.Blueprint:
+#: The viewer's layout is sized for a laptop screen (1600 x 1000): the right pane, where the tabs are, is about
+#: this many pixels wide; a tab label takes about this many pixels per character plus a fixed margin.
+TABS_WIDTH, TAB_CHARACTER, TAB_MARGIN = 1150, 7.5, 44
+#: Short tab labels of the figures without a "Fig. N.M:" title, when the full titles do not fit.
+SHORT_TABS = {"position": "position", "tracking_error": "tracking error", "velocity": "velocity",
+              "velocity_error": "velocity error", "luaf": "LUaF", "luaf_error": "LUaF error", "torque": "torque",
+              "torque_delivered": "delivered torque", "sliding": "sliding", "fault": "fault",
+              "fault_torque": "fault force", "fault_acceleration": "fault accel.", "residual": "residual",
+              "fault_estimate": "fault estimate", "alarm": "alarms"}
+OTHER_TAB = "Other signals"
+
+
+def tab_labels(figures: Sequence[Figure], other: bool) -> list[str]:
+    """The figures' tab labels (and the other signals' last): their titles where all fit in the tab strip
+    (:data:`TABS_WIDTH`), else short ones ("Fig. 5.3", or the quantity), so that no tab is hidden."""
+    def width(labels: Sequence[str]) -> float:
+        return sum(len(label) * TAB_CHARACTER + TAB_MARGIN for label in labels)
+
+    tail = [OTHER_TAB] if other else []
+    labels = [f.title for f in figures]
+    if width(labels + tail) <= TABS_WIDTH:
+        return labels + tail
+    short = []
+    for f in figures:
+        head, colon, _ = f.title.partition(":")
+        short.append(head if colon and len(head) <= 16 else SHORT_TABS.get(f.quantity, f.name.replace("_", " ")))
+    return short + (["other"] if other else [])
+
+
+def _blueprint(layout: Layout, series: Series, t: np.ndarray, posed: str | None,
+               model: mujoco.MjModel | None = None) -> rrb.Blueprint:
     """The robot, info and events on the left; on the right one tab per figure (per-joint plots stacked, each
-    with its zoom panel beside it), then a tab of the other recorded signals."""
-    tabs: list[rrb.Container] = [_figure_tab(figure, layout, series, t) for figure in layout.figures]
+    with its zoom panel beside it), then a tab of the other recorded signals. Sized for 1600 x 1000: every
+    tab label visible (:func:`tab_labels`), the info table whole, the robot framed (:func:`_eye`)."""
     shown = {figure.entity for figure in layout.figures}
     others = [rrb.TimeSeriesView(name=title, origin="/", contents=[f"/{p}/**" for p in prefixes] + [f"/{p}" for p in prefixes],
                                  plot_legend=rrb.PlotLegend(visible=False))
@@ -455,23 +486,40 @@ def _blueprint(layout: Layout, series: Series, t: np.ndarray, posed: str | None)
                                   plot_legend=rrb.PlotLegend(visible=False))
                for e in sorted({e.rsplit("/", 1)[0] + "/joint1" for e in series if e.startswith("/extras/")})
                if e.split("/")[2] not in {f.quantity.removeprefix("extras.") for f in layout.figures}]
+    labels = tab_labels(layout.figures, bool(others))
+    tabs: list[rrb.Container] = [_figure_tab(figure, layout, series, t, label, label != figure.title)
+                                 for figure, label in zip(layout.figures, labels)]
     if others:
-        tabs.append(rrb.Grid(*others, grid_columns=2, name="Other signals"))
-    side: list[rrb.View] = [rrb.TextDocumentView(name="Info", origin="/info"),
-                            rrb.TextLogView(name="Events", origin="/events")]
-    shares = [2.0, 1.0]
+        tabs.append(rrb.Grid(*others, grid_columns=2, name=labels[-1]))
+    events = rrb.TextLogView(name="Events", origin="/events", columns=rrb.archetypes.TextLogColumns(
+        text_log_columns=[rrb.encodings.TextLogColumn("EntityPath", visible=False),
+                          rrb.encodings.TextLogColumn("LogLevel", visible=False),
+                          rrb.encodings.TextLogColumn("Body", visible=True)]))
+    side: list[rrb.View] = [rrb.TextDocumentView(name="Info", origin="/info"), events]
+    shares = [2.0, 1.6]
     if posed is not None:
-        side.insert(0, rrb.Spatial3DView(name=f"Robot: variant {posed}", origin="/world"))
-        shares.insert(0, 3.0)
+        side.insert(0, rrb.Spatial3DView(name=f"Robot: variant {posed}", origin="/world",
+                                         eye_controls=None if model is None else _eye(model)))
+        shares.insert(0, 2.4)
     return rrb.Blueprint(
-        rrb.Horizontal(rrb.Vertical(*side, row_shares=shares), rrb.Tabs(*tabs, active_tab=0), column_shares=[1, 4]),
+        rrb.Horizontal(rrb.Vertical(*side, row_shares=shares), rrb.Tabs(*tabs, active_tab=0), column_shares=[2, 7]),
         collapse_panels=True,
     )
 
 
-def _figure_tab(figure: Figure, layout: Layout, series: Series, t: np.ndarray) -> rrb.Container:
-    """One figure: a row per joint, the overview plot and, with a zoom, the zoomed plot beside it. The legend
-    sits in the top plot only, in the corner with the least data (every plot has the same colours)."""
+def _eye(model: mujoco.MjModel) -> rrb.archetypes.EyeControls3D:
+    """A camera that frames the robot: looking at the model's centre from the front-left and above, far enough
+    for its extent (MuJoCo's ``stat.center`` and ``stat.extent``, the robot at its initial pose) to fit."""
+    centre, extent = np.asarray(model.stat.center, dtype=np.float64), float(model.stat.extent)
+    direction = np.array([1.0, -1.4, 0.8])
+    position = centre + direction / np.linalg.norm(direction) * 0.85 * extent
+    return rrb.archetypes.EyeControls3D(kind="Orbital", position=position, look_target=centre, eye_up=[0, 0, 1])
+
+
+def _figure_tab(figure: Figure, layout: Layout, series: Series, t: np.ndarray, tab: str,
+                titled: bool = False) -> rrb.Container:
+    """One figure: a row per joint, the overview plot and, with a zoom, the zoomed plot beside it. The colour
+    key is in a plot title; with a short ``tab`` label, the figure's title heads the top plot (``titled``)."""
     companion, kind = figure.companion
     shown = np.array([s.name in figure.variants for s in layout.variants])
     in_zoom = np.array([s.name in figure.shown_in_zoom() for s in layout.variants])
@@ -488,7 +536,13 @@ def _figure_tab(figure: Figure, layout: Layout, series: Series, t: np.ndarray) -
         main = entities[0] if entities else None
         # No legend box over the data: the top plot's title is the key (a legend would also list the columns
         # this figure hides); every plot has the same colours, and hovering a line names it.
-        title = f"{label}   {_colour_key(layout, figure.variants, kind)}" if row == 0 else label
+        key = _colour_key(layout, figure.variants, kind)
+        if titled and row == 0:  # the title first; the key in the next title (or here, with one plot)
+            title = f"{figure.title} · {label}" if len(figure.joints) > 1 else f"{figure.title} · {label}   {key}"
+        elif row == (1 if titled else 0):
+            title = f"{label}   {key}"
+        else:
+            title = label
         legend = rrb.PlotLegend(visible=False)
         window = figure.window
         overview = rrb.TimeSeriesView(
@@ -510,7 +564,7 @@ def _figure_tab(figure: Figure, layout: Layout, series: Series, t: np.ndarray) -
             axis_x=rrb.TimeAxis(link="Independent", view_range=_time_range(*zoom)),
             axis_y=rrb.ScalarAxis(range=limits) if limits is not None else None)
         rows.append(rrb.Horizontal(overview, zoomed, column_shares=[3, 2]))
-    return rrb.Vertical(*rows, name=figure.title)
+    return rrb.Vertical(*rows, name=tab)
 
 
 def _time_range(start: float, end: float) -> rrb.TimeRange:

@@ -71,15 +71,14 @@ from ftc_mj.robot.nominal import NominalSpec
 
 
 class InitialState(Strict):
-    q: list[FiniteFloat]
-    qd: list[FiniteFloat] | None = None
+    q: list[FiniteFloat] = Field(description="Joint positions at t = 0, one per joint [rad] (required).")
+    qd: list[FiniteFloat] | None = Field(None, description="Joint velocities at t = 0 [rad/s]; default: zero.")
 
 
 class ObserverInitial(Strict):
-    #: Initial position estimate; defaults to the first measurement.
-    q_hat: list[FiniteFloat] | None = None
-    #: Initial velocity estimate; defaults to zero.
-    qd_hat: list[FiniteFloat] | None = None
+    q_hat: list[FiniteFloat] | None = Field(None,
+        description="Initial position estimate; defaults to the first measurement.")
+    qd_hat: list[FiniteFloat] | None = Field(None, description="Initial velocity estimate; defaults to zero.")
 
 
 def _plain_names(named: dict[str, Any], what: str) -> dict[str, Any]:
@@ -96,20 +95,18 @@ ControllerVelocity = Literal["measured", "estimated"]
 
 
 class VariantSpec(Strict):
-    observer: MethodSpec
-    #: Required, except with a ``log`` section, where it is refused: the log's torque is the command.
-    controller: MethodSpec | None = None
-    observer_initial: ObserverInitial | None = None
-    #: Overrides the scenario's ``controller_velocity`` for this variant.
-    controller_velocity: ControllerVelocity | None = None
-    #: Further observers that run beside ``observer`` on the same measurements and commands but feed nothing:
-    #: an open-loop comparison of estimators on one closed-loop trajectory. Each is reported as the variant
-    #: ``<variant>.<name>`` (its tracking metrics are the host's).
-    monitors: dict[str, MethodSpec] = {}
-    #: The variant's colour in every figure and the viewer: a palette name (red, blue, ...) or "#rrggbb".
-    #: Default: the first palette colour free after the earlier variants, in the file's order
-    #: (:func:`ftc_mj.outputs.palette.declared_colours`).
-    colour: Annotated[str, AfterValidator(parse_colour)] | None = None
+    observer: MethodSpec = Field(description="The observer: ``type`` (a registered observer) and its ``gains`` "
+                                 "(required; gains default to the method's own).")
+    controller: MethodSpec | None = Field(None,
+        description="Required, except with a ``log`` section, where it is refused: the log's torque is the command.")
+    observer_initial: ObserverInitial | None = Field(None, description="This variant's initial estimate; "
+                                                     "default: the scenario's ``observer_initial``.")
+    controller_velocity: ControllerVelocity | None = Field(None,
+        description="Overrides the scenario's ``controller_velocity`` for this variant.")
+    monitors: dict[str, MethodSpec] = Field({},
+        description="Further observers that run beside ``observer`` on the same measurements and commands but feed nothing: an open-loop comparison of estimators on one closed-loop trajectory. Each is reported as the variant ``<variant>.<name>`` (its tracking metrics are the host's).")
+    colour: Annotated[str, AfterValidator(parse_colour)] | None = Field(None,
+        description="The variant's colour in every figure and the viewer: a palette name (red, blue, ...) or \"#rrggbb\". Default: the first palette colour free after the earlier variants, in the file's order (:func:`ftc_mj.outputs.palette.declared_colours`).")
 
     @field_validator("monitors")
     @classmethod
@@ -118,8 +115,9 @@ class VariantSpec(Strict):
 
 
 class DivergenceSpec(Strict):
-    max_position: PositiveFloat = 100.0
-    max_velocity: PositiveFloat = 1000.0
+    max_position: PositiveFloat = Field(100.0, description="A row whose |q| exceeds this stops as diverged [rad].")
+    max_velocity: PositiveFloat = Field(1000.0, description="A row whose |qd| exceeds this stops as diverged "
+                                        "[rad/s].")
 
 
 #: The largest seed: NumPy keeps a batch's seeds as int64 (``seed + k`` for member k).
@@ -129,42 +127,52 @@ Seed = Annotated[int, Field(ge=0, le=MAX_SEED)]
 
 
 class ScenarioSpec(Strict):
-    name: Annotated[str, Field(min_length=1, pattern=r"^[A-Za-z0-9_.-]+$")]
-    description: str = ""
-    robot: RobotSpec
-    #: Every random element of a run derives from it (:mod:`ftc_mj.effects.randomness`).
-    seed: Seed = 0
-    #: Required, except with a ``log`` section (default: the whole log).
-    duration: PositiveFloat | None = None
-    control_dt: PositiveFloat = 1e-3
-    #: Physics timestep; control_dt must be an integer multiple of it. Defaults to control_dt.
-    timestep: PositiveFloat | None = None
-    #: Required, except with a ``log`` section, where it is refused (the log's first sample is the start).
-    initial: InitialState | None = None
-    observer_initial: ObserverInitial = ObserverInitial()
-    #: The velocity the controllers use: ``measured`` (needs ``robot.sensors`` to list ``velocity``) or
-    #: ``estimated`` (the observer's x2_hat). Default: measured with tachometers, estimated without.
-    controller_velocity: ControllerVelocity | None = None
-    #: Required, except with a ``log`` section, where it is refused (a log has no reference: NaN).
-    reference: list[ExpressionText] | None = None
-    terms: list[TermSpec] = []
-    actuator_faults: list[ActuatorFaultSpec] = []
-    sensors: SensorsSpec = SensorsSpec()
-    nominal: NominalSpec = NominalSpec()
-    plant: PlantSpec = PlantSpec()
-    #: Named numbers the terms' expressions may use, e.g. ``fault_scale``; each member of a batch may have its
-    #: own values (:mod:`ftc_mj.engine.members`).
-    parameters: dict[str, FiniteFloat] = {}
-    variants: Annotated[dict[str, VariantSpec], Field(min_length=1)]
-    metrics: MetricsSpec
-    diagnosis: DiagnosisSpec | None = None
-    divergence: DivergenceSpec = DivergenceSpec()
-    #: The figures of ``python -m ftc_mj.figures`` and the recording's layout; default: the core quantities.
-    figures: list[FigureSpec] = []
-    #: Recording path, relative to the working directory.
-    output: str | None = None
-    #: A recorded trajectory replayed instead of the simulated robot (:mod:`ftc_mj.logs.spec`).
-    log: LogSpec | None = None
+    name: Annotated[str, Field(min_length=1, pattern=r"^[A-Za-z0-9_.-]+$")] = Field(
+        description="The scenario's name: letters, digits, '_', '.' and '-' (required).")
+    description: str = Field("", description="Free text shown by ``--help``-like listings; default empty.")
+    robot: RobotSpec = Field(description="The robot: an MJCF or URDF ``model`` path or a ``builtin`` name, its "
+                             "joints and sensors (required).")
+    seed: Seed = Field(0,
+        description="Every random element of a run derives from it (:mod:`ftc_mj.effects.randomness`).")
+    duration: PositiveFloat | None = Field(None,
+        description="Required, except with a ``log`` section (default: the whole log).")
+    control_dt: PositiveFloat = Field(1e-3, description="Control period [s]: the observers and controllers "
+                                      "run once per period (zero-order hold).")
+    timestep: PositiveFloat | None = Field(None,
+        description="Physics timestep; control_dt must be an integer multiple of it. Defaults to control_dt.")
+    initial: InitialState | None = Field(None,
+        description="Required, except with a ``log`` section, where it is refused (the log's first sample is the start).")
+    observer_initial: ObserverInitial = Field(ObserverInitial(), description="The observers' initial "
+                                              "estimate; default: the first reading and zero velocity.")
+    controller_velocity: ControllerVelocity | None = Field(None,
+        description="The velocity the controllers use: ``measured`` (needs ``robot.sensors`` to list ``velocity``) or ``estimated`` (the observer's x2_hat). Default: measured with tachometers, estimated without.")
+    reference: list[ExpressionText] | None = Field(None,
+        description="Required, except with a ``log`` section, where it is refused (a log has no reference: NaN).")
+    terms: list[TermSpec] = Field([], description="Friction, disturbance and fault terms acting on the true "
+                                  "robot; default: none.")
+    actuator_faults: list[ActuatorFaultSpec] = Field([], description="Faults of what the actuators deliver "
+                                                     "(loss of effectiveness, bias, lock...); default: none.")
+    sensors: SensorsSpec = Field(SensorsSpec(), description="Sensor effects (noise, quantisation, faults) of "
+                                 "the encoders and tachometers; default: exact readings.")
+    nominal: NominalSpec = Field(NominalSpec(), description="The controllers' and observers' model of the "
+                                 "robot (mass mismatch); default: the true one.")
+    plant: PlantSpec = Field(PlantSpec(), description="The simulated robot's own changes (mass scale); "
+                             "default: the model as written.")
+    parameters: dict[str, FiniteFloat] = Field({},
+        description="Named numbers the terms' expressions may use, e.g. ``fault_scale``; each member of a batch may have its own values (:mod:`ftc_mj.engine.members`).")
+    variants: Annotated[dict[str, VariantSpec], Field(min_length=1)] = Field(
+        description="The observer-controller pairs run side by side, by name (required, at least one).")
+    metrics: MetricsSpec = Field(MetricsSpec(), description="Evaluation windows and tolerances of the metrics; "
+                                 "every key has a default.")
+    diagnosis: DiagnosisSpec | None = Field(None, description="Fault detection and isolation on the "
+                                            "observers' residuals; default: none.")
+    divergence: DivergenceSpec = Field(DivergenceSpec(), description="When a row counts as diverged; "
+                                       "default: |q| > 100 rad or |qd| > 1000 rad/s.")
+    figures: list[FigureSpec] = Field([],
+        description="The figures of ``python -m ftc_mj.figures`` and the recording's layout; default: the core quantities.")
+    output: str | None = Field(None, description="Recording path, relative to the working directory.")
+    log: LogSpec | None = Field(None,
+        description="A recorded trajectory replayed instead of the simulated robot (:mod:`ftc_mj.logs.spec`).")
 
     @model_validator(mode="after")
     def _figures(self) -> "ScenarioSpec":
@@ -227,8 +235,8 @@ class Variant:
     q_hat0: np.ndarray | None
     qd_hat0: np.ndarray
     monitors: list[Monitor] = field(default_factory=list)
-    #: "measured" (the tachometer reading) or "estimated" (the observer's x2_hat): the controller's velocity.
-    controller_velocity: str = "estimated"
+    controller_velocity: str = Field("estimated",
+        description="\"measured\" (the tachometer reading) or \"estimated\" (the observer's x2_hat): the controller's velocity.")
 
 
 @dataclass
@@ -247,22 +255,21 @@ class Scenario:
     reference: expressions.TimeFunctions
     terms: list[CompiledTerm]
     variants: list[Variant]
-    #: Every term's value as one compiled function (:func:`ftc_mj.effects.terms.terms_function`).
-    terms_function: expressions.StateFunction | None = None
+    terms_function: expressions.StateFunction | None = Field(None,
+        description="Every term's value as one compiled function (:func:`ftc_mj.effects.terms.terms_function`).")
     actuator_faults: list[ActuatorFault] = field(default_factory=list)
-    #: Sensor effects on the encoders and the tachometers; None: perfect.
-    position_sensor: Channel | None = None
+    position_sensor: Channel | None = Field(None,
+        description="Sensor effects on the encoders and the tachometers; None: perfect.")
     velocity_sensor: Channel | None = None
     diagnoser: Diagnoser | None = None
-    #: The figures (the ``figures`` section, or the defaults) for the variants that run.
-    figures: list[Figure] = field(default_factory=list)
-    #: The file's content after ``--set`` (YAML types): the fields as written, which a campaign's paths are
-    #: checked against, and every variant the file declares (``load_scenario``'s ``variants`` may run fewer).
-    raw: dict[str, Any] = field(default_factory=dict)
-    #: The replayed log (the ``log`` section), or None: the robot is simulated.
-    log: Log | None = None
-    #: The files the scenario was read from (the file, its bases, the model file): what no output may replace.
-    inputs: tuple[Path, ...] = ()
+    figures: list[Figure] = Field(field(default_factory=list),
+        description="The figures (the ``figures`` section, or the defaults) for the variants that run.")
+    raw: dict[str, Any] = Field(field(default_factory=dict),
+        description="The file's content after ``--set`` (YAML types): the fields as written, which a campaign's paths are checked against, and every variant the file declares (``load_scenario``'s ``variants`` may run fewer).")
+    log: Log | None = Field(None,
+        description="The replayed log (the ``log`` section), or None: the robot is simulated.")
+    inputs: tuple[Path, ...] = Field((),
+        description="The files the scenario was read from (the file, its bases, the model file): what no output may replace.")
 
     @property
     def name(self) -> str:
