@@ -291,7 +291,9 @@ class _Run:
         reference = scenario.reference.evaluate(times, members.parameters[:, used] if used else None)
         poses = plant.poses() if record_poses else None
         series = Series.allocate(
-            steps, rows, n, count, [BlockSeries(b.name, b.rows, [name for name, _, _ in b.monitors], list(b.signals))
+            steps, rows, n, count, [BlockSeries(b.name, b.rows, [name for name, _, _ in b.monitors], list(b.signals),
+                                                {name: list(monitor.signals) for name, monitor, _ in b.monitors
+                                                 if monitor.signals})
                                     for b in blocks],
             np.asarray(inputs.fault_on, dtype=bool), scenario.measures_velocity,
             scenario.diagnoser is not None and scenario.diagnoser.space == "torque", poses)
@@ -350,6 +352,10 @@ class _Run:
                 monitor["luaf_hat"][k] = observer.luaf_hat
                 if luaf_torque is not None:
                     model.apply_M(observer.luaf_hat, out=monitor["luaf_torque"][k])
+                if observer.signals:
+                    monitor_extras = recorded.monitor_extras[block.name][name]
+                    for signal_name, signal in observer.signals.items():
+                        monitor_extras[signal_name][k] = signal
             block.tau[...] = block.controller.compute(t, q_ref, qd_ref, qdd_ref, q_b, block.observer, block.model)
             series["qd_hat"][k, rows_b] = block.observer.qd_hat
             series["luaf_hat"][k, rows_b] = block.observer.luaf_hat
@@ -434,7 +440,7 @@ class _Run:
                         extras=recorded.extras, fault_active=recorded.fault_active,
                         qd_measured=recorded.qd_measured, luaf_torque=recorded.luaf_torque,
                         body_xpos=recorded.body_xpos, body_xquat=recorded.body_xquat, done=done,
-                        diverged_at=self.stops.diverged_at)
+                        diverged_at=self.stops.diverged_at, monitor_extras=recorded.monitor_extras)
 
 
 def _plant(scenario: Scenario, members: Members, rows: int, per_row: Callable[[np.ndarray], np.ndarray],

@@ -155,12 +155,14 @@ def variant_result(scenario: Scenario, run: BatchRun, v: int, m: int, poses: boo
         **{name: values[kept, row] for name, values in run.series.items()},
     )
     diagnose_result(scenario.diagnoser, result, of_row(run.luaf_torque))
+    monitor_extras = run.monitor_extras.get(variant.name, {})
     for name, series in run.monitor_series[variant.name].items():
         monitor = next(mon for mon in variant.monitors if mon.name == name)
+        signals = {signal: values[kept, m] for signal, values in monitor_extras.get(name, {}).items()}
         view = dataclasses.replace(
             result, name=f"{variant.name}.{name}", host=variant.name, observer=monitor.observer_type.name,
             qd_hat=series["qd_hat"][kept, m], luaf_hat=series["luaf_hat"][kept, m],
-            body_xpos=result.body_xpos[:0], body_xquat=result.body_xquat[:0], extras={}, diagnosis=None,
+            body_xpos=result.body_xpos[:0], body_xquat=result.body_xquat[:0], extras=signals, diagnosis=None,
             monitors=[],
         )
         diagnose_result(scenario.diagnoser, view, series["luaf_torque"][kept, m] if "luaf_torque" in series else None)

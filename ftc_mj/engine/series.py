@@ -7,8 +7,8 @@ series are written only while a fault may be on, so they start at zero.
 
 from __future__ import annotations
 
-from collections.abc import Sequence
-from dataclasses import dataclass
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass, field
 
 import numpy as np
 
@@ -41,6 +41,8 @@ class BatchRun:
     #: Per row: the number of samples recorded (``steps`` unless it diverged) and the time it diverged.
     done: np.ndarray
     diverged_at: np.ndarray
+    #: The monitors' plugin signals per variant: monitor name -> signal name -> ``(steps, members, n)``.
+    monitor_extras: dict[str, dict[str, dict[str, np.ndarray]]] = field(default_factory=dict)
 
 
 @dataclass(frozen=True)
@@ -52,6 +54,8 @@ class BlockSeries:
     rows: slice
     monitors: Sequence[str]
     signals: Sequence[str]
+    #: Each monitor's plugin signals: monitor name -> signal names.
+    monitor_signals: Mapping[str, Sequence[str]] = field(default_factory=dict)
 
 
 @dataclass
@@ -67,6 +71,7 @@ class Series:
     fault_active: np.ndarray
     body_xpos: np.ndarray | None
     body_xquat: np.ndarray | None
+    monitor_extras: dict[str, dict[str, dict[str, np.ndarray]]] = field(default_factory=dict)
 
     @classmethod
     def allocate(cls, steps: int, rows: int, n: int, members: int, blocks: Sequence[BlockSeries],
@@ -82,11 +87,14 @@ class Series:
                                  for name in block.monitors}
                     for block in blocks}
         extras = {block.name: {name: np.empty((steps, members, n)) for name in block.signals} for block in blocks}
+        monitor_extras = {block.name: {monitor: {name: np.empty((steps, members, n)) for name in names}
+                                       for monitor, names in block.monitor_signals.items()}
+                          for block in blocks}
         return cls(blocks, series, np.empty((steps, rows, n)) if measures_velocity else None,
                    np.empty((steps, rows, n)) if torque_space else None, monitors, extras,
                    np.repeat(fault_on[:, None], rows, axis=1),
                    None if poses is None else np.zeros((steps,) + poses[0].shape),
-                   None if poses is None else np.zeros((steps,) + poses[1].shape))
+                   None if poses is None else np.zeros((steps,) + poses[1].shape), monitor_extras)
 
     def cut(self, done: np.ndarray) -> None:
         """NaN in every series from each row's stop on (``done``: its samples recorded)."""
@@ -95,7 +103,8 @@ class Series:
                 _cut(rows_series, done)
         for block in self.blocks:
             block_done = done[block.rows]
-            for name_series in (*self.monitors[block.name].values(), self.extras[block.name]):
+            for name_series in (*self.monitors[block.name].values(), self.extras[block.name],
+                                *self.monitor_extras[block.name].values()):
                 for values in name_series.values():
                     _cut(values, block_done)
 

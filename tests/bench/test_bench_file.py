@@ -76,6 +76,12 @@ def test_the_shipped_entries_cover_every_robot_of_suite_v1():
     assert {"tosmo", "hs_tosmo", "sosmo", "eso", "do", "levant", "ndob", "ndob_levant", "kalman"} <= names
     assert all(set(e.sections) == set(bench.suite.spec.robots) for e in bench.entries)
     assert all(e.gains_from for e in bench.entries)
+    # Where the gains come from, led by its kind, so that a reader sees which baselines were given a rule.
+    kinds = ("dissertation", "design rule", "tuned", "assumption")
+    assert all(e.gains_from.startswith(kinds) for e in bench.entries), [e.name for e in bench.entries]
+    baselines = {"levant", "ndob", "ndob_levant", "kalman", "momentum", "momentum_levant", "ctc_hs_tosmo",
+                 "super_twisting_hs_tosmo", "pid"}
+    assert all(not e.gains_from.startswith("dissertation") for e in bench.entries if e.name in baselines)
 
 
 def test_an_entrys_identity_is_its_method_and_gains_not_its_name():

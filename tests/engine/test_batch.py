@@ -141,6 +141,9 @@ def test_every_member_equals_its_own_run(scenario, batch_run, member):
         for a, b in zip(batched.monitors, single.monitors):
             np.testing.assert_array_equal(a.luaf_hat, b.luaf_hat, err_msg=a.name)
             np.testing.assert_array_equal(a.qd_hat, b.qd_hat, err_msg=a.name)
+            assert set(a.extras) == set(b.extras), a.name
+            for name, values in a.extras.items():
+                np.testing.assert_array_equal(values, b.extras[name], err_msg=f"{a.name}: {name}")
         np.testing.assert_array_equal(batched.diagnosis.alarm, single.diagnosis.alarm)
 
 
@@ -248,6 +251,31 @@ def test_the_plants_own_mass_matrix_is_the_nominal_one(tmp_path, monkeypatch):
     general = simulate(scenario, replicates(scenario, 2))
     for name, values in shortcut.series.items():
         np.testing.assert_array_equal(values, general.series[name], err_msg=name)
+
+
+def test_a_monitors_signals_are_recorded_as_its_own(tmp_path):
+    """A monitor's plugin signals (the momentum observer's residual, the Kalman filter's innovation) are its
+    result's extras, member by member: a momentum monitor of the momentum observer's own loop records the
+    residual that observer records (the same estimator on the same run), and a monitor without signals none."""
+    spec = scenario_dict()
+    spec["variants"] = {"momentum_smc": {**VARIANTS["momentum_smc"], "monitors": {
+        "twin": {"type": "momentum", "gains": {"K": 60.0}},
+        "kalman": VARIANTS["hs_nftsmc"]["monitors"]["kalman"],
+        "eso": VARIANTS["hs_nftsmc"]["monitors"]["eso"]}}}
+    path = tmp_path / "monitor_signals.yaml"
+    path.write_text(yaml.safe_dump(spec, sort_keys=False), encoding="utf-8")
+    scenario = load_scenario(path)
+    run = simulate(scenario, members_from_overrides(scenario, [{}, {"seed": 11, "parameters.fault_scale": 0.5}]))
+    residuals = []
+    for member in range(2):
+        result = variant_result(scenario, run, 0, member)
+        twin, kalman, eso = result.monitors
+        assert set(twin.extras) == {"residual"} and set(kalman.extras) == {"innovation"} and eso.extras == {}
+        np.testing.assert_array_equal(twin.extras["residual"], result.extras["residual"])
+        assert kalman.extras["innovation"].shape == (len(result.t), 3)
+        assert np.abs(kalman.extras["innovation"]).max() > 0
+        residuals.append(twin.extras["residual"])
+    assert np.abs(residuals[0] - residuals[1]).max() > 1e-3  # each member its own, not a copy
 
 
 def test_a_member_follows_its_own_parameterised_reference(scenario, batch_run):
