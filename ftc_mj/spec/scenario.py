@@ -129,35 +129,49 @@ Seed = Annotated[int, Field(ge=0, le=MAX_SEED)]
 
 
 class ScenarioSpec(Strict):
+    #: Identifier: letters, digits, ``_ . -``; names the default recording.
     name: Annotated[str, Field(min_length=1, pattern=r"^[A-Za-z0-9_.-]+$")]
+    #: Free text.
     description: str = ""
+    #: The robot: a shipped one by name, an MJCF or URDF file, or a Menagerie robot (:mod:`ftc_mj.robot.model`).
     robot: RobotSpec
     #: Every random element of a run derives from it (:mod:`ftc_mj.effects.randomness`).
     seed: Seed = 0
     #: Required, except with a ``log`` section (default: the whole log).
     duration: PositiveFloat | None = None
+    #: Control period [s] (zero-order hold of the command).
     control_dt: PositiveFloat = 1e-3
     #: Physics timestep; control_dt must be an integer multiple of it. Defaults to control_dt.
     timestep: PositiveFloat | None = None
     #: Required, except with a ``log`` section, where it is refused (the log's first sample is the start).
     initial: InitialState | None = None
+    #: The observers' initial estimate (default: the first measurement and zero velocity); a variant may override it.
     observer_initial: ObserverInitial = ObserverInitial()
     #: The velocity the controllers use: ``measured`` (needs ``robot.sensors`` to list ``velocity``) or
     #: ``estimated`` (the observer's x2_hat). Default: measured with tachometers, estimated without.
     controller_velocity: ControllerVelocity | None = None
     #: Required, except with a ``log`` section, where it is refused (a log has no reference: NaN).
     reference: list[ExpressionText] | None = None
+    #: Friction, disturbance and additive fault terms on the true plant (:mod:`ftc_mj.effects.terms`).
     terms: list[TermSpec] = []
+    #: Loss of effectiveness, bias, lock, float, saturation (:mod:`ftc_mj.effects.faults`).
     actuator_faults: list[ActuatorFaultSpec] = []
+    #: Effects on the encoder and tachometer readings, never the state (:mod:`ftc_mj.effects.sensors`).
     sensors: SensorsSpec = SensorsSpec()
+    #: The controller's nominal model (``mass_scale``: a mismatch it makes).
     nominal: NominalSpec = NominalSpec()
+    #: The simulated robot (``mass_scale``: a mismatch the controller's model does not know).
     plant: PlantSpec = PlantSpec()
     #: Named numbers the terms' expressions may use, e.g. ``fault_scale``; each member of a batch may have its
     #: own values (:mod:`ftc_mj.engine.members`).
     parameters: dict[str, FiniteFloat] = {}
+    #: The observer-controller pairs compared, by name; every variant runs on the same plant, reference and noise.
     variants: Annotated[dict[str, VariantSpec], Field(min_length=1)]
+    #: Evaluation windows and tolerances of the metrics.
     metrics: MetricsSpec
+    #: Fault detection, isolation and estimation on each variant's LUaF estimate (:mod:`ftc_mj.analysis.diagnosis`).
     diagnosis: DiagnosisSpec | None = None
+    #: Runaway thresholds: a row beyond them stops as diverged.
     divergence: DivergenceSpec = DivergenceSpec()
     #: The figures of ``python -m ftc_mj.figures`` and the recording's layout; default: the core quantities.
     figures: list[FigureSpec] = []
