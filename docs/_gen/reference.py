@@ -61,6 +61,15 @@ def _comments(cls: type) -> dict[str, str]:
     return found
 
 
+def _inherited_comments(model: type) -> dict[str, str]:
+    """The ``#:`` comments of a model's fields, its bases' included (a subclass's own comment wins)."""
+    comments: dict[str, str] = {}
+    for base in reversed(model.__mro__):
+        if isinstance(base, type) and issubclass(base, BaseModel) and base is not BaseModel:
+            comments.update(_comments(base))
+    return comments
+
+
 def _doc(obj: object) -> str:
     doc = inspect.getdoc(obj) or ""
     if doc.startswith(("Usage docs:", "!!! abstract")) or obj.__doc__ is None:
@@ -165,7 +174,7 @@ def schema_page(title: str, intro: str, root: type[BaseModel]) -> str:
     while index < len(kinds.models):
         model = kinds.models[index]
         index += 1
-        comments = _comments(model)
+        comments = _inherited_comments(model)
         out += [f"## {model.__name__}", ""]
         doc = _doc(model)
         if doc:
@@ -175,6 +184,9 @@ def schema_page(title: str, intro: str, root: type[BaseModel]) -> str:
         for name, info in model.model_fields.items():
             key = info.alias or name
             meaning = comments.get(name) or info.description or ""
+            tag = typing.get_origin(info.annotation) is typing.Literal and len(typing.get_args(info.annotation)) == 1
+            if not meaning and tag:
+                meaning = "The tag that selects this form."
             type_text = kinds.name(info.annotation)
             said = _constraints(info.metadata)
             if said:
@@ -249,10 +261,7 @@ def commands_page() -> str:
 
 def _gains_table(config: type[BaseModel]) -> list[str]:
     kinds = _Types()
-    comments: dict[str, str] = {}
-    for base in reversed(config.__mro__):
-        if isinstance(base, type) and issubclass(base, BaseModel):
-            comments.update(_comments(base))
+    comments = _inherited_comments(config)
     rows = ["| gain | type | default | meaning |", "|---|---|---|---|"]
     for name, info in config.model_fields.items():
         rows.append(f"| `{name}` | {_cell(kinds.name(info.annotation))} | {_cell(_default(info))} | "

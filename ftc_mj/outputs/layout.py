@@ -77,7 +77,9 @@ _EXTRA = re.compile(r"^extras\.[A-Za-z][A-Za-z0-9_]*$")
 class Span(Strict):
     """A time span [s]."""
 
+    #: Start [s].
     start: NonNegativeFloat
+    #: End [s].
     end: Annotated[float, Field(gt=0, allow_inf_nan=False)]
 
     @model_validator(mode="after")
@@ -91,8 +93,11 @@ class ZoomSpec(Span):
     """A second panel per joint on ``[start, end]`` (default end: the end of the run); ``range`` fixes its
     vertical axis (default: the data); ``variants`` shows only these of the figure's (default: all)."""
 
+    #: End [s]; default the end of the run.
     end: Annotated[float, Field(gt=0, allow_inf_nan=False)] | None = None  # type: ignore[assignment]
+    #: The vertical axis ``[low, high]``; default the data in the span.
     range: Annotated[list[FiniteFloat], Field(min_length=2, max_length=2)] | None = None
+    #: The variants shown in the zoom; default the figure's.
     variants: Annotated[list[str], Field(min_length=1)] | None = None
 
     @model_validator(mode="after")

@@ -71,7 +71,9 @@ from ftc_mj.robot.nominal import NominalSpec
 
 
 class InitialState(Strict):
+    #: Initial joint positions, one per joint [rad or m].
     q: list[FiniteFloat]
+    #: Initial joint velocities, one per joint; zero when absent.
     qd: list[FiniteFloat] | None = None
 
 
@@ -96,9 +98,11 @@ ControllerVelocity = Literal["measured", "estimated"]
 
 
 class VariantSpec(Strict):
+    #: The observer: its registered ``type`` and its ``gains``.
     observer: MethodSpec
     #: Required, except with a ``log`` section, where it is refused: the log's torque is the command.
     controller: MethodSpec | None = None
+    #: This variant's observers' initial estimate, instead of the scenario's ``observer_initial``.
     observer_initial: ObserverInitial | None = None
     #: Overrides the scenario's ``controller_velocity`` for this variant.
     controller_velocity: ControllerVelocity | None = None
@@ -118,7 +122,9 @@ class VariantSpec(Strict):
 
 
 class DivergenceSpec(Strict):
+    #: A row whose |q| exceeds this stops as diverged [rad or m].
     max_position: PositiveFloat = 100.0
+    #: A row whose |qd| exceeds this stops as diverged [rad/s or m/s].
     max_velocity: PositiveFloat = 1000.0
 
 
