@@ -15,6 +15,7 @@ import argparse
 import enum
 import inspect
 import re
+import sys
 import textwrap
 import types
 import typing
@@ -286,8 +287,17 @@ def methods_page() -> str:
             out.append(f"| [`{name}`](#{name}) | `{cls.__module__}.{cls.__name__}` | "
                        f"{', '.join(sorted(cls.requires))} |")
         out.append("")
+        first_of_module: dict[str, str] = {}
         for name, cls in registry.items():
             out += [f"### {name}", "", f"`{cls.__module__}.{cls.__name__}`", "", _rst_to_md(_doc(cls)), ""]
+            module = sys.modules[cls.__module__]
+            if cls.__module__ in first_of_module:
+                first = first_of_module[cls.__module__]
+                out += [f"The equations: as [`{first}`](#{first}) (the same module).", ""]
+            elif module.__doc__:
+                first_of_module[cls.__module__] = name
+                equations = re.sub(r"::$", ":", _rst_to_md(inspect.getdoc(module)), flags=re.MULTILINE)
+                out += [f"**The equations** (`{cls.__module__}`):", "", equations, ""]
             config_doc = _doc(cls.Config)
             if config_doc:
                 out += [_rst_to_md(config_doc), ""]
