@@ -1,6 +1,6 @@
 """Every ``bash`` and ``python`` block of the tutorials (docs/tutorials/*.md) runs, in page order, from the root
-of a copy of the repository (so that what they write stays out of the work tree): a tutorial whose code no
-longer works fails here. Blocks that must not run (a blocking viewer, an hour-long benchmark) are written as
+of a copy of the repository's files (so that what they write stays out of the work tree; the package itself is
+imported from the work tree): a tutorial whose code no longer works fails here. Blocks that must not run (a blocking viewer, an hour-long benchmark) are written as
 ``console`` or ``text``.
 
 The example plugin package (examples/ftc_mj_pole_eso) is made importable with its entry point, as
@@ -45,12 +45,18 @@ def _installed(example: Path, site: Path) -> None:
 @pytest.fixture(scope="module")
 def workspace(tmp_path_factory: pytest.TempPathFactory) -> tuple[Path, dict[str, str]]:
     copy = tmp_path_factory.mktemp("tutorials") / "repo"
-    shutil.copytree(ROOT, copy, ignore=shutil.ignore_patterns(
-        ".git", "__pycache__", "*.rrd", "results", ".pytest_cache", "site", "figures"))
+
+    def skipped(folder: str, names: list[str]) -> set[str]:
+        # The package itself is imported from the work tree (with its compiled kernels' cache), not copied.
+        top = {"ftc_mj", "tests", "site"} if Path(folder) == ROOT else set()
+        return top | {name for name in names if name in {".git", "__pycache__", "results", ".pytest_cache",
+                                                          "figures"} or name.endswith(".rrd")}
+
+    shutil.copytree(ROOT, copy, ignore=skipped)
     site = copy.parent / "site-packages"
     _installed(EXAMPLE, site)
     env = {**os.environ, "MPLBACKEND": "Agg",
-           "PYTHONPATH": os.pathsep.join([str(site), str(copy / "examples" / "ftc_mj_pole_eso"), str(copy)])}
+           "PYTHONPATH": os.pathsep.join([str(site), str(copy / "examples" / "ftc_mj_pole_eso"), str(ROOT)])}
     return copy, env
 
 
