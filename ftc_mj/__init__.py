@@ -1,6 +1,6 @@
 """ftc_mj: a physics-in-the-loop testbed for fault diagnosis and fault-tolerant control of robot manipulators.
 
-Run a scenario with ``ftc-mj run scenarios/puma_fault.yaml``; see README.md. As a library::
+Run a scenario with ``ftc-mj run scenarios/puma_fault.yaml``; see README.md and docs/. As a library::
 
     from ftc_mj import load_scenario, run_scenario
 

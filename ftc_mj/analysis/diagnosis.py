@@ -88,7 +88,9 @@ DIAGNOSIS_METRICS: tuple[str, ...] = (
 
 
 class WindowSpec(Strict):
+    #: Start of the fault-free window [s].
     start: NonNegativeFloat
+    #: End of the window [s]; before the first fault onset.
     end: PositiveFloat
 
     @model_validator(mode="after")
@@ -121,7 +123,9 @@ class PersistenceSpec(Strict):
     """How long the residual must stay above (below) the threshold to raise (clear) an alarm: a number of
     ``samples`` or a ``time`` [s] (rounded up to whole samples)."""
 
+    #: Consecutive samples above (below) the threshold that raise (clear) an alarm.
     samples: Annotated[StrictInt, Field(gt=0)] | None = None
+    #: The same as a time [s], rounded up to whole samples.
     time: PositiveFloat | None = None
 
     @model_validator(mode="after")
@@ -134,12 +138,14 @@ class PersistenceSpec(Strict):
 class ThresholdRuleSpec(Strict):
     """The residual against the threshold (the module docstring)."""
 
+    #: The plain rule: an alarm where the residual stays above the threshold for the persistence.
     kind: Literal["threshold"] = "threshold"
 
 
 class CusumRuleSpec(Strict):
     """Page's CUSUM on the residual over the threshold: g = max(0, g + z - drift), alarm where g > h."""
 
+    #: Page's CUSUM on the residual in units of the threshold.
     kind: Literal["cusum"]
     #: nu, in units of the threshold: the part of z that is forgotten every sample.
     drift: NonNegativeFloat
@@ -151,11 +157,17 @@ RuleSpec = Annotated[ThresholdRuleSpec | CusumRuleSpec, Field(discriminator="kin
 
 
 class DiagnosisSpec(Strict):
+    #: ``acceleration``: the LUaF estimate itself [rad/s^2]; ``torque``: M(q_meas) times it [N m], a joint's
+    #: actuator fault on that joint only.
     space: Literal["acceleration", "torque"] = "acceleration"
+    #: A fault-free window over which the signal's mean and standard deviation are learned (without it the mean is
+    #: 0).
     baseline: WindowSpec | None = None
     #: Time constant of a first-order low-pass filter on the LUaF estimate [s]; 0 = none.
     filter_time_constant: NonNegativeFloat = 0.0
+    #: The per-joint threshold on the residual |signal - mean|.
     threshold: ThresholdSpec
+    #: How long the residual must stay above (below) the threshold to raise (clear) an alarm.
     persistence: PersistenceSpec = PersistenceSpec(samples=1)
     #: The diagnoser is armed from this time [s]; default: the baseline's end, else
     #: ``metrics.estimation_window_start``.

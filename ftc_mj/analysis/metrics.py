@@ -1,4 +1,4 @@
-"""Metrics of a variant, per joint, in SI units. Definitions (also in README.md):
+"""Metrics of a variant, per joint, in SI units. Definitions (also on the docs' metrics page):
 
 * ``rms_error``, ``max_error``: RMS and maximum of |e|, e = q - q_d (true position), over the whole run.
 * ``rms_error_converged``, ``max_error_converged``: the same over the evaluation window, per variant and

@@ -42,30 +42,43 @@ Text = Annotated[StrictStr, Field(min_length=1)]
 
 
 class ObserverEntrySpec(Strict):
+    #: The observer's registered name: a built-in or an ``ftc_mj.observers`` entry point (default: the entry's
+    #: name).
     type: StrictStr | None = None
     #: Where the gains come from: the source's design rule, a shipped scenario, or a tuning.
     gains_from: Text
+    #: Robot of the suite -> the observer's gains on it; every robot needs its gains.
     gains: dict[StrictStr, dict[str, Any]]
 
 
 class PairGains(Strict):
+    #: The observer's gains.
     observer: dict[str, Any] = {}
+    #: The controller's gains.
     controller: dict[str, Any] = {}
 
 
 class PairEntrySpec(Strict):
+    #: The observer's registered name (built-in or ``ftc_mj.observers`` entry point).
     observer: StrictStr
+    #: The controller's registered name (built-in or ``ftc_mj.controllers`` entry point).
     controller: StrictStr
+    #: Where the gains come from: the source's design rule, a shipped scenario, or a tuning.
     gains_from: Text
     #: The controller's velocity: its observer's estimate (default) or the tachometers'.
     controller_velocity: Literal["estimated", "measured"] | None = None
+    #: Robot of the suite -> the pair's gains on it; every robot needs its gains.
     gains: dict[StrictStr, PairGains]
 
 
 class BenchSpec(Strict):
+    #: The versioned suite the entries are scored on (``ftc_mj/bench/suites/<suite>.yaml``).
     suite: StrictStr = "v1"
+    #: Free text.
     description: str = ""
+    #: Observers scored on fault diagnosis, by entry name.
     diagnosis: dict[Name, ObserverEntrySpec] = {}
+    #: Observer-controller pairs scored on tracking under faults, by entry name.
     tracking: dict[Name, PairEntrySpec] = {}
 
 

@@ -68,9 +68,13 @@ class Distribution(Strict):
     """Exactly one of: ``uniform: [low, high]``, ``log_uniform: [low, high]`` (0 < low), ``normal: [mean, std]``,
     ``choice: [value, ...]``."""
 
+    #: Uniform between ``[low, high]``.
     uniform: tuple[FiniteFloat, FiniteFloat] | None = None
+    #: Log-uniform between ``[low, high]``, 0 < low (a value that spans decades).
     log_uniform: tuple[PositiveFloat, PositiveFloat] | None = None
+    #: Normal with ``[mean, std]``.
     normal: tuple[FiniteFloat, PositiveFloat] | None = None
+    #: One of the listed values, equally likely (numbers, names or mappings).
     choice: Annotated[list[Any], Field(min_length=1)] | None = None
     #: Other fields that take the same value in each run (e.g. a gain shared by every variant); the column
     #: is the field's own.
@@ -110,25 +114,33 @@ class SamplesSpec(Strict):
     #: ``random``: independent uniform points, point k from its own stream; ``sobol``/``halton``: scrambled
     #: low-discrepancy points (scipy.stats.qmc), whose first N are the same whatever N.
     method: Literal["random", "sobol", "halton"] = "sobol"
+    #: Seed of the sampled points (scrambling, or the random streams of ``random``).
     seed: SeedInt = 0
+    #: The sampled fields by dotted path (as ``--set`` takes them), each with its distribution.
     fields: Annotated[dict[FieldPath, Distribution], Field(min_length=1)]
 
 
 class CaseSpec(Strict):
     """A structural alternative: a label (a column), numbers to report it by (columns), and fields to set."""
 
+    #: The case's name, a column of the results.
     label: Name
     #: Columns to report the case by: numbers (a fault's size) or names (its kind).
     values: dict[Name, FiniteFloat | StrictStr] = {}
+    #: Fields this case sets, by dotted path, any YAML value (e.g. the ``actuator_faults`` list).
     set: dict[FieldPath, Any] = {}
 
 
 class ClaimSpec(Strict):
     """An ordering to test over the population: ``better`` has a lower ``metric`` than ``worse``."""
 
+    #: The claim's name in the report.
     name: StrictStr
+    #: The metric compared (lower is better).
     metric: MetricName
+    #: The variant claimed to have the lower metric.
     better: StrictStr
+    #: The variant it is compared with.
     worse: StrictStr
     #: 1-based joints (all when absent).
     joints: list[Annotated[StrictInt, Field(ge=1)]] | None = None
@@ -147,11 +159,14 @@ class DiagnosisStatsSpec(Strict):
 
 
 class HeatmapSpec(Strict):
+    #: The metric drawn per grid cell (its mean over the cell's runs).
     metric: MetricName = "rms_error_converged"
+    #: The 1-based joint whose metric is drawn.
     joint: Annotated[StrictInt, Field(ge=1)] = 1
 
 
 class ReportSpec(Strict):
+    #: Metrics tabulated and plotted per variant and joint.
     metrics: list[MetricName] = list(DEFAULT_REPORT_METRICS)
     #: Paired differences are taken against this variant (default: the first).
     reference: StrictStr | None = None
@@ -162,28 +177,41 @@ class ReportSpec(Strict):
     fault_kind: StrictStr | None = None
     #: The false-alarm probability at which P_d against size is drawn.
     false_alarm_probability: Annotated[float, Field(gt=0, lt=1, allow_inf_nan=False)] = 0.05
+    #: Orderings tested over the population, each with a verdict (holds, reversed, inconclusive).
     claims: list[ClaimSpec] = []
+    #: The heat map of a 2-D numeric grid.
     heatmap: HeatmapSpec = HeatmapSpec()
     #: Bootstrap resamples of every confidence interval.
     bootstrap: Annotated[StrictInt, Field(ge=100)] = 2000
 
 
 class CampaignSpec(Strict):
+    #: The campaign's name; the results directory defaults to ``results/<name>/``.
     name: Name
+    #: Free text.
     description: str = ""
     #: The base scenario, relative to the campaign file.
     scenario: StrictStr
+    #: The scenario's variants to run (default: all).
     variants: Annotated[list[StrictStr], Field(min_length=1)] | None = None
+    #: Another duration for every run [s] (default: the scenario's).
     duration: PositiveFloat | None = None
     #: Seed of run k's random streams: seed + its sample index x replicates + its replicate (default: the
     #: scenario's seed). The grid's points and the cases share seeds (common random numbers).
     seed: SeedInt | None = None
+    #: Fields set in every run, by dotted path as ``--set`` takes them, any YAML value.
     set: dict[FieldPath, Any] = {}
+    #: Structural alternatives; every case is run on every point of the grid and the samples.
     cases: list[CaseSpec] = []
+    #: A sweep: every combination of the listed values of each field (dotted paths).
     grid: dict[FieldPath, Annotated[list[Any], Field(min_length=1)]] = {}
+    #: Sampled points: their number, method, seed and each field's distribution.
     samples: SamplesSpec | None = None
+    #: Seeds per point (each replicate its own seed).
     replicates: PositiveInt = 1
+    #: The threshold multiples at which detection statistics are kept.
     diagnosis: DiagnosisStatsSpec = DiagnosisStatsSpec()
+    #: What the report tabulates, compares and tests.
     report: ReportSpec = ReportSpec()
 
     @model_validator(mode="after")

@@ -4,7 +4,7 @@
     ftc-mj report FILE [--metrics NAME ...] [--variants NAME ...]
 
 The command line of :func:`ftc_mj.outputs.tables.markdown_table`: one row per metric, one column per variant,
-the joints' values separated by " / " in each cell (the layout of REPRODUCTION.md). Undefined values (null in
+the joints' values separated by " / " in each cell (the layout of docs/results/reproduction.md). Undefined values (null in
 the JSON) print as "-". Exit status 2 when the file is not a metrics JSON.
 """
 

@@ -51,7 +51,9 @@ class Strict(BaseModel):
 class Interval(Strict):
     """From ``onset`` until ``end`` (for good when absent) [s]."""
 
+    #: Start [s].
     onset: NonNegativeFloat
+    #: End [s]; for good when absent.
     end: PositiveFloat | None = None
 
     @model_validator(mode="after")

@@ -46,9 +46,11 @@ from ftc_mj.config.types import (
 
 
 class _FaultSpec(Strict):
+    #: A name for the fault (default: its kind and index).
     name: str | None = None
     #: Faulty joints, 1-based or by name; all when absent.
     joints: JointSelection = None
+    #: How the fault comes on and goes: a time profile (default: abrupt from 0 s).
     profile: ProfileSpec = AbruptSpec()
 
 

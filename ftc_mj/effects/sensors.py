@@ -57,6 +57,7 @@ class ChannelSpec(Strict):
     bias: FiniteFloat | list[FiniteFloat] = 0.0
     #: Offset growing linearly with time [unit/s].
     drift_rate: FiniteFloat | list[FiniteFloat] = 0.0
+    #: From ``onset`` until ``end`` the listed joints hold their last reading.
     stuck: StuckSpec | None = None
     #: Transport delay in whole control periods.
     delay_samples: Annotated[StrictInt, Field(ge=0)] = 0
@@ -77,7 +78,9 @@ class SensorsSpec(Strict):
     """The ``sensors`` section: effects on the encoders and (with ``robot.sensors: [position, velocity]``)
     on the tachometers."""
 
+    #: Effects on the encoder readings.
     position: EncoderSpec | None = None
+    #: Effects on the tachometer readings (needs ``robot.sensors: [position, velocity]``).
     velocity: ChannelSpec | None = None
 
 

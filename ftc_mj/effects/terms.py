@@ -35,16 +35,22 @@ from ftc_mj.config.types import (ExpressionText, NonNegativeFloat, ParameterName
 class TermSpec(Strict):
     """A friction, disturbance or fault term: per-joint expressions of t, q1..qn, qd1..qn."""
 
+    #: ``friction``, ``disturbance`` or ``fault`` (an additive actuator fault: recorded as the fault signal).
     kind: Literal["friction", "disturbance", "fault"]
+    #: ``torque``: M qdd + C qd + G = tau + sign value; ``acceleration``: qdd = M^-1 (tau - C qd - G) + sign value.
     space: Literal["torque", "acceleration"]
+    #: The sign the term enters the plant with.
     sign: Literal[1, -1]
+    #: One expression of t, q1..qn, qd1..qn and the scenario's ``parameters`` per joint.
     value: list[ExpressionText]
+    #: Onset Tf [s]: zero before it; abrupt when absent, unless ``rate`` or ``profile`` says otherwise.
     onset: NonNegativeFloat | None = None
     #: Evolution rate of 1 - exp(-rate (t - onset)), one number or one per joint, or the name of one of the
     #: scenario's ``parameters`` (then each member of a batch may have its own rate); abrupt when absent.
     rate: PositiveFloat | list[PositiveFloat] | ParameterName | None = None
     #: Any time profile of :mod:`ftc_mj.effects.profiles` (instead of ``onset`` and ``rate``).
     profile: ProfileSpec | None = None
+    #: A name for the term (default: its kind and index).
     name: str | None = None
 
 

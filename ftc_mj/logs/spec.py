@@ -46,8 +46,11 @@ ColumnRef = Annotated[StrictInt, Field(ge=0)] | Annotated[str, Field(min_length=
 class ColumnsSpec(Strict):
     """Which CSV columns hold what; a signal per joint in the order of ``log.joints``."""
 
+    #: The time column, by 0-based index or header name.
     time: ColumnRef
+    #: The position columns, one per joint.
     position: Annotated[list[ColumnRef], Field(min_length=1)]
+    #: The velocity columns, one per joint, where logged.
     velocity: list[ColumnRef] | None = None
     #: Joint torques, or motor currents with ``scale.torque`` their torque constants.
     torque: list[ColumnRef] | None = None
@@ -56,9 +59,13 @@ class ColumnsSpec(Strict):
 class ScaleSpec(Strict):
     """Factors on the logged signals (one number, or one per joint in the order of ``log.joints``)."""
 
+    #: Factor to seconds.
     time: PositiveFloat = 1.0
+    #: Factor to rad (or m).
     position: FiniteFloat | list[FiniteFloat] = 1.0
+    #: Factor to rad/s (or m/s).
     velocity: FiniteFloat | list[FiniteFloat] = 1.0
+    #: Factor to N m (a motor constant times a gear ratio, for currents).
     torque: FiniteFloat | list[FiniteFloat] = 1.0
 
 
@@ -68,7 +75,9 @@ class ResampleSpec(Strict):
 
 
 class LogSpec(Strict):
+    #: The log file, relative to the scenario.
     file: Annotated[str, Field(min_length=1)]
+    #: ``csv``, or ``rosbag2`` / ``mcap`` files of ``sensor_msgs/msg/JointState``.
     format: Literal["csv", "rosbag2", "mcap"]
     #: CSV only.
     columns: ColumnsSpec | None = None
@@ -78,8 +87,11 @@ class LogSpec(Strict):
     topic: str = "/joint_states"
     #: rosbag2 and MCAP only: a message's time is its ``header`` stamp, or when it was ``received`` (recorded).
     clock: Literal["header", "received"] = "header"
+    #: The robot joints the log holds, in its order (matched by name in JointState messages); default: all.
     joints: Annotated[list[str], Field(min_length=1)] | None = None
+    #: Factors on the logged signals.
     scale: ScaleSpec = ScaleSpec()
+    #: The uniform grid the observers step on (linear interpolation).
     steps: ResampleSpec
 
     @model_validator(mode="after")

@@ -28,7 +28,7 @@ class Method(ABC):
       keeps that; fractional powers and exp go through :mod:`ftc_mj.methods.primitives` (``signed_power``,
       ``power``, ``exp``), and member values are never computed one by one in Python (``math``,
       ``float(gain)``). The rule, its reasons and what a plugin may write freely:
-      ``docs/architecture/batching.md``.
+      ``docs/explanation/batching.md``.
     * **Reset.** ``reset`` puts every member back to its initial state; the engine calls it before the first
       period. A run is reproducible only if everything a method integrates is reset there.
 

@@ -1,7 +1,7 @@
 """Batch-safe building blocks of the methods' laws: powers, exp, and numbers as array operands.
 
 The engine runs ``members`` copies of a method at once, and member k of a batch must give the bits it gives
-alone (the rule and its reasons: ``docs/architecture/batching.md``). NumPy's element-wise kernels (pow, exp,
+alone (the rule and its reasons: ``docs/explanation/batching.md``). NumPy's element-wise kernels (pow, exp,
 log, tanh, ...; SIMD, with masked loads for the tails) compute each element from that element alone, at any
 position and in any layout; what can differ between a member alone and in a batch is *which* kernel NumPy
 picks, and that is decided by the operands' types and strides:

@@ -82,7 +82,9 @@ def controller_types() -> Plugins:
 class MethodSpec(Strict):
     """An observer or controller of a scenario: the plugin's name and its gains."""
 
+    #: The method's registered name: a built-in or an entry point of ``ftc_mj.observers`` / ``ftc_mj.controllers``.
     type: str
+    #: The method's gains, checked by its ``Config`` (the methods reference lists them).
     gains: dict[str, Any] = {}
 
 

@@ -2,7 +2,7 @@
 ``ftc-mj report``, :mod:`ftc_mj.cli.report`).
 
 One row per metric, one column per variant, the joints' values separated by " / " in each cell (the layout of
-REPRODUCTION.md). Undefined values (null in the JSON) print as "-".
+docs/results/reproduction.md). Undefined values (null in the JSON) print as "-".
 """
 
 from __future__ import annotations

@@ -39,7 +39,9 @@ PositiveInt = Annotated[StrictInt, Field(gt=0)]
 
 
 class GainBounds(Strict):
+    #: Lower bound of the search (the scenario's own gain must lie within the bounds).
     low: Annotated[float, Field(allow_inf_nan=False)]
+    #: Upper bound of the search.
     high: Annotated[float, Field(allow_inf_nan=False)]
     #: Search the logarithm (a gain that spans decades); needs 0 < low.
     log: StrictBool = False
@@ -65,7 +67,10 @@ class GainBounds(Strict):
 
 
 class CostSpec(Strict):
+    #: Metric -> weight; a condition costs the sum of weight x (metric's mean over the joints) / (the same with the
+    #: scenario's gains).
     weights: Annotated[dict[StrictStr, PositiveFloat], Field(min_length=1)]
+    #: ``mean`` over the conditions, or ``mean_cvar``: the mean plus the mean of the worst ``fraction``.
     aggregate: Literal["mean", "mean_cvar"] = "mean"
     #: The worst fraction of the conditions whose mean is CVaR.
     fraction: Annotated[float, Field(gt=0, le=1, allow_inf_nan=False)] = 0.2
@@ -92,6 +97,7 @@ class OptimizerSpec(Strict):
     #: Candidates per generation (CMA-ES's lambda, at least 2: its update ranks candidates); default
     #: 4 + 3 ln(dimension).
     population: Annotated[StrictInt, Field(ge=2)] | None = None
+    #: CMA-ES generations, each one batch of ``population`` candidates on the same conditions.
     generations: PositiveInt = 10
     #: Initial step size in the unit box of the bounds.
     sigma: Annotated[float, Field(gt=0, le=1, allow_inf_nan=False)] = 0.25
@@ -102,17 +108,27 @@ class OptimizerSpec(Strict):
 
 
 class TuningSpec(Strict):
+    #: The tuning's name; the results directory defaults to ``results/tuning/<name>/``.
     name: Name
+    #: Free text.
     description: str = ""
     #: A campaign file, relative to this one: its scenario, `set` and population are the conditions.
     campaign: StrictStr
+    #: The scenario variant whose gains are tuned.
     variant: StrictStr
+    #: Another duration for every run [s] (default: the campaign's).
     duration: PositiveFloat | None = None
+    #: The first this many runs of the campaign's population train the gains.
     conditions: PositiveInt
+    #: The next this many runs check the best gains against the scenario's.
     held_out: PositiveInt
+    #: The tuned gains by dotted path (``variants.V.observer.gains.*``, ``.controller.gains.*``) with their bounds.
     gains: Annotated[dict[FieldPath, GainBounds], Field(min_length=1)]
+    #: What a candidate's condition costs and how the conditions are aggregated.
     cost: CostSpec
+    #: What a candidate may not do on a condition; each violation is penalised.
     constraints: ConstraintsSpec = ConstraintsSpec()
+    #: CMA-ES's population, generations, step size, seed and penalty.
     optimizer: OptimizerSpec = OptimizerSpec()
 
     @model_validator(mode="after")

@@ -1,4 +1,4 @@
-"""A plugin written in plain NumPy on the primitives is bit-identical batched (docs/architecture/batching.md):
+"""A plugin written in plain NumPy on the primitives is bit-identical batched (docs/explanation/batching.md):
 a small observer defined here, with a fractional power of a gain exponent and of a literal one, an exp of its
 state and per-joint gains, registered for these tests only, runs as the host observer of a batch of 5 members
 of a 3-joint robot (members != joints, so that a mixed-up axis shows) with per-member gains; each member equals

@@ -1,7 +1,7 @@
 """Run a shipped scenario once through the command line and hand its metrics to the claim tests.
 
 Each claim test module runs its scenario in full (30 s of simulated time, 10-20 s of CPU) once, through
-``python -m ftc_mj.run`` as a user would, and asserts REPRODUCTION.md's claims that hold with margins: each
+``python -m ftc_mj.run`` as a user would, and asserts docs/results/reproduction.md's claims that hold with margins: each
 bound sits between the measured value (in a comment) and what a broken method gives.
 """
 

@@ -1,4 +1,4 @@
-"""Chapter 4 end to end: scenarios/puma_disturbance.yaml, the claims of REPRODUCTION.md that hold.
+"""Chapter 4 end to end: scenarios/puma_disturbance.yaml, the claims of docs/results/reproduction.md that hold.
 
 Measured values in the comments (joints 1 / 2 / 3); bounds leave about a 3x margin.
 """

@@ -1,4 +1,4 @@
-"""The scenarios of scenarios/faults/ end to end (the proposed method, 12 s each): what README.md's "Fault
+"""The scenarios of scenarios/faults/ end to end (the proposed method, 12 s each): what the docs' "Fault
 diagnosis: results" reports, with margins. The loss-of-effectiveness and bias scenarios are checked in
 test_diagnosis.py."""
 

@@ -1,4 +1,4 @@
-"""Chapter 2 end to end: scenarios/two_link_do.yaml, the claims of REPRODUCTION.md that hold.
+"""Chapter 2 end to end: scenarios/two_link_do.yaml, the claims of docs/results/reproduction.md that hold.
 
 Measured values in the comments (joint 1 / joint 2); bounds leave a margin of about 3x (or a factor-of-3
 ordering) and sit well away from what a broken observer or compensation gives.

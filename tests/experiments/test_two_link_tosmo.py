@@ -3,7 +3,7 @@
 Measured values in the comments ("simple; complex", joint 1 / joint 2); bounds leave about a 3x margin.
 
 The sigmoid laws (``proposed``, ``after_convergence``) have a singular |e|^(alpha - 1) term whose spikes kick
-the converged loop at times decided by floating-point rounding (REPRODUCTION.md, "What rounding decides in
+the converged loop at times decided by floating-point rounding (docs/results/reproduction.md, "What rounding decides in
 Chapter 3"): their errors after convergence, their fault peaks and their "for good" reaching times moved by
 up to 30x (and 8 s) between three roundings of the same physics and methods (two engines, two evaluations of
 the nominal model). Those are asserted only through bounds that held under all three; which sigmoid law is
@@ -20,7 +20,7 @@ import pytest
 from scenario_runs import ROOT, Metrics, run_scenario
 
 sys.path.insert(0, str(ROOT / "studies"))
-from sigmoid_spikes import spikes  # noqa: E402  (the study REPRODUCTION.md quotes, run over 12 s)
+from sigmoid_spikes import spikes  # noqa: E402  (the study docs/results/reproduction.md quotes, run over 12 s)
 
 
 @pytest.fixture(scope="module", params=["two_link_tosmo_simple", "two_link_tosmo_complex"])
@@ -56,7 +56,7 @@ def test_proposed_law_tracks_better_than_smc_and_ntsmc(metrics: Metrics) -> None
 def test_gamma2_term_speeds_up_the_initial_convergence(metrics: Metrics) -> None:
     """The reaching phase ends before the singular term matters: the same under all three roundings. Convergence
     2.88 / 4.02 s against 2.95 / 5.31 s; surface first reached 2.92 / 4.05 s against 2.99 / 5.35 s (both cases).
-    The "for good" reaching times and the fault peaks are rounding's (REPRODUCTION.md) and not asserted: the
+    The "for good" reaching times and the fault peaks are rounding's (docs/results/reproduction.md) and not asserted: the
     Phi_1 joint-2 fault peak went from 4.4e-5 against 1.9e-4 rad to 7.8e-5 against 6.4e-6, then 3.2e-5 against
     1.1e-5."""
     proposed, after = metrics["proposed"], metrics["after_convergence"]
@@ -82,7 +82,7 @@ def test_after_convergence_both_forms_track_alike_from_their_own_convergence(met
 def test_the_sigmoid_laws_singular_term_spikes_after_the_surface_is_reached(name: str) -> None:
     """The singular term |e|^(alpha - 1) of (3.27)/(3.36) exceeds the switching gain Delta_d + mu in 73-91 of
     every 1000 periods after the surface is first reached, under all three roundings so far; the largest spike
-    of a run is 18-43x the gain with MuJoCo's nominal model, 55-105x now (REPRODUCTION.md; studies/
+    of a run is 18-43x the gain with MuJoCo's nominal model, 55-105x now (docs/results/reproduction.md; studies/
     sigmoid_spikes.py). Whether a spike kicks s off its surface for good, and when, is rounding's (the proposed
     law's joint 1: 9.74 s, then 2.92 s, its first reaching): not asserted.
     Over the first 12 s: at least 30 spikes per second on every joint of both laws, the largest above 5x the

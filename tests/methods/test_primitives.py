@@ -1,4 +1,4 @@
-"""The batch-safe primitives (docs/architecture/batching.md): each element's bits are those it has alone, among
+"""The batch-safe primitives (docs/explanation/batching.md): each element's bits are those it has alone, among
 many, for odd and even lengths, at every position (the SIMD kernels' full vectors and their tails), in the
 engine's ``(members, n)`` layout and in views of larger arrays; and the values are the mathematical ones."""
 

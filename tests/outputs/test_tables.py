@@ -1,4 +1,4 @@
-"""ftc_mj.outputs.tables and ftc-mj report: the Markdown tables of REPRODUCTION.md from a run's --json document."""
+"""ftc_mj.outputs.tables and ftc-mj report: the Markdown tables of docs/results/reproduction.md from a run's --json document."""
 
 from __future__ import annotations
 

@@ -1,0 +1,395 @@
+"""The reference pages generated from the code at build time, so that they cannot drift from it.
+
+Used as a MkDocs hook (``mkdocs.yml``: ``hooks``): :func:`on_files` adds one generated Markdown page per
+entry of :data:`PAGES` to the site. Every schema page is read from the pydantic models themselves (field,
+type, default) and their ``#:`` comments (meaning); the command pages from each command's ``build_parser``;
+the methods page from the registry of built-in observers and controllers and their gain ``Config`` models;
+the metrics page from ``ftc_mj.analysis.metrics`` (names and units) with the definitions kept in
+``docs/_gen/metrics.yaml``, checked against the code's list (a metric without a definition, or a
+definition of no metric, fails the build).
+"""
+
+from __future__ import annotations
+
+import argparse
+import enum
+import inspect
+import re
+import sys
+import textwrap
+import types
+import typing
+from collections.abc import Callable, Iterable
+from pathlib import Path
+from typing import Any
+
+import annotated_types
+import yaml
+from pydantic import BaseModel
+from pydantic_core import PydanticUndefined
+
+HERE = Path(__file__).resolve().parent
+
+# ----------------------------------------------------------------------------------------------- schemas
+
+
+def _comments(cls: type) -> dict[str, str]:
+    """Field name -> the ``#:`` comment lines just above its annotation in the class body."""
+    try:
+        lines, _ = inspect.getsourcelines(cls)
+    except (OSError, TypeError):
+        return {}
+    found: dict[str, str] = {}
+    pending: list[str] = []
+    body_indent = None
+    for line in lines[1:]:
+        stripped = line.strip()
+        indent = len(line) - len(line.lstrip())
+        if not stripped:
+            pending = []
+            continue
+        if body_indent is None:
+            body_indent = indent
+        if indent != body_indent:
+            continue
+        if stripped.startswith("#:"):
+            pending.append(stripped[2:].strip())
+            continue
+        match = re.match(r"([A-Za-z_][A-Za-z0-9_]*)\s*:", stripped)
+        if match and pending:
+            found[match.group(1)] = " ".join(pending)
+        pending = []
+    return found
+
+
+def _inherited_comments(model: type) -> dict[str, str]:
+    """The ``#:`` comments of a model's fields, its bases' included (a subclass's own comment wins)."""
+    comments: dict[str, str] = {}
+    for base in reversed(model.__mro__):
+        if isinstance(base, type) and issubclass(base, BaseModel) and base is not BaseModel:
+            comments.update(_comments(base))
+    return comments
+
+
+def _doc(obj: object) -> str:
+    doc = inspect.getdoc(obj) or ""
+    if doc.startswith(("Usage docs:", "!!! abstract")) or obj.__doc__ is None:
+        return ""
+    return doc
+
+
+def _rst_to_md(text: str) -> str:
+    """Sphinx roles and double backquotes of the docstrings as Markdown code."""
+    text = re.sub(r":(?:class|func|meth|mod|data|attr|exc|obj):`~?([^`]+)`", r"`\1`", text)
+    return text.replace("``", "`")
+
+
+def _cell(text: str) -> str:
+    return _rst_to_md(text).replace("|", "\\|").replace("\n", " ")
+
+
+_CONSTRAINTS = {annotated_types.Gt: ("gt", "> {}"), annotated_types.Ge: ("ge", ">= {}"),
+                annotated_types.Lt: ("lt", "< {}"), annotated_types.Le: ("le", "<= {}"),
+                annotated_types.MinLen: ("min_length", "at least {} long"),
+                annotated_types.MaxLen: ("max_length", "at most {} long")}
+
+
+def _constraints(metadata: Iterable[object]) -> list[str]:
+    said = []
+    for item in metadata:
+        for kind, (attribute, form) in _CONSTRAINTS.items():
+            if isinstance(item, kind):
+                said.append(form.format(getattr(item, attribute)))
+        pattern = getattr(item, "pattern", None)
+        if isinstance(pattern, str):
+            said.append(f"matches `{pattern}`")
+    return said
+
+
+class _Types:
+    """Renders annotations as short text and collects the models they name (documented after)."""
+
+    def __init__(self) -> None:
+        self.models: list[type[BaseModel]] = []
+
+    def name(self, annotation: Any) -> str:
+        origin = typing.get_origin(annotation)
+        args = typing.get_args(annotation)
+        if origin is typing.Annotated:
+            base, *metadata = args
+            said = _constraints(metadata)
+            text = self.name(base)
+            return f"{text} ({', '.join(said)})" if said else text
+        if origin in (typing.Union, types.UnionType):
+            return " or ".join(self.name(arg) for arg in args)
+        if origin is typing.Literal:
+            return " or ".join(f"`{arg!r}`" if not isinstance(arg, str) else f'`"{arg}"`' for arg in args)
+        if origin in (list, tuple, set, frozenset):
+            inner = ", ".join(self.name(arg) for arg in args if arg is not Ellipsis)
+            return f"list of {inner}" if inner else "list"
+        if origin is dict:
+            key, value = args
+            return f"mapping {self.name(key)} -> {self.name(value)}"
+        if annotation is type(None):
+            return "null"
+        if isinstance(annotation, type) and issubclass(annotation, BaseModel):
+            if annotation not in self.models:
+                self.models.append(annotation)
+            return f"[{annotation.__name__}](#{annotation.__name__.lower()})"
+        if isinstance(annotation, type) and issubclass(annotation, enum.Enum):
+            return " or ".join(f'`"{member.value}"`' for member in annotation)
+        if isinstance(annotation, type):
+            return {"str": "text", "float": "number", "int": "integer", "bool": "true/false",
+                    "Any": "any"}.get(annotation.__name__, annotation.__name__)
+        if annotation is Any:
+            return "any"
+        return str(annotation).replace("typing.", "")
+
+
+def _default(info: Any) -> str:
+    if info.is_required():
+        return "required"
+    if info.default_factory is not None:
+        value = info.default_factory()
+    else:
+        value = info.default
+    if value is PydanticUndefined:
+        return "required"
+    if value is None:
+        return "none"
+    if isinstance(value, BaseModel):
+        return "its defaults"
+    if isinstance(value, enum.Enum):
+        value = value.value
+    text = yaml.safe_dump(value, default_flow_style=True, width=10_000).strip()
+    text = text.removesuffix("...").strip()
+    return f"`{text}`"
+
+
+def schema_page(title: str, intro: str, root: type[BaseModel]) -> str:
+    """One table per model, the root first, then every model its fields name, in order of first mention."""
+    kinds = _Types()
+    kinds.models.append(root)
+    out = [f"# {title}", "", intro, ""]
+    index = 0
+    while index < len(kinds.models):
+        model = kinds.models[index]
+        index += 1
+        comments = _inherited_comments(model)
+        out += [f"## {model.__name__}", ""]
+        doc = _doc(model)
+        if doc:
+            out += [_rst_to_md(doc), ""]
+        out += [f"`{model.__module__}.{model.__name__}`", "",
+                "| field | type | default | meaning |", "|---|---|---|---|"]
+        for name, info in model.model_fields.items():
+            key = info.alias or name
+            meaning = comments.get(name) or info.description or ""
+            tag = typing.get_origin(info.annotation) is typing.Literal and len(typing.get_args(info.annotation)) == 1
+            if not meaning and tag:
+                meaning = "The tag that selects this form."
+            type_text = kinds.name(info.annotation)
+            said = _constraints(info.metadata)
+            if said:
+                type_text += f" ({', '.join(said)})"
+            out.append(f"| `{key}` | {_cell(type_text)} | {_cell(_default(info))} | {_cell(meaning)} |")
+        out.append("")
+    return "\n".join(out)
+
+
+# ---------------------------------------------------------------------------------------------- commands
+
+
+def _parser_section(parser: argparse.ArgumentParser, level: int) -> list[str]:
+    out = ["```text", parser.format_usage().strip(), "```", ""]
+    if parser.description:
+        out += [parser.description.strip(), ""]
+    rows = []
+    subparsers = None
+    for action in parser._actions:
+        if isinstance(action, argparse._SubParsersAction):
+            subparsers = action
+            continue
+        if isinstance(action, argparse._HelpAction):
+            continue
+        name = ", ".join(f"`{option}`" for option in action.option_strings) or f"`{action.metavar or action.dest}`"
+        if action.option_strings and action.nargs != 0:
+            metavar = action.metavar or action.dest.upper()
+            if isinstance(metavar, tuple):
+                metavar = " ".join(metavar)
+            name += f" `{metavar}`"
+        default = ""
+        if action.default not in (None, argparse.SUPPRESS, False) and action.nargs != 0:
+            default = f"`{action.default}`"
+        help_text = (action.help or "").replace("%(default)s", str(action.default)).replace("%%", "%")
+        if action.choices and not isinstance(action, argparse._SubParsersAction):
+            help_text += f" (one of {', '.join(map(str, action.choices))})"
+        rows.append(f"| {name} | {_cell(help_text)} | {default} |")
+    if rows:
+        out += ["| argument | meaning | default |", "|---|---|---|", *rows, ""]
+    if parser.epilog:
+        out += [parser.epilog.strip(), ""]
+    if subparsers is not None:
+        for name, sub in subparsers.choices.items():
+            out += [f"{'#' * level} {sub.prog}", ""]
+            out += _parser_section(sub, level + 1)
+    return out
+
+
+def commands_page() -> str:
+    import importlib
+
+    from ftc_mj.cli.main import COMMANDS
+
+    out = ["# Commands", "",
+           "Every command is `ftc-mj COMMAND` (installed with the package; `python -m ftc_mj.cli COMMAND` "
+           "without installing). Generated from each command's parser: `ftc-mj COMMAND --help` prints the same. "
+           "Every command refuses a bad option or bad input with one line and exit status 2, writing nothing "
+           "([bad input](bad-input.md)).", "",
+           "| command | does |", "|---|---|"]
+    out += [f"| [`ftc-mj {name}`](#ftc-mj-{name}) | {_cell(summary)} |" for name, summary in COMMANDS.items()]
+    out.append("")
+    for name in COMMANDS:
+        module = importlib.import_module(f"ftc_mj.cli.{name}")
+        parser = module.build_parser(prog=f"ftc-mj {name}")
+        out += [f"## ftc-mj {name}", ""]
+        out += _parser_section(parser, 3)
+    return "\n".join(out)
+
+
+# ----------------------------------------------------------------------------------------------- methods
+
+
+def _gains_table(config: type[BaseModel]) -> list[str]:
+    kinds = _Types()
+    comments = _inherited_comments(config)
+    rows = ["| gain | type | default | meaning |", "|---|---|---|---|"]
+    for name, info in config.model_fields.items():
+        rows.append(f"| `{name}` | {_cell(kinds.name(info.annotation))} | {_cell(_default(info))} | "
+                    f"{_cell(comments.get(name) or info.description or '')} |")
+    return rows
+
+
+def methods_page() -> str:
+    from ftc_mj.methods.controllers import BUILTIN as CONTROLLERS
+    from ftc_mj.methods.observers import BUILTIN as OBSERVERS
+
+    out = ["# Methods", "",
+           "Every built-in observer and controller, generated from the registry "
+           "(`ftc_mj.methods.observers.BUILTIN`, `ftc_mj.methods.controllers.BUILTIN`): the name a scenario's "
+           "`type` takes, the class and its docstring (the equations it implements), the sensors it needs and "
+           "its gains from its `Config` (a per-joint gain is one number or a list of one per joint). "
+           "The readings of misprinted equations are in [the assumptions](../explanation/assumptions.md); "
+           "a method of your own is [a package of its own](../tutorials/plugin.md).", ""]
+    for title, registry in (("Observers", OBSERVERS), ("Controllers", CONTROLLERS)):
+        out += [f"## {title}", "", "| name | class | needs |", "|---|---|---|"]
+        for name, cls in registry.items():
+            out.append(f"| [`{name}`](#{name}) | `{cls.__module__}.{cls.__name__}` | "
+                       f"{', '.join(sorted(cls.requires))} |")
+        out.append("")
+        first_of_module: dict[str, str] = {}
+        for name, cls in registry.items():
+            out += [f"### {name}", "", f"`{cls.__module__}.{cls.__name__}`", "", _rst_to_md(_doc(cls)), ""]
+            module = sys.modules[cls.__module__]
+            if cls.__module__ in first_of_module:
+                first = first_of_module[cls.__module__]
+                out += [f"The equations: as [`{first}`](#{first}) (the same module).", ""]
+            elif module.__doc__:
+                first_of_module[cls.__module__] = name
+                equations = re.sub(r"::$", ":", _rst_to_md(inspect.getdoc(module)), flags=re.MULTILINE)
+                out += [f"**The equations** (`{cls.__module__}`):", "", equations, ""]
+            config_doc = _doc(cls.Config)
+            if config_doc:
+                out += [_rst_to_md(config_doc), ""]
+            if cls.signal_names:
+                out += ["Signals it records (figures `extras.NAME`): "
+                        + ", ".join(f"`{s}`" for s in sorted(cls.signal_names)) + ".", ""]
+            out += _gains_table(cls.Config) + [""]
+    return "\n".join(out)
+
+
+# ----------------------------------------------------------------------------------------------- metrics
+
+
+def metric_definitions() -> dict[str, str]:
+    return yaml.safe_load((HERE / "metrics.yaml").read_text())
+
+
+def metrics_page() -> str:
+    from ftc_mj.analysis.diagnosis import DIAGNOSIS_METRICS
+    from ftc_mj.analysis.metrics import METRICS, UNITS, MetricsSpec
+
+    definitions = metric_definitions()
+    missing = [name for name in METRICS if name not in definitions]
+    extra = [name for name in definitions if name not in METRICS]
+    if missing or extra:
+        raise ValueError(f"docs/_gen/metrics.yaml: metrics without a definition {missing}, "
+                         f"definitions of no metric {extra}")
+    out = ["# Metrics", "",
+           "Per variant and per joint, SI units, computed by `ftc_mj.analysis.metrics.compute_metrics` "
+           "(diagnosis metrics by `ftc_mj.analysis.diagnosis`). e = q - q_d on the true position. Names and "
+           "units are generated from `METRICS` and `UNITS`; the windows and tolerances are the scenario's "
+           "[`metrics` section](scenario.md#metricsspec).", "",
+           "| metric | unit | definition |", "|---|---|---|"]
+    for name in METRICS:
+        if name in DIAGNOSIS_METRICS:
+            continue
+        out.append(f"| `{name}` | {UNITS[name]} | {_cell(definitions[name])} |")
+    out += ["", "## Diagnosis metrics", "",
+            "All undefined (`-` in the table, `null` in `--json`) without a `diagnosis` section.", "",
+            "| metric | unit | definition |", "|---|---|---|"]
+    for name in DIAGNOSIS_METRICS:
+        out.append(f"| `{name}` | {UNITS[name]} | {_cell(definitions[name])} |")
+    out += ["", "## The `metrics` section", "", *_gains_table(MetricsSpec), ""]
+    return "\n".join(out)
+
+
+# ------------------------------------------------------------------------------------------------- pages
+
+
+def _scenario() -> str:
+    from ftc_mj.spec.scenario import ScenarioSpec
+    return schema_page("Scenario file", "A scenario file (`scenarios/*.yaml`) is one `ScenarioSpec`; unknown "
+                       "keys are errors. Generated from the pydantic models; how to write one: "
+                       "[write a scenario](../tutorials/scenario.md).", ScenarioSpec)
+
+
+def _campaign() -> str:
+    from ftc_mj.campaign.spec import CampaignSpec
+    return schema_page("Campaign file", "A campaign file (`campaigns/*.yaml`) is one `CampaignSpec`. Generated "
+                       "from the pydantic models; how to use one: [campaigns and tuning]"
+                       "(../tutorials/campaigns.md).", CampaignSpec)
+
+
+def _tuning() -> str:
+    from ftc_mj.tuning.spec import TuningSpec
+    return schema_page("Tuning file", "A tuning file (`tuning/*.yaml`) is one `TuningSpec`. Generated from "
+                       "the pydantic models; how to use one: [campaigns and tuning](../tutorials/campaigns.md).",
+                       TuningSpec)
+
+
+def _bench() -> str:
+    from ftc_mj.bench.spec import BenchSpec
+    return schema_page("Benchmark entries file", "The file of entries `ftc-mj bench` takes is one `BenchSpec`. "
+                       "Generated from the pydantic models; how to use it: [the benchmark]"
+                       "(../tutorials/benchmark.md).", BenchSpec)
+
+
+#: Generated page (relative to docs/) -> the function that writes it.
+PAGES: dict[str, Callable[[], str]] = {
+    "reference/scenario.md": _scenario,
+    "reference/campaign.md": _campaign,
+    "reference/tuning.md": _tuning,
+    "reference/bench.md": _bench,
+    "reference/commands.md": commands_page,
+    "reference/methods.md": methods_page,
+    "reference/metrics.md": metrics_page,
+}
+
+
+def on_files(files, config):  # the MkDocs hook
+    from mkdocs.structure.files import File
+
+    for path, write in PAGES.items():
+        files.append(File.generated(config, path, content=write()))
+    return files
