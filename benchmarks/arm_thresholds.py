@@ -32,12 +32,13 @@ def clopper_pearson(k: int, n: int, level: float = 0.95) -> tuple[float, float]:
     return low, high
 
 
-def outcomes(path: Path, seeds: list[int], overrides: list[str], healthy: bool) -> dict[str, list[dict]]:
+def outcomes(path: Path, seeds: list[int], overrides: list[str], healthy: bool, variants: list[str]
+             ) -> dict[str, list[dict]]:
     assignments = None
     if healthy:
         raw = load_scenario(path, overrides=overrides).raw
         assignments = {"actuator_faults": [], "terms": [t for t in raw.get("terms") or [] if t.get("kind") != "fault"]}
-    scenario = load_scenario(path, overrides=overrides, assignments=assignments)
+    scenario = load_scenario(path, overrides=overrides, assignments=assignments, variants=variants)
     found: dict[str, list[dict]] = {}
     for o in run_batch(scenario, members_from_overrides(scenario, [{"seed": s} for s in seeds])):
         found.setdefault(o.variant, []).append(
@@ -48,16 +49,21 @@ def outcomes(path: Path, seeds: list[int], overrides: list[str], healthy: bool) 
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("scenario", type=Path)
-    parser.add_argument("--runs", type=int, default=60)
+    parser.add_argument("--runs", type=int, default=60, help="healthy runs (0: none)")
+    parser.add_argument("--faulty-runs", type=int, help="faulty runs (default: --runs)")
+    parser.add_argument("--variant", nargs="+", default=[], help="healthy runs of these variants only")
+    parser.add_argument("--faulty-variant", nargs="+", default=[], help="faulty runs of these variants only")
     parser.add_argument("--first-seed", type=int, default=5000)
     parser.add_argument("--set", action="append", default=[], dest="overrides")
     parser.add_argument("--json", type=Path)
     args = parser.parse_args()
     seeds = list(range(args.first_seed, args.first_seed + args.runs))
+    faulty_seeds = list(range(args.first_seed, args.first_seed + (args.runs if args.faulty_runs is None
+                                                                 else args.faulty_runs)))
     scenario = load_scenario(args.scenario, overrides=args.overrides)
     faulty_joints = np.flatnonzero(np.isfinite(scenario.joint_fault_onsets))
-    report: dict = {"scenario": str(args.scenario), "seeds": [seeds[0], seeds[-1]], "set": args.overrides}
-    for name, runs in outcomes(args.scenario, seeds, args.overrides, healthy=True).items():
+    report: dict = {"scenario": str(args.scenario), "first_seed": args.first_seed, "set": args.overrides}
+    for name, runs in (outcomes(args.scenario, seeds, args.overrides, True, args.variant) if seeds else {}).items():
         alarms = np.array([r["false_alarms"] > 0 for r in runs if r["status"] == "ok"])
         k, n = int(alarms.sum()), alarms.size
         low, high = clopper_pearson(k, n)
@@ -66,7 +72,8 @@ def main() -> None:
             "per_joint": alarms.mean(axis=0).tolist()}
         print(f"{name} healthy: {k} of {n} joint-runs with a false alarm, rate {k / n:.4f} "
               f"[{low:.4f}, {high:.4f}]; per joint {np.round(alarms.mean(axis=0), 3).tolist()}")
-    for name, runs in outcomes(args.scenario, seeds, args.overrides, healthy=False).items():
+    faulty = outcomes(args.scenario, faulty_seeds, args.overrides, False, args.faulty_variant) if faulty_seeds else {}
+    for name, runs in faulty.items():
         ok = [r for r in runs if r["status"] == "ok"]
         detected = np.array([[r["missed_detection"][j] == 0 for j in faulty_joints] for r in ok])
         delays = np.array([r["detection_delay"][j] for r in ok for j in faulty_joints])

@@ -95,11 +95,11 @@ def scenario_check(scenario: Scenario) -> RobotCheck:
 
 def short_warning(warning: str) -> str:
     """A check warning in short, as ``run`` prints it at load time: without its parentheses and cut after
-    its subject and first statement (``joint 'x': ...``)."""
+    its subject and first statement (``joint 'x': ...``, up to a ``:`` or ``;``)."""
     import re
 
     text = re.sub(r" \([^()]*\)", "", warning)
-    return ": ".join(text.split(": ")[:2])
+    return ": ".join(text.split(": ")[:2]).split("; ")[0]
 
 
 def format_report(target: str, report) -> str:

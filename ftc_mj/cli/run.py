@@ -95,8 +95,9 @@ def _load_warnings(scenario: Scenario) -> None:
     """The warnings of ``ftc-mj robot check`` in short, one line each on stderr, before the run."""
     from ftc_mj.cli.robot import scenario_check, short_warning
 
-    for warning in scenario_check(scenario).warnings:
-        print(f"warning: {short_warning(warning)} (ftc-mj robot check {scenario.path})", file=sys.stderr)
+    # One line per statement: the per-variant forms of a warning are the same statement in short.
+    for warning in dict.fromkeys(short_warning(w) for w in scenario_check(scenario).warnings):
+        print(f"warning: {warning} (ftc-mj robot check {scenario.path})", file=sys.stderr)
 
 
 def saturation_warning(scenario: Scenario, results: Sequence[VariantResult], metrics: dict[str, dict]) -> str | None:
