@@ -32,7 +32,7 @@ def test_ur5e_tracks_estimates_and_diagnoses(ur5e):
     assert np.all(proposed["chattering"] < 0.1 * plain["chattering"])  # 480 - 7900 against 2.6e4 - 3.8e5
     assert not proposed["saturation_time"].any()  # never clipped; the uncompensated NFTSMC is:
     assert plain["saturation_time"][1] > 0.5  # 0.81 of the run on the shoulder lift
-    assert proposed["detection_delay"][1] < 0.5  # joint 2: 0.26 s
+    assert proposed["detection_delay"][1] < 0.5  # joint 2: 0.14 s
     assert np.all(np.isnan(np.delete(proposed["detection_delay"], 1)))
     assert np.all(proposed["false_alarms"] == 0)
 
