@@ -92,7 +92,7 @@ def test_thresholds_only_is_a_base_for_the_scenario(calibration, tmp_path):
     assert set(document) == {"diagnosis"}  # no base: a scenario names it as its own
     np.testing.assert_allclose(document["diagnosis"]["threshold"]["fixed"], calibration.thresholds, rtol=1e-5)
     for arm in ("ur5e", "panda"):  # the shipped arms take their thresholds from such a file
-        shipped = yaml.safe_load((ROOT / "scenarios" / "robots" / "calibrated" / f"{arm}_thresholds.yaml")
+        shipped = yaml.safe_load((ROOT / "scenarios" / "bases" / f"{arm}_thresholds.yaml")
                                  .read_text(encoding="utf-8"))
         scenario = load_scenario(ROOT / "scenarios" / "robots" / f"{arm}_fault.yaml", duration=0.1)
         np.testing.assert_array_equal(scenario.diagnoser.fixed, shipped["diagnosis"]["threshold"]["fixed"])
