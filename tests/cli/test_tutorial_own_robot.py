@@ -22,7 +22,7 @@ OUTPUT = ROOT / "results" / "own-robot"
 
 
 def commands() -> list[str]:
-    blocks = re.findall(r"```bash\n(.*?)```", PAGE.read_text(encoding="utf-8"), flags=re.S)
+    blocks = re.findall(r"```bash\n(.*?)```", PAGE.read_text(encoding="utf-8"), flags=re.DOTALL)
     return [line.strip() for block in blocks for line in block.splitlines() if line.strip()]
 
 
@@ -46,7 +46,7 @@ def test_command_runs(command, tmp_path):
         words[0] = sys.executable
     elif words[0] == "ftc-mj":
         words = [sys.executable, "-m", "ftc_mj.cli", *words[1:]]
-    process = subprocess.run(words, cwd=ROOT, env=env, capture_output=True, text=True, timeout=900)
+    process = subprocess.run(words, cwd=ROOT, env=env, capture_output=True, text=True, timeout=900, check=False)
     assert process.returncode == 0, process.stderr[-2000:]
     assert "Traceback" not in process.stderr
 
