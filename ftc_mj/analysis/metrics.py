@@ -39,6 +39,9 @@
 * ``chattering``: total variation of the commanded torque per second over the (per-joint) evaluation window,
   sum |tau[k+1] - tau[k]| / window length [N m / s]. A smooth torque that follows the reference scores low;
   switching at the sampling rate scores high.
+* ``saturation_time``: the share of the run's samples (0-1) at which the command was beyond the joint's
+  torque limit, |tau| > limit, so that the plant (MuJoCo's ``ctrlrange`` / ``forcerange``) delivered the limit
+  instead; 0 on a joint without a limit, or when no limits are given (a replayed log).
 
 Diagnosis metrics (``detection_delay``, ``missed_detection``, ``false_alarms``, ``false_alarm_rate``,
 ``isolation_correct``, ``fault_estimate_rms``): defined and computed in :mod:`ftc_mj.analysis.diagnosis`.
@@ -94,6 +97,7 @@ METRICS: tuple[str, ...] = (
     "recovery_time",
     "rms_torque",
     "chattering",
+    "saturation_time",
     *DIAGNOSIS_METRICS,
 )
 
@@ -117,6 +121,7 @@ UNITS: dict[str, str] = {
     "recovery_time": "s",
     "rms_torque": "N m",
     "chattering": "N m/s",
+    "saturation_time": "share",
     "detection_delay": "s",
     "missed_detection": "0/1",
     "false_alarms": "count",
@@ -204,6 +209,17 @@ def _max_abs(x: np.ndarray, mask: np.ndarray) -> np.ndarray:
     return np.where(mask.any(axis=0), peak, np.nan)
 
 
+def saturation_share(tau: np.ndarray, limits: np.ndarray | None) -> np.ndarray:
+    """Per joint, the share of the samples of ``tau`` ``(T, n)`` beyond ``limits`` ``(n,)`` in magnitude (the
+    samples the plant clipped); zeros without limits, NaN without samples."""
+    n = tau.shape[1]
+    if tau.shape[0] == 0:
+        return np.full(n, np.nan)
+    if limits is None:
+        return np.zeros(n)
+    return (np.abs(tau) > limits).mean(axis=0)
+
+
 def converged_mask(t: np.ndarray, start: float, fault_onsets: Sequence[float], settle: float,
                    convergence: np.ndarray) -> np.ndarray:
     """``(T, n)``: the evaluation mask of :func:`evaluation_mask` starting per joint at max(``start``, that
@@ -240,12 +256,14 @@ def compute_metrics(
     spec: MetricsSpec,
     fault_onsets: Sequence[float],
     joint_onsets: np.ndarray | None = None,
+    torque_limits: np.ndarray | None = None,
 ) -> dict[str, np.ndarray]:
     """All metrics of one variant, each an array with one value per joint.
 
     ``fault_onsets`` are all onsets of the scenario (they shape the windows); ``joint_onsets`` the first
     onset per joint, NaN for healthy joints (:attr:`~ftc_mj.spec.scenario.Scenario.joint_fault_onsets`); without
-    it every joint counts as faulty from the first onset.
+    it every joint counts as faulty from the first onset. ``torque_limits``: per joint the |torque| at which
+    the plant clips the command (inf: none; :attr:`~ftc_mj.spec.scenario.Scenario.torque_limits`).
     """
     t = result.t
     everything = np.ones(t.shape, dtype=bool)
@@ -292,6 +310,7 @@ def compute_metrics(
         "recovery_time": recovery,
         "rms_torque": _rms(result.tau, everything),
         "chattering": chattering,
+        "saturation_time": saturation_share(result.tau, torque_limits),
         **diagnosis_metrics(result.diagnosis, joint_onsets, first_fault, n),
     }
 

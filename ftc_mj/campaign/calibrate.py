@@ -23,8 +23,9 @@ beta = sd sqrt(6) / pi; quantile mu - beta ln(-ln(1 - p))), which extrapolates t
 empirical quantile cannot; where the runs resolve the rate (runs p >= 1) the threshold is at least the
 empirical quantile too (a tail the fit misses stays covered). The report gives the empirical exceedance on
 the calibration runs beside it. A fixed threshold cannot be negative: where the quantile is below 0 (the
-adaptive bound alone already raises more false alarms than the target), the threshold is 0 and the report
-says so. One
+residual stays below the adaptive bound by a margin: the bound alone already raises fewer false alarms than
+the target, and detects later than a threshold at the target would), the threshold is 0 and the report says
+so. One
 threshold per joint serves every variant (the ``diagnosis`` section is the scenario's): the largest of the
 variants' values, so every variant holds the rate at most.
 """
@@ -71,8 +72,9 @@ class Calibration:
     thresholds: np.ndarray
     #: Runs that diverged (left out of the statistics), per variant.
     diverged: dict[str, int]
-    #: Joints whose quantile is below 0: the scenario's bound alone exceeds the target rate there.
-    bound_too_low: list[str] = dataclasses.field(default_factory=list)
+    #: Joints whose quantile is below 0: the scenario's bound alone stays below the target rate there (a
+    #: lower bound would detect sooner at the same rate).
+    bound_above_target: list[str] = dataclasses.field(default_factory=list)
 
     def empirical_rate(self) -> dict[str, np.ndarray]:
         """Per variant and joint, the share of the calibration runs whose S exceeds the threshold."""
@@ -182,14 +184,16 @@ def calibrate(path: Path, *, runs: int, false_alarm_rate: float, overrides: Sequ
     joints = [scenario.model.joint(j).name for j in range(scenario.n_joints)]
     return Calibration(scenario=path, false_alarm_rate=false_alarm_rate, seeds=seeds, joints=joints,
                        statistics=statistics, per_variant=per_variant, thresholds=thresholds, diverged=diverged,
-                       bound_too_low=[joint for joint, q in zip(joints, raw_quantiles) if q < 0])
+                       bound_above_target=[joint for joint, q in zip(joints, raw_quantiles) if q < 0])
 
 
-def scenario_fragment(calibration: Calibration, written_to: Path) -> str:
+def scenario_fragment(calibration: Calibration, written_to: Path, base: bool = True) -> str:
     """A scenario file (valid YAML, runnable as it is) that is the calibrated scenario with the calibrated
     thresholds: ``base:`` the scenario (relative to ``written_to``'s folder), ``diagnosis.threshold.fixed``
-    per joint and ``k`` 0 (the scenario's adaptive ``bound`` kept)."""
-    base = os.path.relpath(calibration.scenario.resolve(), written_to.resolve().parent)
+    per joint and ``k`` 0 (the scenario's adaptive ``bound`` kept).
+
+    Without ``base``, the thresholds alone: a fragment a scenario names as its own ``base:``, whose
+    ``diagnosis.threshold`` then gives neither ``fixed`` nor ``k`` (its own values would win the merge)."""
     thresholds = [float(f"{value:.6g}") for value in calibration.thresholds]
     lines = [f"# Per-joint diagnosis thresholds for a per-run false-alarm rate of {calibration.false_alarm_rate:g} "
              f"per joint,",
@@ -198,5 +202,8 @@ def scenario_fragment(calibration: Calibration, written_to: Path) -> str:
              f"# Joints: {', '.join(calibration.joints)}. The same values on the command line:",
              f"#   --set diagnosis.threshold.fixed=[{', '.join(f'{t:g}' for t in thresholds)}] "
              "--set diagnosis.threshold.k=0"]
-    document = {"base": str(base), "diagnosis": {"threshold": {"fixed": thresholds, "k": 0.0}}}
+    document: dict[str, Any] = {"diagnosis": {"threshold": {"fixed": thresholds, "k": 0.0}}}
+    if base:
+        document = {"base": os.path.relpath(calibration.scenario.resolve(), written_to.resolve().parent),
+                    **document}
     return "\n".join(lines) + "\n" + yaml.safe_dump(document, sort_keys=False, default_flow_style=None)

@@ -16,8 +16,13 @@ import argparse
 import sys
 from collections.abc import Sequence
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 from ftc_mj.cli.parser import ArgumentParser
+
+if TYPE_CHECKING:
+    from ftc_mj.robot.check import RobotCheck
+    from ftc_mj.spec.scenario import Scenario
 
 PROG = "ftc-mj robot"
 #: At most this many reference samples go through the inverse dynamics.
@@ -49,35 +54,52 @@ def main(argv: Sequence[str] | None = None, prog: str = PROG) -> int:
 
 
 def _check(target: str, overrides: Sequence[str]):
-    import numpy as np
-
     from ftc_mj.config.errors import InputError
     from ftc_mj.robot.check import check_robot
 
     if target.endswith((".yaml", ".yml")):
         from ftc_mj.spec.loading import load_scenario
 
-        scenario = load_scenario(Path(target), overrides=list(overrides))
-        times = scenario.times
-        times = times[::max(1, len(times) // _REFERENCE_SAMPLES)]
-        parameters = None
-        if scenario.reference.parameters:
-            values = scenario.spec.parameters or {}
-            parameters = np.array([[values[name] for name in scenario.reference.parameters]], dtype=float)
-        reference = scenario.reference.evaluate(times, parameters)
-        if parameters is not None:
-            reference = tuple(x[:, 0, :] for x in reference)
-        bounds = [(v.name, np.broadcast_to(np.asarray(v.observer_config.D, dtype=float), (scenario.n_joints,)))
-                  for v in scenario.variants if getattr(v.observer_config, "D", None) is not None]
-        return check_robot(scenario.model, q0=scenario.q0, reference=reference, reference_times=times,
-                           control_dt=scenario.spec.control_dt, observer_rate_bounds=bounds,
-                           mass_scale=scenario.spec.nominal.mass_scale)
+        return scenario_check(load_scenario(Path(target), overrides=list(overrides)))
     if overrides:
         raise InputError(target, "--set", "is for scenarios; a robot file is checked as it is")
     from ftc_mj.robot.model import RobotSpec, load_robot
 
     _, model = load_robot(Path.cwd() / "robot-check", RobotSpec(model=target), target)
     return check_robot(model)
+
+
+def scenario_check(scenario: Scenario) -> RobotCheck:
+    """:func:`~ftc_mj.robot.check.check_robot` of a loaded scenario: its model, initial posture, reference
+    (at most :data:`_REFERENCE_SAMPLES` samples), control period, observers' rate bounds and nominal mass
+    scale."""
+    import numpy as np
+
+    from ftc_mj.robot.check import check_robot
+
+    times = scenario.times
+    times = times[::max(1, len(times) // _REFERENCE_SAMPLES)]
+    parameters = None
+    if scenario.reference.parameters:
+        values = scenario.spec.parameters or {}
+        parameters = np.array([[values[name] for name in scenario.reference.parameters]], dtype=float)
+    reference = scenario.reference.evaluate(times, parameters)
+    if parameters is not None:
+        reference = tuple(x[:, 0, :] for x in reference)
+    bounds = [(v.name, np.broadcast_to(np.asarray(v.observer_config.D, dtype=float), (scenario.n_joints,)))
+              for v in scenario.variants if getattr(v.observer_config, "D", None) is not None]
+    return check_robot(scenario.model, q0=scenario.q0, reference=reference, reference_times=times,
+                       control_dt=scenario.spec.control_dt, observer_rate_bounds=bounds,
+                       mass_scale=scenario.spec.nominal.mass_scale)
+
+
+def short_warning(warning: str) -> str:
+    """A check warning in short, as ``run`` prints it at load time: without its parentheses and cut after
+    its subject and first statement (``joint 'x': ...``, up to a ``:`` or ``;``)."""
+    import re
+
+    text = re.sub(r" \([^()]*\)", "", warning)
+    return ": ".join(text.split(": ")[:2]).split("; ")[0]
 
 
 def format_report(target: str, report) -> str:

@@ -67,6 +67,10 @@ def build_parser(prog: str = PROG) -> argparse.ArgumentParser:
     return parser
 
 
+#: A variant whose command is clipped for more than this share of the run (on any joint) is warned about.
+SATURATION_WARNING = 0.05
+
+
 def chosen_metrics(which: str, diagnosis: bool) -> list[str]:
     """The table's metrics for ``--metrics``.
 
@@ -87,6 +91,33 @@ def chosen_metrics(which: str, diagnosis: bool) -> list[str]:
         raise InputError("command line", "--metrics", f"unknown metric {unknown[0] if unknown else which!r} "
                          f"(summary, all, or among: {', '.join(METRICS)})")
     return names
+
+
+def _load_warnings(scenario: Scenario) -> None:
+    """The warnings of ``ftc-mj robot check`` in short, one line each on stderr, before the run."""
+    from ftc_mj.cli.robot import scenario_check, short_warning
+
+    # One line per statement: the per-variant forms of a warning are the same statement in short.
+    for warning in dict.fromkeys(short_warning(w) for w in scenario_check(scenario).warnings):
+        print(f"warning: {warning} (ftc-mj robot check {scenario.path})", file=sys.stderr)
+
+
+def saturation_warning(scenario: Scenario, results: Sequence[VariantResult], metrics: dict[str, dict]) -> str | None:
+    """One line naming each variant and joint whose command was clipped at the torque limit for more than
+    :data:`SATURATION_WARNING` of the run; None if none was."""
+    import numpy as np
+
+    found = []
+    for result in results:
+        if result.host is not None:  # a monitor shares its host's commands
+            continue
+        share = np.asarray(metrics[result.name]["saturation_time"], dtype=float)
+        found += [f"{result.name} {scenario.model.joint(j).name or j + 1} {share[j]:.0%}"
+                  for j in np.flatnonzero(share > SATURATION_WARNING)]
+    if not found:
+        return None
+    return (f"warning: the command was clipped at the torque limits for more than {SATURATION_WARNING:.0%} of "
+            f"the run: {', '.join(found)} (saturation_time)")
 
 
 def _run_with_progress(scenario: Scenario, console: Console | None,
@@ -223,6 +254,7 @@ def start_live(scenario: Scenario, sinks: Sequence[object]) -> tuple[LiveRecordi
 
 def main(argv: Sequence[str] | None = None, prog: str = PROG) -> int:
     args = build_parser(prog).parse_args(argv)
+    import numpy as np
     from rich.console import Console
 
     from ftc_mj.config.errors import InputError
@@ -236,6 +268,8 @@ def main(argv: Sequence[str] | None = None, prog: str = PROG) -> int:
                 check_output(target, file, option, inputs=[args.scenario])
         scenario = load_scenario(args.scenario, overrides=args.overrides, duration=args.duration, variants=args.variant)
         shown = chosen_metrics(args.metrics, scenario.diagnoser is not None)
+        if not args.quiet and scenario.log is None:
+            _load_warnings(scenario)
         recording_path = args.out or scenario.output_path
         viewer = next((o for o, on in (("--spawn", args.spawn), ("--connect", args.connect), ("--serve", args.serve))
                        if on), None)
@@ -273,8 +307,11 @@ def main(argv: Sequence[str] | None = None, prog: str = PROG) -> int:
     try:
         results = _run_with_progress(scenario, console, on_chunk)
         onsets = scenario.fault_onsets
-        metrics = {r.name: compute_metrics(r, scenario.spec.metrics, onsets, scenario.joint_fault_onsets)
+        metrics = {r.name: compute_metrics(r, scenario.spec.metrics, onsets, scenario.joint_fault_onsets,
+                                           scenario.torque_limits)
                    for r in results}
+        if args.metrics == "summary" and any(np.any(m["saturation_time"] > 0) for m in metrics.values()):
+            shown.append("saturation_time")  # in the summary whenever a command was clipped
         if not args.quiet:
             # Wide enough for seven joint columns even when the output is piped (rich then assumes 80).
             table_console = Console()
@@ -320,6 +357,9 @@ def main(argv: Sequence[str] | None = None, prog: str = PROG) -> int:
             path.unlink(missing_ok=True)
         print("interrupted: nothing written", file=sys.stderr)
         return 130
+    saturated = saturation_warning(scenario, results, metrics)
+    if saturated and not args.quiet:
+        print(saturated, file=sys.stderr)
     if recording_path in written and not args.quiet:
         print(f"recording: {recording_path}  (open with: rerun {recording_path})", file=sys.stderr)
     if args.serve and written:

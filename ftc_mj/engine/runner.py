@@ -113,7 +113,7 @@ def member_outcomes(scenario: Scenario, run: BatchRun, first: int = 0,
                     on_result: Callable[[int, list[VariantResult]], None] | None = None) -> list[MemberOutcome]:
     """The metrics of every member of a batch run (member order, then variant order), numbered from ``first``;
     ``on_result(member, results)`` sees each member's whole results first."""
-    outcomes = []
+    outcomes, limits = [], scenario.torque_limits
     for m in range(run.members):
         results = [variant_result(scenario, run, v, m) for v in range(len(scenario.variants))]
         if on_result is not None:
@@ -121,7 +121,7 @@ def member_outcomes(scenario: Scenario, run: BatchRun, first: int = 0,
         for result in results:
             for one in (result, *result.monitors):
                 metrics = compute_metrics(one, scenario.spec.metrics, scenario.fault_onsets,
-                                          scenario.joint_fault_onsets)
+                                          scenario.joint_fault_onsets, limits)
                 outcomes.append(MemberOutcome(first + m, one.name, one.status, one.diverged_at, metrics))
     return outcomes
 

@@ -194,6 +194,12 @@ def _nominal(model: mujoco.MjModel, mass_scale: float, q: np.ndarray, qd: np.nda
     return batch.mass_matrices().copy(), batch.qacc.copy()
 
 
+def torque_limits(model: mujoco.MjModel) -> np.ndarray:
+    """Each joint's |torque| limit [N m or N] as an array, inf where the command is not clipped: the limit
+    MuJoCo applies to the command (``ctrlrange`` times the gear, ``forcerange``), as :func:`_torque_limits`."""
+    return np.array([np.inf if limit is None else limit for limit in _torque_limits(model)], dtype=float)
+
+
 def _torque_limits(model: mujoco.MjModel) -> list[float | None]:
     """Each joint's |torque| limit: its motor's control range (the testbed's form: motor k drives joint k)."""
     limits: list[float | None] = [None] * model.nv

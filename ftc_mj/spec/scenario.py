@@ -66,6 +66,7 @@ from ftc_mj.outputs.layout import (
     compile_figures,
 )
 from ftc_mj.outputs.palette import parse_colour
+from ftc_mj.robot.check import torque_limits
 from ftc_mj.robot.model import PlantSpec, RobotSpec, load_robot
 from ftc_mj.robot.nominal import NominalSpec
 
@@ -292,6 +293,14 @@ class Scenario:
         are not faults for the detection metrics."""
         faults = [(term.onset, term.joints) for term in self.terms if term.kind == "fault" and term.onset is not None]
         return faults + [(fault.profile.onset, fault.joints) for fault in self.actuator_faults]
+
+    @property
+    def torque_limits(self) -> np.ndarray | None:
+        """Per joint, the |torque| limit at which MuJoCo clips the command (inf: none); None when a log is
+        replayed (its torques were never clipped here)."""
+        if self.log is not None:
+            return None
+        return torque_limits(self.model)[: self.n_joints]
 
     @property
     def fault_onsets(self) -> list[float]:

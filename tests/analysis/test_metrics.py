@@ -398,3 +398,14 @@ def test_fault_peak_error_looks_at_the_fault_window_only() -> None:
     np.testing.assert_array_equal(m["recovery_time"], [1.25 + DT - 0.5] * 2)
     m = compute_metrics(make_result(error=error), metrics_spec(fault_window=1.0), [0.5], np.array([0.5, 0.5]))
     np.testing.assert_allclose(m["fault_peak_error"], [0.3, 0.3], rtol=1e-12)
+
+
+def test_saturation_time_is_the_share_beyond_the_limit() -> None:
+    tau = np.zeros((N, NJ))
+    tau[: N // 4, 0] = 3.0  # a quarter of the run above joint 1's limit of 2 N m
+    tau[: N // 2, 1] = -2.0  # at joint 2's limit, not beyond it: delivered as asked
+    m = compute_metrics(make_result(tau=tau), metrics_spec(), [], torque_limits=np.array([2.0, 2.0]))
+    np.testing.assert_allclose(m["saturation_time"], [(N // 4) / N, 0.0])
+    lower = compute_metrics(make_result(tau=tau), metrics_spec(), [], torque_limits=np.array([np.inf, 1.0]))
+    np.testing.assert_allclose(lower["saturation_time"], [0.0, (N // 2) / N])  # inf: never clipped
+    assert not compute_metrics(make_result(tau=tau), metrics_spec(), [])["saturation_time"].any()  # no limits

@@ -84,6 +84,21 @@ def test_the_fault_is_still_detected(calibration, tmp_path):
     assert 0 <= metrics["detection_delay"][2] < 0.5
 
 
+def test_thresholds_only_is_a_base_for_the_scenario(calibration, tmp_path):
+    fragment = tmp_path / "thresholds.yaml"
+    assert main(["calibrate", str(BIAS), "--false-alarm-rate", str(RATE), "--runs", "24", "--duration", "8",
+                 "--thresholds-only", "--out", str(fragment)]) == 0
+    document = yaml.safe_load(fragment.read_text(encoding="utf-8"))
+    assert set(document) == {"diagnosis"}  # no base: a scenario names it as its own
+    np.testing.assert_allclose(document["diagnosis"]["threshold"]["fixed"], calibration.thresholds, rtol=1e-5)
+    for arm in ("ur5e", "panda"):  # the shipped arms take their thresholds from such a file
+        shipped = yaml.safe_load((ROOT / "scenarios" / "bases" / f"{arm}_thresholds.yaml")
+                                 .read_text(encoding="utf-8"))
+        scenario = load_scenario(ROOT / "scenarios" / "robots" / f"{arm}_fault.yaml", duration=0.1)
+        np.testing.assert_array_equal(scenario.diagnoser.fixed, shipped["diagnosis"]["threshold"]["fixed"])
+        assert scenario.diagnoser.k == 0 and shipped["diagnosis"]["threshold"]["fixed"] != [10.0] * 6
+
+
 def test_bad_options_are_one_line(capsys):
     assert main(["calibrate", str(BIAS), "--false-alarm-rate", "1.5", "--runs", "4"]) == 2
     err = capsys.readouterr().err

@@ -33,3 +33,22 @@ def test_bad_input_is_one_line_exit_2(tmp_path, capsys):
     assert len(err.splitlines()) == 1 and err.startswith("error: ") and "not found" in err
     assert main(["robot", "check", str(ROOT / "models" / "puma560.xml"), "--set", "seed=1"]) == 2
     assert "--set" in capsys.readouterr().err
+
+
+def test_run_prints_the_checks_warnings_in_short_and_the_saturation(capsys):
+    scenario = str(ROOT / "scenarios" / "robots" / "ur5e_fault.yaml")
+    assert main(["run", scenario, "--no-record", "--duration", "0.3", "--set", "robot.torque_limits=5"]) == 0
+    captured = capsys.readouterr()
+    lines = captured.err.splitlines()
+    gravity = [line for line in lines if "gravity alone needs" in line]
+    assert len(gravity) == 2 and all("(heuristic" not in line and "ftc-mj robot check" in line for line in gravity)
+    saturated = [line for line in lines if "clipped at the torque limits" in line]
+    assert len(saturated) == 1 and "shoulder_lift_joint" in saturated[0], lines
+    assert "saturation_time" in captured.out  # nonzero: in the summary table
+    assert main(["run", scenario, "--no-record", "--duration", "0.3", "--variant", "proposed"]) == 0
+    captured = capsys.readouterr()
+    assert "warning" not in captured.err and "saturation_time" not in captured.out  # the shipped arm: none
+    # The NFTSMC without compensation (switching gain 160 rad/s^2) is clipped from the start: said so.
+    assert main(["run", scenario, "--no-record", "--duration", "0.3", "--variant", "nftsmc"]) == 0
+    saturated = [line for line in capsys.readouterr().err.splitlines() if "clipped" in line]
+    assert len(saturated) == 1 and "nftsmc shoulder_lift_joint" in saturated[0]

@@ -300,7 +300,7 @@ def test_short_run_json_structure(outcomes):
     assert document["scenario"] == "puma_fault"
     assert document["seed"] == yaml.safe_load(PUMA_YAML.read_text(encoding="utf-8")).get("seed", 0)
     assert list(document["variants"]) == VARIANTS
-    assert len(METRICS) == 24
+    assert len(METRICS) == 25
     for name, variant in document["variants"].items():
         assert set(variant) == {"status", "diverged_at", "controller_velocity", "metrics", "diagnosis"}, name
         assert variant["controller_velocity"] == "estimated"  # the PUMA of Chapter 5 has no tachometers

@@ -101,6 +101,7 @@ def test_menagerie_name_runs_unchanged_on_disk(menagerie, tmp_path, monkeypatch,
     data["duration"] = 0.3
     data["actuator_faults"][0]["profile"]["onset"] = 0.2
     data.pop("diagnosis")
+    data.pop("base")  # the calibrated thresholds, of the diagnosis left out
     scenario = tmp_path / "menagerie_panda.yaml"
     scenario.write_text(yaml.safe_dump(data, sort_keys=False), encoding="utf-8")
     monkeypatch.chdir(tmp_path)
@@ -133,6 +134,8 @@ def test_damping_acts_on_the_plant_not_the_nominal_model():
 def scenario_with_robot(tmp_path: Path, robot: dict, source: Path = UR5E_YAML) -> Path:
     data = yaml.safe_load(source.read_text(encoding="utf-8"))
     data["robot"] = robot
+    if "base" in data:  # the copy names the same base
+        data["base"] = str(source.parent / data["base"])
     path = tmp_path / "s.yaml"
     path.write_text(yaml.safe_dump(data, sort_keys=False), encoding="utf-8")
     return path

@@ -60,6 +60,7 @@ def menagerie_form(folder: Path, *, drop_inertial: str | None = None, collision_
 
 def scenario_on(folder: Path, model: Path, **robot) -> Path:
     data = yaml.safe_load(UR5E_YAML.read_text(encoding="utf-8"))
+    data["base"] = str(UR5E_YAML.parent / data["base"])  # the copy names the same base
     data["robot"]["model"] = model.name
     data["robot"].update(robot)
     data["duration"] = 0.2
