@@ -1,0 +1,83 @@
+"""The edges of the metrics' building blocks (ftc_mj.analysis.metrics): the units, inclusive and exclusive
+bounds of the first entry, the overshoot's initial sign and its per-joint peak, a partial time mask, and which
+estimate the diagnoser gets in each space (ftc_mj.analysis.diagnosis.diagnose_result)."""
+
+from __future__ import annotations
+
+from types import SimpleNamespace
+
+import numpy as np
+
+from ftc_mj.analysis.diagnosis import diagnose_result
+from ftc_mj.analysis.metrics import UNITS, _max_abs, _rms, first_entry_time, overshoot, unit
+
+DT = 0.25  # exact in binary
+
+
+def test_units_of_the_fault_estimate_follow_the_diagnosis_space():
+    assert unit("fault_estimate_rms", "torque") == "N m"
+    assert unit("fault_estimate_rms", "acceleration") == "rad/s^2"
+    assert unit("fault_estimate_rms") == UNITS["fault_estimate_rms"]
+    assert unit("rms_error", "torque") == "rad" and unit("detection_delay", "acceleration") == "s"
+
+
+def test_first_entry_bounds():
+    """|e| = tolerance is inside; the sample at ``until`` itself is not looked at; none before: NaN."""
+    t = np.arange(6) * DT
+    error = np.array([[2.0, 2.0], [1.0, 2.0], [0.5, 2.0], [0.0, 2.0], [0.0, 0.0], [0.0, 0.0]])
+    np.testing.assert_array_equal(first_entry_time(t, error, 0.5, np.inf), [2 * DT, 4 * DT])
+    np.testing.assert_array_equal(first_entry_time(t, error, 0.5, 4 * DT), [2 * DT, np.nan])
+    np.testing.assert_array_equal(first_entry_time(t, error, 0.5, 0.0), [np.nan, np.nan])
+
+
+def test_overshoot_from_the_first_sample_and_per_joint():
+    """The initial sign is the first masked sample's (not the second's); an initial error of 0 takes each
+    joint's own largest |error|, not the largest of all joints."""
+    error = np.array([[1.0, 0.0], [-0.5, 0.1], [-2.0, -0.2], [0.5, 0.0]])
+    mask = np.ones(4, dtype=bool)
+    np.testing.assert_array_equal(overshoot(error, mask), [2.0, 0.2])
+    # From the second sample on, joint 1 starts negative: its overshoot is the largest positive error.
+    mask[0] = False
+    np.testing.assert_array_equal(overshoot(error, mask), [0.5, 0.2])
+    assert np.isnan(overshoot(error, np.zeros(4, dtype=bool))).all()
+
+
+def test_a_partial_time_mask_leaves_its_samples_out():
+    """The samples outside a (T,) mask count for neither the peak nor the RMS (nor the count)."""
+    x = np.array([[10.0, -10.0], [1.0, 2.0], [-3.0, 4.0]])
+    mask = np.array([False, True, True])
+    np.testing.assert_array_equal(_max_abs(x, mask), [3.0, 4.0])
+    np.testing.assert_allclose(_rms(x, mask), [np.sqrt(5.0), np.sqrt(10.0)], rtol=1e-15)
+    assert np.isnan(_max_abs(x, np.zeros(3, dtype=bool))).all()
+    assert np.isnan(_rms(x, np.zeros(3, dtype=bool))).all()
+
+
+class _Recorder:
+    def __init__(self, space: str):
+        self.space, self.calls = space, []
+
+    def diagnose(self, *args):
+        self.calls.append(args)
+        return "diagnosis"
+
+
+def test_diagnose_result_hands_the_estimate_of_its_space():
+    """Torque space: M(q) luaf_hat (cut to the run's length) against the fault torque; acceleration space:
+    luaf_hat against the fault acceleration; no diagnoser: nothing stored."""
+    t = np.arange(3) * DT
+    result = SimpleNamespace(t=t, luaf_hat=np.full((3, 2), 1.0), fault_acceleration=np.full((3, 2), 2.0),
+                             fault_torque=np.full((3, 2), 3.0), q_meas=np.full((3, 2), 4.0),
+                             qd_hat=np.full((3, 2), 5.0), diagnosis=None)
+    luaf_torque = np.arange(10.0).reshape(5, 2)
+    for space, estimate, injected in [("torque", luaf_torque[:3], result.fault_torque),
+                                      ("acceleration", result.luaf_hat, result.fault_acceleration)]:
+        recorder = _Recorder(space)
+        diagnose_result(recorder, result, luaf_torque)
+        (args,) = recorder.calls
+        assert args[0] is t and args[2] is result.q_meas and args[3] is result.qd_hat
+        np.testing.assert_array_equal(args[1], estimate)
+        assert args[4] is injected
+        assert result.diagnosis == "diagnosis"
+    result.diagnosis = None
+    diagnose_result(None, result, luaf_torque)
+    assert result.diagnosis is None
