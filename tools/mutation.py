@@ -164,18 +164,26 @@ def report(names: list[str]) -> str:
 
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("targets", nargs="*", choices=[[], *TARGETS], help="targets (default: all)")
+    parser.add_argument("targets", nargs="*", help=f"targets (default: all): {', '.join(TARGETS)}")
     parser.add_argument("--fresh", action="store_true", help="start each stage over")
     parser.add_argument("--report", action="store_true", help="only print the table of the last runs")
+    parser.add_argument("--survivors", action="store_true",
+                        help="test again only the last run's survivors (after new tests)")
     parser.add_argument("--max-children", type=int, default=2, help="mutants tested at once")
     args = parser.parse_args(argv)
     names = args.targets or list(TARGETS)
+    unknown = [name for name in names if name not in TARGETS]
+    if unknown:
+        parser.error(f"unknown target {unknown[0]!r} (one of {', '.join(TARGETS)})")
     if not args.report:
         for name in names:
             path = stage(name, TARGETS[name], args.fresh)
             print(f"== {name}: {' '.join(TARGETS[name].mutate)} with {' '.join(TARGETS[name].tests)}", flush=True)
             env = dict(os.environ, PYTHONPATH="")  # the staged copy, never an installed ftc_mj
-            subprocess.run(["mutmut", "run", "--max-children", str(args.max_children)], cwd=path, env=env)
+            again = [m for m, s in results(path).items() if s == "survived"] if args.survivors else []
+            if args.survivors and not again:
+                continue
+            subprocess.run(["mutmut", "run", "--max-children", str(args.max_children), *again], cwd=path, env=env)
     print(report(names))
     return 0
 

@@ -78,3 +78,11 @@ def test_persistence_as_long_as_the_run_or_longer():
     assert exact["residual_peak_healthy"][0] == 3.0
     short = detection_statistics(_diagnosis(residual, 5), 5, np.array([0.0]), [1.0], 1)
     assert np.isnan(short["residual_peak_healthy"][0]) and np.isnan(short["residual_peak_fault"][0])
+
+
+def test_the_period_is_the_difference_of_the_first_two_times():
+    """dt = t[1] - t[0] on a run that does not start at 0 (a log's own clock, say)."""
+    diagnosis = _diagnosis(np.zeros((4, 1)))
+    diagnosis.t = diagnosis.t + 10.0
+    stats = detection_statistics(diagnosis, 1, np.array([np.nan]), [1.0], 1)
+    assert stats["healthy_time"][0] == 4 * DT

@@ -81,3 +81,19 @@ def test_diagnose_result_hands_the_estimate_of_its_space():
     result.diagnosis = None
     diagnose_result(None, result, luaf_torque)
     assert result.diagnosis is None
+
+
+def test_fault_response_per_joint_and_its_window_end():
+    """A healthy joint or one whose onset is past the end does not stop the next joints from being scored;
+    the fault window [onset, onset + window) leaves its end sample out."""
+    from ftc_mj.analysis.metrics import fault_response
+
+    t = np.arange(12) * DT
+    error = np.zeros((12, 3))
+    error[4:, 2] = 0.5
+    error[8, 2] = 3.0  # at onset + window exactly: outside the peak's window
+    error[10:, 2] = 0.0  # back within the tolerance from sample 10
+    for onsets in ([np.nan, np.nan, 4 * DT], [np.nan, 100.0, 4 * DT]):
+        peak, recovery = fault_response(t, error, np.array(onsets), [4 * DT], 0.01, window=4 * DT)
+        np.testing.assert_array_equal(peak, [np.nan, np.nan, 0.5])
+        np.testing.assert_array_equal(recovery, [np.nan, np.nan, 6 * DT])
