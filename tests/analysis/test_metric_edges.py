@@ -97,3 +97,33 @@ def test_fault_response_per_joint_and_its_window_end():
         peak, recovery = fault_response(t, error, np.array(onsets), [4 * DT], 0.01, window=4 * DT)
         np.testing.assert_array_equal(peak, [np.nan, np.nan, 0.5])
         np.testing.assert_array_equal(recovery, [np.nan, np.nan, 6 * DT])
+
+
+def _result(t: np.ndarray, tau: np.ndarray, luaf_error: np.ndarray | None = None) -> SimpleNamespace:
+    zeros = np.zeros((len(t), tau.shape[1]))
+    return SimpleNamespace(t=t, tracking_error=zeros, tau=tau, velocity_error=zeros,
+                           luaf_error=zeros if luaf_error is None else luaf_error, sliding=zeros, diagnosis=None)
+
+
+def test_chattering_per_second_of_a_short_window_off_zero():
+    """Total variation / window length, the length from the period t[1] - t[0] on a clock that starts at 10 s,
+    a window shorter than a second, and a run of two samples (one pair)."""
+    from ftc_mj.analysis.metrics import MetricsSpec, compute_metrics
+
+    spec = MetricsSpec(window_start=0.0, estimation_window_start=0.0, fault_settle=0.0)
+    t = 10.0 + np.arange(4) * DT
+    tau = np.array([[0.0], [1.0], [0.0], [1.0]])
+    assert compute_metrics(_result(t, tau), spec, [])["chattering"][0] == 3.0 / (3 * DT)
+    assert compute_metrics(_result(t[:2], tau[:2]), spec, [])["chattering"][0] == 1.0 / DT
+
+
+def test_the_transient_ends_before_the_estimation_window_start():
+    """The sample at estimation_window_start belongs to the estimation window, not to the transient."""
+    from ftc_mj.analysis.metrics import MetricsSpec, compute_metrics
+
+    spec = MetricsSpec(window_start=0.0, estimation_window_start=2 * DT, fault_settle=0.0)
+    t = np.arange(4) * DT
+    luaf_error = np.array([[1.0], [0.5], [9.0], [0.0]])
+    metrics = compute_metrics(_result(t, np.zeros((4, 1)), luaf_error), spec, [])
+    assert metrics["peak_luaf_error_transient"][0] == 1.0
+    assert metrics["rms_luaf_error"][0] == np.sqrt(81.0 / 2)
