@@ -127,3 +127,24 @@ def test_the_transient_ends_before_the_estimation_window_start():
     metrics = compute_metrics(_result(t, np.zeros((4, 1)), luaf_error), spec, [])
     assert metrics["peak_luaf_error_transient"][0] == 1.0
     assert metrics["rms_luaf_error"][0] == np.sqrt(81.0 / 2)
+
+
+def test_settling_on_the_last_sample_and_a_joint_without_samples():
+    """Settled from the last sample when only it is inside; a (T, n) mask empty on one joint gives NaN there."""
+    from ftc_mj.analysis.metrics import settling_time
+
+    t = np.arange(4) * DT
+    error = np.array([[1.0, 0.0], [1.0, 0.0], [1.0, 1.0], [0.0, 1.0]])
+    np.testing.assert_array_equal(settling_time(t, error, 0.5, np.inf), [3 * DT, np.nan])
+    mask = np.array([[True, False], [True, False], [False, False], [False, False]])
+    np.testing.assert_array_equal(_max_abs(error, mask), [1.0, np.nan])
+
+
+def test_the_fault_rms_starts_at_the_onset_sample():
+    from ftc_mj.analysis.metrics import MetricsSpec, compute_metrics
+
+    spec = MetricsSpec(window_start=0.0, estimation_window_start=0.0, fault_settle=0.0)
+    t = np.arange(4) * DT
+    luaf_error = np.array([[5.0], [5.0], [3.0], [0.0]])
+    metrics = compute_metrics(_result(t, np.zeros((4, 1)), luaf_error), spec, [2 * DT])
+    assert metrics["rms_luaf_error_fault"][0] == np.sqrt(9.0 / 2)
