@@ -90,3 +90,10 @@ def test_reset_gives_the_state_of_a_new_instance(name):
                 np.testing.assert_array_equal(after[key], value, err_msg=f"{name}: {key}")
         else:
             assert after[key] == value, f"{name}: {key}"
+
+
+@pytest.mark.parametrize("name", sorted(METHODS))
+def test_a_method_keeps_its_config(name):
+    """``config`` is the configuration it was made with (the engine and the recordings read it from there)."""
+    plugin, config, n, dt = METHODS[name]
+    assert plugin(config, n, dt).config is config
