@@ -97,3 +97,25 @@ def test_a_method_keeps_its_config(name):
     """``config`` is the configuration it was made with (the engine and the recordings read it from there)."""
     plugin, config, n, dt = METHODS[name]
     assert plugin(config, n, dt).config is config
+
+
+@pytest.mark.parametrize("name", sorted(METHODS))
+def test_members_give_a_leading_axis(name):
+    """With ``members`` the state is ``(members, n)``: each member its own row."""
+    plugin, config, n, dt = METHODS[name]
+    instance = plugin(config, n, dt, 3)
+    state = instance.q_hat if isinstance(instance, Observer) else instance.tau
+    assert state.shape == (3, n), name
+
+
+@pytest.mark.parametrize("name", sorted(n for n, (plugin, *_) in METHODS.items() if issubclass(plugin, Observer)))
+def test_an_observer_starts_at_the_state_it_is_reset_to(name):
+    """After reset(q0, qd0): q_hat = q0 and qd_hat = qd0 (not swapped, not zero), and nothing estimated yet."""
+    plugin, config, n, dt = METHODS[name]
+    observer = plugin(config, n, dt)
+    q0, qd0 = np.linspace(0.1, 0.5, n), np.linspace(-0.3, 0.2, n)
+    observer.reset(q0, qd0)
+    np.testing.assert_array_equal(observer.q_hat, q0)
+    np.testing.assert_array_equal(observer.qd_hat, qd0)
+    np.testing.assert_array_equal(observer.luaf_hat, 0.0)
+    np.testing.assert_array_equal(observer.injection, 0.0)
