@@ -6,7 +6,7 @@ docs/results/testing.md)::
 
     nice -n 10 python tools/mutation.py                 # every target
     nice -n 10 python tools/mutation.py methods effects # some
-    python tools/mutation.py --report                   # the table of the last runs, without running
+    python tools/mutation.py --report [--diffs]         # the table of the last runs (and the survivors' diffs)
 
 Each target runs in its own stage, ``build/mutation/<target>/``: links to the sources, the data the tests read
 and a ``pyproject.toml`` whose ``[tool.mutmut]`` section names the files to mutate and the test subset (mutmut
@@ -15,7 +15,8 @@ copies the stage into ``mutants/``, runs the subset once to learn which tests re
 each mutant against only those tests. A second run of a stage tests again only what changed; ``--fresh``
 starts it over (after new tests, for example: mutmut does not re-run survivors on its own).
 
-The survivors of each target, with their diffs, go to ``build/mutation/<target>/survivors.txt``; those read and
+With ``--diffs`` the open survivors of each target, with their diffs, go to
+``build/mutation/<target>/survivors.txt``; those read and
 judged equivalent are listed, by mutant name, in ``docs/results/equivalent-mutants.md`` (the first backticked
 name of each table row), so the report counts them apart from the survivors still to kill.
 """
@@ -140,25 +141,28 @@ def write_survivors(path: Path, statuses: dict[str, str], known: set[str]) -> li
     return open_
 
 
-def report(names: list[str]) -> str:
-    """The kill ratio per target, a pipe table."""
+def report(names: list[str], diffs: bool) -> str:
+    """The kill ratio per target, a pipe table; with ``diffs``, each target's open survivors to its
+    ``survivors.txt`` (one ``mutmut show`` each: seconds per survivor)."""
     known = equivalents()
-    rows = ["| target | mutants | killed | survived | equivalent | timeout | other | kill ratio |",
-            "|---|---:|---:|---:|---:|---:|---:|---:|"]
+    rows = ["| target | mutants | killed | survived | equivalent | timeout | no tests | not run | kill ratio |",
+            "|---|---:|---:|---:|---:|---:|---:|---:|---:|"]
     for name in names:
         path = STAGES / name
         if not (path / "mutants").exists():
             continue
         statuses = results(path)
         equivalent = sum(1 for m, s in statuses.items() if s == "survived" and m in known)
-        survived = len(write_survivors(path, statuses, known))
+        open_ = [m for m, s in statuses.items() if s == "survived" and m not in known]
+        survived = len(write_survivors(path, statuses, known) if diffs else open_)
         killed = sum(1 for s in statuses.values() if s == "killed")
         timeout = sum(1 for s in statuses.values() if s == "timeout")
-        other = len(statuses) - killed - survived - equivalent - timeout
+        untested = sum(1 for s in statuses.values() if s == "no tests")
+        unrun = len(statuses) - killed - survived - equivalent - timeout - untested
         judged = killed + timeout + survived
         ratio = f"{(killed + timeout) / judged:.1%}" if judged else "-"
-        rows.append(f"| {name} | {len(statuses)} | {killed} | {survived} | {equivalent} | {timeout} | {other} "
-                    f"| {ratio} |")
+        rows.append(f"| {name} | {len(statuses)} | {killed} | {survived} | {equivalent} | {timeout} | {untested} "
+                    f"| {unrun} | {ratio} |")
     return "\n".join(rows)
 
 
@@ -169,6 +173,7 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--report", action="store_true", help="only print the table of the last runs")
     parser.add_argument("--survivors", action="store_true",
                         help="test again only the last run's survivors (after new tests)")
+    parser.add_argument("--diffs", action="store_true", help="write each open survivor's diff to survivors.txt")
     parser.add_argument("--max-children", type=int, default=2, help="mutants tested at once")
     args = parser.parse_args(argv)
     names = args.targets or list(TARGETS)
@@ -184,7 +189,7 @@ def main(argv: list[str] | None = None) -> int:
             if args.survivors and not again:
                 continue
             subprocess.run(["mutmut", "run", "--max-children", str(args.max_children), *again], cwd=path, env=env)
-    print(report(names))
+    print(report(names, args.diffs))
     return 0
 
 

@@ -86,3 +86,11 @@ def test_the_period_is_the_difference_of_the_first_two_times():
     diagnosis.t = diagnosis.t + 10.0
     stats = detection_statistics(diagnosis, 1, np.array([np.nan]), [1.0], 1)
     assert stats["healthy_time"][0] == 4 * DT
+
+
+def test_the_fault_peak_includes_the_onset_sample():
+    """The held level at the onset sample itself is the fault's: a peak there alone is the fault peak."""
+    residual = np.zeros((10, 1))
+    residual[4, 0], residual[5:, 0] = 3.0, 1.5
+    stats = detection_statistics(_diagnosis(residual), 1, np.array([4 * DT]), [1.0], 1)
+    assert stats["residual_peak_fault"][0] == 3.0 and stats["residual_peak_healthy"][0] == 0.0
