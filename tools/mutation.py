@@ -1,11 +1,12 @@
 """Mutation testing of the packages whose bugs a user would see: mutmut 3 on each target with the fast tests
 that cover it, and the kill ratio per target.
 
-Usage, from the repository root (about 40 minutes for every target on two shared cores, see
-docs/results/testing.md)::
+Usage, from the repository root (hours for every target on two busy shared cores: run the targets one at a
+time; the measured rates are in docs/results/testing.md)::
 
     nice -n 10 python tools/mutation.py                 # every target
     nice -n 10 python tools/mutation.py methods effects # some
+    nice -n 10 python tools/mutation.py --survivors analysis  # after new tests: the survivors again
     python tools/mutation.py --report [--diffs]         # the table of the last runs (and the survivors' diffs)
 
 Each target runs in its own stage, ``build/mutation/<target>/``: links to the sources, the data the tests read
