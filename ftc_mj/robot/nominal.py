@@ -376,7 +376,9 @@ class CompiledNominal(NominalBatch):
         bounds = np.linspace(0, points, slices + 1).astype(int)
         # Each slice's arguments, views made once: the per-point arrays cut along their first axis.
         self._slices = [self._arguments(slice(start, stop)) for start, stop in zip(bounds[:-1], bounds[1:])]
-        self._pool = _threads(slices - 1) if slices > 1 else None
+        # Threads from the second call on: the first may compile the kernel (and say so), once.
+        self._pool: ThreadPoolExecutor | None = None
+        self._threads = slices - 1
 
     def _arguments(self, points: slice) -> tuple:
         """The kernel's arguments for the points ``points``."""
@@ -387,11 +389,15 @@ class CompiledNominal(NominalBatch):
                 cut(self.coriolis_transpose), cut(self.gravity))
 
     def evaluate(self) -> None:
-        evaluate, first, *others = self._tree.evaluate, *self._slices
-        if not others:
-            evaluate(*first)
+        evaluate, pool = self._tree.evaluate, self._pool
+        if pool is None:  # one slice, or the first call
+            for arguments in self._slices:
+                evaluate(*arguments)
+            if self._threads:
+                self._pool = _threads(self._threads)
             return
-        pending = [self._pool.submit(evaluate, *arguments) for arguments in others]
+        first, *others = self._slices
+        pending = [pool.submit(evaluate, *arguments) for arguments in others]
         evaluate(*first)  # the first slice on the calling thread, meanwhile
         for future in pending:
             future.result()

@@ -452,9 +452,12 @@ def test_compiled_points_cut_over_threads_keep_their_bits(model, mass_only):
     one, three = (nominal_batch(model, scale, threads, mass_only=mass_only, momentum_points=mask)
                   for threads in (1, 3))
     assert isinstance(three, CompiledNominal) and len(three._slices) == 3 and len(one._slices) == 1
-    for batch in (one, three):
-        batch.qpos[:], batch.qvel[:], batch.applied[:] = q, qd, applied
+    for batch in (one, three):  # the first call on the calling thread (it may compile), the second on threads
+        batch.qpos[:], batch.qvel[:], batch.applied[:] = -q, qd, applied
         batch.evaluate()
+        batch.qpos[:] = q
+        batch.evaluate()
+    assert three._pool is not None and one._pool is None
     names = ("factor", "diagonal_inverse") + (() if mass_only else ("qacc", "coriolis_transpose", "gravity"))
     for name in names:
         np.testing.assert_array_equal(getattr(three, name), getattr(one, name))
