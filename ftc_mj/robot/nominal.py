@@ -13,6 +13,8 @@ from __future__ import annotations
 
 import copy
 from collections.abc import Callable
+from concurrent.futures import ThreadPoolExecutor
+from functools import lru_cache
 from typing import Protocol
 
 import mujoco
@@ -332,7 +334,18 @@ def nominal_batch(model: mujoco.MjModel, mass_scale: np.ndarray, nthread: int,
     tree = RigidTree.from_model(rigid)
     if tree is None:
         return MuJoCoNominal(rigid, mass_scale, nthread, mass_only, momentum_points)
-    return CompiledNominal(tree, rigid, mass_scale, mass_only, momentum_points)
+    return CompiledNominal(tree, rigid, mass_scale, mass_only, momentum_points, nthread)
+
+
+#: Fewest points per thread for :class:`CompiledNominal` to split its points over threads: below it, handing a
+#: slice to another thread costs more than evaluating it.
+POINTS_PER_THREAD = 64
+
+
+@lru_cache(maxsize=None)
+def _threads(count: int) -> ThreadPoolExecutor:
+    """A pool of ``count`` threads, made once per process and shared by every batch."""
+    return ThreadPoolExecutor(max_workers=count, thread_name_prefix="ftc_mj-nominal")
 
 
 class CompiledNominal(NominalBatch):
@@ -343,8 +356,11 @@ class CompiledNominal(NominalBatch):
     mass_from_plant = False
 
     def __init__(self, tree: RigidTree, model: mujoco.MjModel, mass_scale: np.ndarray, mass_only: bool = False,
-                 momentum_points: np.ndarray | None = None):
-        """``model``: the rigid-body model whose tree ``tree`` is (for M's sparse layout)."""
+                 momentum_points: np.ndarray | None = None, nthread: int = 1):
+        """``model``: the rigid-body model whose tree ``tree`` is (for M's sparse layout). ``nthread`` > 1: the
+        points are cut into as many slices (at least :data:`POINTS_PER_THREAD` each), evaluated at once on
+        threads (the kernel releases the GIL); a point's numbers come from its inputs alone, so its bits are
+        the same however the points are cut."""
         points, n = len(mass_scale), model.nv
         self._tree, self._inertias, self._with_velocity = tree, tree.scaled(mass_scale), not mass_only
         self.qpos, self.qvel, self.applied = np.zeros((points, n)), np.zeros((points, n)), np.zeros((points, n))
@@ -356,11 +372,35 @@ class CompiledNominal(NominalBatch):
         self.coriolis_transpose = self.gravity = None
         if self._momentum_points is not None:
             self.coriolis_transpose, self.gravity = np.zeros((points, n)), np.zeros((points, n))
+        slices = max(1, min(nthread, points // POINTS_PER_THREAD))
+        bounds = np.linspace(0, points, slices + 1).astype(int)
+        # Each slice's arguments, views made once: the per-point arrays cut along their first axis.
+        self._slices = [self._arguments(slice(start, stop)) for start, stop in zip(bounds[:-1], bounds[1:])]
+        # Threads from the second call on: the first may compile the kernel (and say so), once.
+        self._pool: ThreadPoolExecutor | None = None
+        self._threads = slices - 1
+
+    def _arguments(self, points: slice) -> tuple:
+        """The kernel's arguments for the points ``points``."""
+        cut = lambda array: None if array is None else array[points]  # noqa: E731
+        return (*(array[points] for array in self._inertias), self.qpos[points], self.qvel[points],
+                self.applied[points], self._sparse_M[points], self.factor[points], self.diagonal_inverse[points],
+                self._qacc[points], self._bias[points], self._with_velocity, cut(self._momentum_points),
+                cut(self.coriolis_transpose), cut(self.gravity))
 
     def evaluate(self) -> None:
-        self._tree.evaluate(*self._inertias, self.qpos, self.qvel, self.applied, self._sparse_M, self.factor,
-                            self.diagonal_inverse, self._qacc, self._bias, self._with_velocity,
-                            self._momentum_points, self.coriolis_transpose, self.gravity)
+        evaluate, pool = self._tree.evaluate, self._pool
+        if pool is None:  # one slice, or the first call
+            for arguments in self._slices:
+                evaluate(*arguments)
+            if self._threads:
+                self._pool = _threads(self._threads)
+            return
+        first, *others = self._slices
+        pending = [pool.submit(evaluate, *arguments) for arguments in others]
+        evaluate(*first)  # the first slice on the calling thread, meanwhile
+        for future in pending:
+            future.result()
 
     @property
     def qacc(self) -> np.ndarray:

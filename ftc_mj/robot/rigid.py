@@ -180,7 +180,7 @@ class RigidTree:
         the other points' rows are left as they are. None: nowhere (nothing computed, nothing written)."""
         if momentum_points is None:
             momentum_points, coriolis_transpose, gravity = _NO_POINTS, _NO_TERMS, _NO_TERMS
-        if not _evaluate.signatures:
+        if not _evaluate.overloads:  # its ``signatures`` builds a list of types per call: dearer than the kernel
             announce_compilation()
         _evaluate(self.parent, self.offset_position, self.offset_rotation, self.hinge, self.axis, self.anchor,
                   self.reference, self.gravity, self.sparse_row, self.sparse_column,

@@ -436,3 +436,30 @@ def test_the_mujoco_momentum_terms_of_a_point_do_not_depend_on_the_other_points(
         '<mujoco><worldbody><body><joint type="ball"/><geom size="0.1" mass="1"/></body></worldbody></mujoco>')
     with pytest.raises(ValueError, match="hinge and slide joints only"):
         nominal_batch(ball, np.ones(2), 1, momentum_points=np.ones(2, bool))
+
+
+@pytest.mark.parametrize("mass_only", [False, True])
+def test_compiled_points_cut_over_threads_keep_their_bits(model, mass_only):
+    """With threads the compiled batch cuts its points into slices evaluated at once: every output keeps the
+    bits of the one-thread batch, the momentum terms included, and each slice writes only its own points."""
+    from ftc_mj.robot.nominal import POINTS_PER_THREAD
+    points = 3 * POINTS_PER_THREAD + 5
+    rng = np.random.default_rng(21)
+    q, qd, applied = (rng.uniform(-np.pi, np.pi, (points, 3)), rng.uniform(-2.0, 2.0, (points, 3)),
+                      rng.normal(size=(points, 3)))
+    scale = rng.uniform(0.8, 1.2, points)
+    mask = None if mass_only else rng.uniform(size=points) < 0.5
+    one, three = (nominal_batch(model, scale, threads, mass_only=mass_only, momentum_points=mask)
+                  for threads in (1, 3))
+    assert isinstance(three, CompiledNominal) and len(three._slices) == 3 and len(one._slices) == 1
+    for batch in (one, three):  # the first call on the calling thread (it may compile), the second on threads
+        batch.qpos[:], batch.qvel[:], batch.applied[:] = -q, qd, applied
+        batch.evaluate()
+        batch.qpos[:] = q
+        batch.evaluate()
+    assert three._pool is not None and one._pool is None
+    names = ("factor", "diagonal_inverse") + (() if mass_only else ("qacc", "coriolis_transpose", "gravity"))
+    for name in names:
+        np.testing.assert_array_equal(getattr(three, name), getattr(one, name))
+    np.testing.assert_array_equal(three.mass_matrices(), one.mass_matrices())
+    assert np.all(three.factor != 0, axis=1).any() and np.all(three.diagonal_inverse != 1.0, axis=1).all()
