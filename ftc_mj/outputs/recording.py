@@ -107,6 +107,12 @@ LINE_WIDTH, TRUTH_WIDTH = 1.5, 3.0
 
 # MuJoCo's viewer hides geom groups 3..5 by default (where collision duplicates usually live); do the same.
 _MAX_VISIBLE_GROUP = 2
+#: The primitive shapes :func:`_geom_shape` draws (meshes too, when they have data).
+_SOLIDS = (mujoco.mjtGeom.mjGEOM_CAPSULE, mujoco.mjtGeom.mjGEOM_CYLINDER, mujoco.mjtGeom.mjGEOM_BOX,
+           mujoco.mjtGeom.mjGEOM_SPHERE, mujoco.mjtGeom.mjGEOM_ELLIPSOID)
+#: The robot camera's distance from the centre of what it frames, in half diagonals of its bounding box:
+#: the box's corners stay in Rerun's default field of view.
+EYE_DISTANCE = 1.7
 
 
 def write_recording(
@@ -146,7 +152,8 @@ def write_recording(
         rec = rr.RecordingStream("ftc_mj", recording_id=str(uuid.uuid4()))
         try:
             series = _series(results, len(t), layout.variants)
-            blueprint = _blueprint(layout, series, t, posed.name if posed else None, model)
+            blueprint = _blueprint(layout, series, t, posed.name if posed else None, model,
+                                   posed.body_xpos if posed else None)
             if sinks:
                 rec.set_sinks(rr.FileSink(tmp), *sinks, default_blueprint=blueprint)
             else:
@@ -345,16 +352,17 @@ def _series(results: Sequence[VariantResult], n_samples: int, styles: Sequence[V
 
 
 def _log_events(rec: rr.RecordingStream, results: Sequence[VariantResult], fault_onsets: Sequence[float]) -> None:
-    """Fault onsets, alarms (raised and cleared) and divergences as text-log events on the timeline."""
-    events = [(float(t), f"fault onset at t = {t:g} s", "WARN") for t in fault_onsets]
+    """Fault onsets, alarms (raised and cleared) and divergences as text-log events on the timeline. The text
+    leaves the time out: the events view shows it in its own column, and the text must fit the side panel."""
+    events = [(float(t), "fault onset", "WARN") for t in fault_onsets]
     for r in results:
         if r.diagnosis is None:
             continue
         for edges, what, level in ((r.diagnosis.raised, "raised", "WARN"), (r.diagnosis.cleared, "cleared", "INFO")):
             for k, joint in zip(*np.nonzero(edges)):
                 t = float(r.diagnosis.t[k])
-                events.append((t, f"{r.name}: alarm {what} on joint {joint + 1} at t = {t:g} s", level))
-    events += [(float(r.diverged_at), f"{r.name} diverged at t = {r.diverged_at:g} s", "ERROR")
+                events.append((t, f"{r.name}: alarm {what} on joint {joint + 1}", level))
+    events += [(float(r.diverged_at), f"{r.name} diverged", "ERROR")
                for r in results if r.diverged_at is not None]
     if not events:
         return
@@ -409,14 +417,26 @@ def _geom_shape(model: mujoco.MjModel, g: int, color: np.ndarray) -> rr.AsCompon
     return None  # plane, height field, SDF...: skipped
 
 
+def _rgba(model: mujoco.MjModel, g: int) -> np.ndarray:
+    """The geom's colour: its material's, else its own."""
+    mat = model.geom_matid[g]
+    return model.mat_rgba[mat] if mat >= 0 else model.geom_rgba[g]
+
+
+def _drawn(model: mujoco.MjModel, g: int) -> bool:
+    """Whether the geom is drawn: visible (not transparent, in a group MuJoCo's viewer shows) and of a shape
+    Rerun draws (planes, height fields and SDFs are not)."""
+    kind = model.geom_type[g]
+    return bool(_rgba(model, g)[3] > 0 and model.geom_group[g] <= _MAX_VISIBLE_GROUP
+                and (kind in _SOLIDS or (kind == mujoco.mjtGeom.mjGEOM_MESH and model.geom_dataid[g] >= 0)))
+
+
 def _log_geometry(rec: rr.RecordingStream, model: mujoco.MjModel) -> None:
     """Every visible geom once, static, at /world/<body>/geoms/<geom>, placed by its pose in the body frame."""
     for g in range(model.ngeom):
-        mat = model.geom_matid[g]
-        color = model.mat_rgba[mat] if mat >= 0 else model.geom_rgba[g]
-        if color[3] == 0 or model.geom_group[g] > _MAX_VISIBLE_GROUP:
+        if not _drawn(model, g):
             continue
-        shape = _geom_shape(model, g, np.round(np.clip(color, 0, 1) * 255).astype(np.uint8))
+        shape = _geom_shape(model, g, np.round(np.clip(_rgba(model, g), 0, 1) * 255).astype(np.uint8))
         if shape is None:
             continue
         body = _name(model, mujoco.mjtObj.mjOBJ_BODY, int(model.geom_bodyid[g]), "body")
@@ -473,10 +493,11 @@ def tab_labels(figures: Sequence[Figure], other: bool) -> list[str]:
 
 
 def _blueprint(layout: Layout, series: Series, t: np.ndarray, posed: str | None,
-               model: mujoco.MjModel | None = None) -> rrb.Blueprint:
+               model: mujoco.MjModel | None = None, body_xpos: np.ndarray | None = None) -> rrb.Blueprint:
     """The robot, info and events on the left; on the right one tab per figure (per-joint plots stacked, each
     with its zoom panel beside it), then a tab of the other recorded signals. Sized for 1600 x 1000: every
-    tab label visible (:func:`tab_labels`), the info table whole, the robot framed (:func:`_eye`)."""
+    tab label visible (:func:`tab_labels`), the info table whole, the robot framed over the poses ``body_xpos``
+    of the variant ``posed`` (:func:`_eye`)."""
     shown = {figure.entity for figure in layout.figures}
     others = [rrb.TimeSeriesView(name=title, origin="/", contents=[f"/{p}/**" for p in prefixes] + [f"/{p}" for p in prefixes],
                                  plot_legend=rrb.PlotLegend(visible=False))
@@ -499,7 +520,7 @@ def _blueprint(layout: Layout, series: Series, t: np.ndarray, posed: str | None,
     shares = [2.0, 1.6]
     if posed is not None:
         side.insert(0, rrb.Spatial3DView(name=f"Robot: variant {posed}", origin="/world",
-                                         eye_controls=None if model is None else _eye(model)))
+                                         eye_controls=None if model is None else _eye(model, body_xpos)))
         shares.insert(0, 2.4)
     return rrb.Blueprint(
         rrb.Horizontal(rrb.Vertical(*side, row_shares=shares), rrb.Tabs(*tabs, active_tab=0), column_shares=[2, 7]),
@@ -507,12 +528,26 @@ def _blueprint(layout: Layout, series: Series, t: np.ndarray, posed: str | None,
     )
 
 
-def _eye(model: mujoco.MjModel) -> rrb.archetypes.EyeControls3D:
-    """A camera that frames the robot: looking at the model's centre from the front-left and above, far enough
-    for its extent (MuJoCo's ``stat.center`` and ``stat.extent``, the robot at its initial pose) to fit."""
-    centre, extent = np.asarray(model.stat.center, dtype=np.float64), float(model.stat.extent)
+def _eye(model: mujoco.MjModel, body_xpos: np.ndarray | None = None) -> rrb.archetypes.EyeControls3D:
+    """A camera that frames the robot over the whole run: looking from the front-left and above at the centre
+    of the box that holds every drawn geom's bounding sphere (``geom_rbound`` about its offset in its body)
+    at every recorded body position ``body_xpos`` (N, nbody, 3), from :data:`EYE_DISTANCE` times that box's
+    half diagonal. Without poses (a live view before the first period), MuJoCo's ``stat.center`` and
+    ``stat.extent`` of the initial pose, which miss an arm that moves away from it."""
+    if body_xpos is None or body_xpos.size == 0:
+        centre, radius = np.asarray(model.stat.center, dtype=np.float64), 0.5 * float(model.stat.extent)
+    else:
+        reach = np.zeros(model.nbody)  # per body: how far its drawn geoms reach from its origin
+        for g in range(model.ngeom):
+            if _drawn(model, g):
+                body = int(model.geom_bodyid[g])
+                reach[body] = max(reach[body], float(np.linalg.norm(model.geom_pos[g]) + model.geom_rbound[g]))
+        positions = np.asarray(body_xpos, dtype=np.float64).reshape(-1, model.nbody, 3)
+        low = (positions - reach[:, None]).min(axis=(0, 1))
+        high = (positions + reach[:, None]).max(axis=(0, 1))
+        centre, radius = 0.5 * (low + high), 0.5 * float(np.linalg.norm(high - low))
     direction = np.array([1.0, -1.4, 0.8])
-    position = centre + direction / np.linalg.norm(direction) * 0.85 * extent
+    position = centre + direction / np.linalg.norm(direction) * EYE_DISTANCE * max(radius, 1e-3)
     return rrb.archetypes.EyeControls3D(kind="Orbital", position=position, look_target=centre, eye_up=[0, 0, 1])
 
 
