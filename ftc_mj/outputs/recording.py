@@ -108,8 +108,9 @@ LINE_WIDTH, TRUTH_WIDTH = 1.5, 3.0
 # MuJoCo's viewer hides geom groups 3..5 by default (where collision duplicates usually live); do the same.
 _MAX_VISIBLE_GROUP = 2
 #: The primitive shapes :func:`_geom_shape` draws (meshes too, when they have data).
-_SOLIDS = (mujoco.mjtGeom.mjGEOM_CAPSULE, mujoco.mjtGeom.mjGEOM_CYLINDER, mujoco.mjtGeom.mjGEOM_BOX,
-           mujoco.mjtGeom.mjGEOM_SPHERE, mujoco.mjtGeom.mjGEOM_ELLIPSOID)
+_SOLIDS = frozenset(int(kind) for kind in (mujoco.mjtGeom.mjGEOM_CAPSULE, mujoco.mjtGeom.mjGEOM_CYLINDER,
+                                           mujoco.mjtGeom.mjGEOM_BOX, mujoco.mjtGeom.mjGEOM_SPHERE,
+                                           mujoco.mjtGeom.mjGEOM_ELLIPSOID))
 #: The robot camera's distance from the centre of what it frames, in half diagonals of its bounding box:
 #: the box's corners stay in Rerun's default field of view.
 EYE_DISTANCE = 1.7
@@ -426,9 +427,9 @@ def _rgba(model: mujoco.MjModel, g: int) -> np.ndarray:
 def _drawn(model: mujoco.MjModel, g: int) -> bool:
     """Whether the geom is drawn: visible (not transparent, in a group MuJoCo's viewer shows) and of a shape
     Rerun draws (planes, height fields and SDFs are not)."""
-    kind = model.geom_type[g]
+    kind = int(model.geom_type[g])
     return bool(_rgba(model, g)[3] > 0 and model.geom_group[g] <= _MAX_VISIBLE_GROUP
-                and (kind in _SOLIDS or (kind == mujoco.mjtGeom.mjGEOM_MESH and model.geom_dataid[g] >= 0)))
+                and (kind in _SOLIDS or (kind == int(mujoco.mjtGeom.mjGEOM_MESH) and model.geom_dataid[g] >= 0)))
 
 
 def _log_geometry(rec: rr.RecordingStream, model: mujoco.MjModel) -> None:
@@ -463,9 +464,12 @@ def _log_poses(rec: rr.RecordingStream, model: mujoco.MjModel, result: VariantRe
                                                         quaternion=_xyzw(xquat[rows, b])))
 
 
-#: The viewer's layout is sized for a laptop screen (1600 x 1000): the right pane, where the tabs are, is about
-#: this many pixels wide; a tab label takes about this many pixels per character plus a fixed margin.
-TABS_WIDTH, TAB_CHARACTER, TAB_MARGIN = 1150, 7.5, 44
+#: The viewer's layout is sized for a laptop screen (1600 x 1000): the side panel (robot, info, events) and the
+#: tabs share the width in this ratio, the side panel wide enough for an event's text ("nftsmc_tosmo: alarm
+#: raised on joint 2") beside its time; the right pane, where the tabs are, is about TABS_WIDTH pixels wide;
+#: a tab label takes about TAB_CHARACTER pixels per character plus TAB_MARGIN.
+SIDE_SHARE, TABS_SHARE = 2.5, 6.5
+TABS_WIDTH, TAB_CHARACTER, TAB_MARGIN = 1060, 7.5, 44
 #: Short tab labels of the figures without a "Fig. N.M:" title, when the full titles do not fit.
 SHORT_TABS = {"position": "position", "tracking_error": "tracking error", "velocity": "velocity",
               "velocity_error": "velocity error", "luaf": "LUaF", "luaf_error": "LUaF error", "torque": "torque",
@@ -489,6 +493,8 @@ def tab_labels(figures: Sequence[Figure], other: bool) -> list[str]:
     for f in figures:
         head, colon, _ = f.title.partition(":")
         short.append(head if colon and len(head) <= 16 else SHORT_TABS.get(f.quantity, f.name.replace("_", " ")))
+    # Two figures of one quantity (e.g. two residual figures) would share a label: those take their names.
+    short = [f.name.replace("_", " ") if short.count(label) > 1 else label for f, label in zip(figures, short)]
     return short + (["other"] if other else [])
 
 
@@ -523,7 +529,8 @@ def _blueprint(layout: Layout, series: Series, t: np.ndarray, posed: str | None,
                                          eye_controls=None if model is None else _eye(model, body_xpos)))
         shares.insert(0, 2.4)
     return rrb.Blueprint(
-        rrb.Horizontal(rrb.Vertical(*side, row_shares=shares), rrb.Tabs(*tabs, active_tab=0), column_shares=[2, 7]),
+        rrb.Horizontal(rrb.Vertical(*side, row_shares=shares), rrb.Tabs(*tabs, active_tab=0),
+                       column_shares=[SIDE_SHARE, TABS_SHARE]),
         collapse_panels=True,
     )
 
