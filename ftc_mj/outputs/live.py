@@ -188,7 +188,7 @@ class LiveRecording:
             _send_poses(rec, self.bodies, np.asarray(posed.t)[kept], np.asarray(posed.body_xpos)[kept],
                         np.asarray(posed.body_xquat)[kept])
         rec.send_blueprint(_blueprint(layout, series, t, posed.name if posed else None, model,
-                                      posed.body_xpos if posed else None), make_active=True)
+                                      *((posed.body_xpos, posed.body_xquat) if posed else ())), make_active=True)
         rec.flush()
         rec.disconnect()
 

@@ -155,7 +155,7 @@ def write_recording(
         try:
             series = _series(results, len(t), layout.variants)
             blueprint = _blueprint(layout, series, t, posed.name if posed else None, model,
-                                   posed.body_xpos if posed else None)
+                                   *((posed.body_xpos, posed.body_xquat) if posed else ()))
             if sinks:
                 rec.set_sinks(rr.FileSink(tmp), *sinks, default_blueprint=blueprint)
             else:
@@ -500,11 +500,12 @@ def tab_labels(figures: Sequence[Figure], other: bool) -> list[str]:
 
 
 def _blueprint(layout: Layout, series: Series, t: np.ndarray, posed: str | None,
-               model: mujoco.MjModel | None = None, body_xpos: np.ndarray | None = None) -> rrb.Blueprint:
+               model: mujoco.MjModel | None = None, body_xpos: np.ndarray | None = None,
+               body_xquat: np.ndarray | None = None) -> rrb.Blueprint:
     """The robot, info and events on the left; on the right one tab per figure (per-joint plots stacked, each
     with its zoom panel beside it), then a tab of the other recorded signals. Sized for 1600 x 1000: every
-    tab label visible (:func:`tab_labels`), the info table whole, the robot framed over the poses ``body_xpos``
-    of the variant ``posed`` (:func:`_eye`)."""
+    tab label visible (:func:`tab_labels`), the info table whole (its share grows with the variants), the robot
+    framed over the poses ``body_xpos``, ``body_xquat`` of the variant ``posed`` (:func:`_eye`)."""
     shown = {figure.entity for figure in layout.figures}
     others = [rrb.TimeSeriesView(name=title, origin="/", contents=[f"/{p}/**" for p in prefixes] + [f"/{p}" for p in prefixes],
                                  plot_legend=rrb.PlotLegend(visible=False))
@@ -524,11 +525,14 @@ def _blueprint(layout: Layout, series: Series, t: np.ndarray, posed: str | None,
                           rrb.encodings.TextLogColumn("LogLevel", visible=False),
                           rrb.encodings.TextLogColumn("Body", visible=True)]))
     side: list[rrb.View] = [rrb.TextDocumentView(name="Info", origin="/info"), events]
-    shares = [2.0, 1.6]
+    # The info table's rows (a row per variant) take room from the events beyond four variants, and from
+    # the robot beyond eight, so that the table reads whole.
+    rows = len(layout.variants)
+    shares = [2.0 + 0.25 * max(0, rows - 4), max(1.0, 1.6 - 0.25 * max(0, rows - 4))]
     if posed is not None:
         side.insert(0, rrb.Spatial3DView(name=f"Robot: variant {posed}", origin="/world",
-                                         eye_controls=None if model is None else _eye(model, body_xpos)))
-        shares.insert(0, 2.4)
+                                         eye_controls=None if model is None else _eye(model, body_xpos, body_xquat)))
+        shares.insert(0, max(1.6, 2.4 - 0.25 * max(0, rows - 8)))
     return rrb.Blueprint(
         rrb.Horizontal(rrb.Vertical(*side, row_shares=shares), rrb.Tabs(*tabs, active_tab=0),
                        column_shares=[SIDE_SHARE, TABS_SHARE]),
@@ -536,23 +540,29 @@ def _blueprint(layout: Layout, series: Series, t: np.ndarray, posed: str | None,
     )
 
 
-def _eye(model: mujoco.MjModel, body_xpos: np.ndarray | None = None) -> rrb.archetypes.EyeControls3D:
+def _eye(model: mujoco.MjModel, body_xpos: np.ndarray | None = None,
+         body_xquat: np.ndarray | None = None) -> rrb.archetypes.EyeControls3D:
     """A camera that frames the robot over the whole run: looking from the front-left and above at the centre
-    of the box that holds every drawn geom's bounding sphere (``geom_rbound`` about its offset in its body)
-    at every recorded body position ``body_xpos`` (N, nbody, 3), from :data:`EYE_DISTANCE` times that box's
-    half diagonal. Without poses (a live view before the first period), MuJoCo's ``stat.center`` and
-    ``stat.extent`` of the initial pose, which miss an arm that moves away from it."""
-    if body_xpos is None or body_xpos.size == 0:
+    of the box that holds every drawn geom's bounding sphere (its centre placed by the body poses
+    ``body_xpos`` (N, nbody, 3) and ``body_xquat`` (N, nbody, 4, wxyz), radius ``geom_rbound``) at every
+    recorded pose, from :data:`EYE_DISTANCE` times that box's half diagonal. Without poses (a live view before
+    the first period), MuJoCo's ``stat.center`` and ``stat.extent`` of the initial pose, which miss an arm
+    that moves away from it."""
+    drawn = [g for g in range(model.ngeom) if _drawn(model, g)]
+    if body_xpos is None or body_xquat is None or body_xpos.size == 0 or not drawn:
         centre, radius = np.asarray(model.stat.center, dtype=np.float64), 0.5 * float(model.stat.extent)
     else:
-        reach = np.zeros(model.nbody)  # per body: how far its drawn geoms reach from its origin
-        for g in range(model.ngeom):
-            if _drawn(model, g):
-                body = int(model.geom_bodyid[g])
-                reach[body] = max(reach[body], float(np.linalg.norm(model.geom_pos[g]) + model.geom_rbound[g]))
-        positions = np.asarray(body_xpos, dtype=np.float64).reshape(-1, model.nbody, 3)
-        low = (positions - reach[:, None]).min(axis=(0, 1))
-        high = (positions + reach[:, None]).max(axis=(0, 1))
+        rows = slice(None, None, max(1, len(body_xpos) // 500))  # a few hundred poses frame the run as well
+        bodies = model.geom_bodyid[drawn]
+        xpos = np.asarray(body_xpos, dtype=np.float64)[rows][:, bodies]  # (n, geoms, 3)
+        quat = np.asarray(body_xquat, dtype=np.float64)[rows][:, bodies]
+        offset = np.broadcast_to(model.geom_pos[drawn], xpos.shape)
+        # v' = v + w t + u x t with t = 2 u x v: the geom's offset turned by its body's quaternion (w, u)
+        w, u = quat[..., :1], quat[..., 1:]
+        turn = 2.0 * np.cross(u, offset)
+        centres = xpos + offset + w * turn + np.cross(u, turn)
+        reach = model.geom_rbound[drawn][None, :, None]
+        low, high = (centres - reach).min(axis=(0, 1)), (centres + reach).max(axis=(0, 1))
         centre, radius = 0.5 * (low + high), 0.5 * float(np.linalg.norm(high - low))
     direction = np.array([1.0, -1.4, 0.8])
     position = centre + direction / np.linalg.norm(direction) * EYE_DISTANCE * max(radius, 1e-3)
