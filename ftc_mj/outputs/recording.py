@@ -111,10 +111,9 @@ _MAX_VISIBLE_GROUP = 2
 _SOLIDS = frozenset(int(kind) for kind in (mujoco.mjtGeom.mjGEOM_CAPSULE, mujoco.mjtGeom.mjGEOM_CYLINDER,
                                            mujoco.mjtGeom.mjGEOM_BOX, mujoco.mjtGeom.mjGEOM_SPHERE,
                                            mujoco.mjtGeom.mjGEOM_ELLIPSOID))
-#: The robot camera's distance from the centre of what it frames, in half diagonals of its bounding box. The
-#: box of every geom's bounding sphere over the run is larger than the arm at any one time: from farther
-#: (1.7) a UR5e or Panda filled a third of the view's height, from here about two thirds, still whole.
-EYE_DISTANCE = 1.1
+#: The robot camera's distance from the centre of what it frames, in half diagonals of its bounding box: the
+#: box's bounding sphere fits in a field of view of 60 degrees (1 / sin 30 degrees).
+EYE_DISTANCE = 2.0
 
 
 def write_recording(
