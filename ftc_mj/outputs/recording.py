@@ -524,10 +524,10 @@ def _blueprint(layout: Layout, series: Series, t: np.ndarray, posed: str | None,
                           rrb.encodings.TextLogColumn("LogLevel", visible=False),
                           rrb.encodings.TextLogColumn("Body", visible=True)]))
     side: list[rrb.View] = [rrb.TextDocumentView(name="Info", origin="/info"), events]
-    # The info table's rows (a row per variant) take room from the events beyond four variants, and from
-    # the robot beyond eight, so that the table reads whole.
+    # The info table reads whole up to six variants (rows); beyond, each takes room from the events, and
+    # beyond eight from the robot too.
     rows = len(layout.variants)
-    shares = [2.0 + 0.25 * max(0, rows - 4), max(1.0, 1.6 - 0.25 * max(0, rows - 4))]
+    shares = [2.0 + 0.3 * max(0, rows - 6), max(1.0, 1.6 - 0.3 * max(0, rows - 6))]
     if posed is not None:
         side.insert(0, rrb.Spatial3DView(name=f"Robot: variant {posed}", origin="/world",
                                          eye_controls=None if model is None else _eye(model, body_xpos, body_xquat)))
