@@ -187,7 +187,8 @@ class LiveRecording:
             kept = np.unique(np.append(np.arange(-(-start // POSE_STRIDE) * POSE_STRIDE, n, POSE_STRIDE), n - 1))
             _send_poses(rec, self.bodies, np.asarray(posed.t)[kept], np.asarray(posed.body_xpos)[kept],
                         np.asarray(posed.body_xquat)[kept])
-        rec.send_blueprint(_blueprint(layout, series, t, posed.name if posed else None, model), make_active=True)
+        rec.send_blueprint(_blueprint(layout, series, t, posed.name if posed else None, model,
+                                      *((posed.body_xpos, posed.body_xquat) if posed else ())), make_active=True)
         rec.flush()
         rec.disconnect()
 

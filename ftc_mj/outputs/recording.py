@@ -107,6 +107,13 @@ LINE_WIDTH, TRUTH_WIDTH = 1.5, 3.0
 
 # MuJoCo's viewer hides geom groups 3..5 by default (where collision duplicates usually live); do the same.
 _MAX_VISIBLE_GROUP = 2
+#: The primitive shapes :func:`_geom_shape` draws (meshes too, when they have data).
+_SOLIDS = frozenset(int(kind) for kind in (mujoco.mjtGeom.mjGEOM_CAPSULE, mujoco.mjtGeom.mjGEOM_CYLINDER,
+                                           mujoco.mjtGeom.mjGEOM_BOX, mujoco.mjtGeom.mjGEOM_SPHERE,
+                                           mujoco.mjtGeom.mjGEOM_ELLIPSOID))
+#: The robot camera's distance from the centre of what it frames, in half diagonals of its bounding box: the
+#: box's bounding sphere fits in a field of view of 60 degrees (1 / sin 30 degrees).
+EYE_DISTANCE = 2.0
 
 
 def write_recording(
@@ -146,7 +153,8 @@ def write_recording(
         rec = rr.RecordingStream("ftc_mj", recording_id=str(uuid.uuid4()))
         try:
             series = _series(results, len(t), layout.variants)
-            blueprint = _blueprint(layout, series, t, posed.name if posed else None, model)
+            blueprint = _blueprint(layout, series, t, posed.name if posed else None, model,
+                                   *((posed.body_xpos, posed.body_xquat) if posed else ()))
             if sinks:
                 rec.set_sinks(rr.FileSink(tmp), *sinks, default_blueprint=blueprint)
             else:
@@ -345,16 +353,17 @@ def _series(results: Sequence[VariantResult], n_samples: int, styles: Sequence[V
 
 
 def _log_events(rec: rr.RecordingStream, results: Sequence[VariantResult], fault_onsets: Sequence[float]) -> None:
-    """Fault onsets, alarms (raised and cleared) and divergences as text-log events on the timeline."""
-    events = [(float(t), f"fault onset at t = {t:g} s", "WARN") for t in fault_onsets]
+    """Fault onsets, alarms (raised and cleared) and divergences as text-log events on the timeline. The text
+    leaves the time out: the events view shows it in its own column, and the text must fit the side panel."""
+    events = [(float(t), "fault onset", "WARN") for t in fault_onsets]
     for r in results:
         if r.diagnosis is None:
             continue
         for edges, what, level in ((r.diagnosis.raised, "raised", "WARN"), (r.diagnosis.cleared, "cleared", "INFO")):
             for k, joint in zip(*np.nonzero(edges)):
                 t = float(r.diagnosis.t[k])
-                events.append((t, f"{r.name}: alarm {what} on joint {joint + 1} at t = {t:g} s", level))
-    events += [(float(r.diverged_at), f"{r.name} diverged at t = {r.diverged_at:g} s", "ERROR")
+                events.append((t, f"{r.name}: alarm {what} on joint {joint + 1}", level))
+    events += [(float(r.diverged_at), f"{r.name} diverged", "ERROR")
                for r in results if r.diverged_at is not None]
     if not events:
         return
@@ -409,14 +418,26 @@ def _geom_shape(model: mujoco.MjModel, g: int, color: np.ndarray) -> rr.AsCompon
     return None  # plane, height field, SDF...: skipped
 
 
+def _rgba(model: mujoco.MjModel, g: int) -> np.ndarray:
+    """The geom's colour: its material's, else its own."""
+    mat = model.geom_matid[g]
+    return model.mat_rgba[mat] if mat >= 0 else model.geom_rgba[g]
+
+
+def _drawn(model: mujoco.MjModel, g: int) -> bool:
+    """Whether the geom is drawn: visible (not transparent, in a group MuJoCo's viewer shows) and of a shape
+    Rerun draws (planes, height fields and SDFs are not)."""
+    kind = int(model.geom_type[g])
+    return bool(_rgba(model, g)[3] > 0 and model.geom_group[g] <= _MAX_VISIBLE_GROUP
+                and (kind in _SOLIDS or (kind == int(mujoco.mjtGeom.mjGEOM_MESH) and model.geom_dataid[g] >= 0)))
+
+
 def _log_geometry(rec: rr.RecordingStream, model: mujoco.MjModel) -> None:
     """Every visible geom once, static, at /world/<body>/geoms/<geom>, placed by its pose in the body frame."""
     for g in range(model.ngeom):
-        mat = model.geom_matid[g]
-        color = model.mat_rgba[mat] if mat >= 0 else model.geom_rgba[g]
-        if color[3] == 0 or model.geom_group[g] > _MAX_VISIBLE_GROUP:
+        if not _drawn(model, g):
             continue
-        shape = _geom_shape(model, g, np.round(np.clip(color, 0, 1) * 255).astype(np.uint8))
+        shape = _geom_shape(model, g, np.round(np.clip(_rgba(model, g), 0, 1) * 255).astype(np.uint8))
         if shape is None:
             continue
         body = _name(model, mujoco.mjtObj.mjOBJ_BODY, int(model.geom_bodyid[g]), "body")
@@ -443,9 +464,12 @@ def _log_poses(rec: rr.RecordingStream, model: mujoco.MjModel, result: VariantRe
                                                         quaternion=_xyzw(xquat[rows, b])))
 
 
-#: The viewer's layout is sized for a laptop screen (1600 x 1000): the right pane, where the tabs are, is about
-#: this many pixels wide; a tab label takes about this many pixels per character plus a fixed margin.
-TABS_WIDTH, TAB_CHARACTER, TAB_MARGIN = 1150, 7.5, 44
+#: The viewer's layout is sized for a laptop screen (1600 x 1000): the side panel (robot, info, events) and the
+#: tabs share the width in this ratio, the side panel wide enough for an event's text ("nftsmc_tosmo: alarm
+#: raised on joint 2") beside its time; the right pane, where the tabs are, is about TABS_WIDTH pixels wide;
+#: a tab label takes about TAB_CHARACTER pixels per character plus TAB_MARGIN.
+SIDE_SHARE, TABS_SHARE = 2.5, 6.5
+TABS_WIDTH, TAB_CHARACTER, TAB_MARGIN = 1060, 7.5, 44
 #: Short tab labels of the figures without a "Fig. N.M:" title, when the full titles do not fit.
 SHORT_TABS = {"position": "position", "tracking_error": "tracking error", "velocity": "velocity",
               "velocity_error": "velocity error", "luaf": "LUaF", "luaf_error": "LUaF error", "torque": "torque",
@@ -469,14 +493,18 @@ def tab_labels(figures: Sequence[Figure], other: bool) -> list[str]:
     for f in figures:
         head, colon, _ = f.title.partition(":")
         short.append(head if colon and len(head) <= 16 else SHORT_TABS.get(f.quantity, f.name.replace("_", " ")))
+    # Two figures of one quantity (e.g. two residual figures) would share a label: those take their names.
+    short = [f.name.replace("_", " ") if short.count(label) > 1 else label for f, label in zip(figures, short)]
     return short + (["other"] if other else [])
 
 
 def _blueprint(layout: Layout, series: Series, t: np.ndarray, posed: str | None,
-               model: mujoco.MjModel | None = None) -> rrb.Blueprint:
+               model: mujoco.MjModel | None = None, body_xpos: np.ndarray | None = None,
+               body_xquat: np.ndarray | None = None) -> rrb.Blueprint:
     """The robot, info and events on the left; on the right one tab per figure (per-joint plots stacked, each
     with its zoom panel beside it), then a tab of the other recorded signals. Sized for 1600 x 1000: every
-    tab label visible (:func:`tab_labels`), the info table whole, the robot framed (:func:`_eye`)."""
+    tab label visible (:func:`tab_labels`), the info table whole (its share grows with the variants), the robot
+    framed over the poses ``body_xpos``, ``body_xquat`` of the variant ``posed`` (:func:`_eye`)."""
     shown = {figure.entity for figure in layout.figures}
     others = [rrb.TimeSeriesView(name=title, origin="/", contents=[f"/{p}/**" for p in prefixes] + [f"/{p}" for p in prefixes],
                                  plot_legend=rrb.PlotLegend(visible=False))
@@ -496,23 +524,47 @@ def _blueprint(layout: Layout, series: Series, t: np.ndarray, posed: str | None,
                           rrb.encodings.TextLogColumn("LogLevel", visible=False),
                           rrb.encodings.TextLogColumn("Body", visible=True)]))
     side: list[rrb.View] = [rrb.TextDocumentView(name="Info", origin="/info"), events]
-    shares = [2.0, 1.6]
+    # The info table reads whole up to six variants (rows); beyond, each takes room from the events, and
+    # beyond eight from the robot too.
+    rows = len(layout.variants)
+    shares = [2.0 + 0.3 * max(0, rows - 6), max(1.0, 1.6 - 0.3 * max(0, rows - 6))]
     if posed is not None:
         side.insert(0, rrb.Spatial3DView(name=f"Robot: variant {posed}", origin="/world",
-                                         eye_controls=None if model is None else _eye(model)))
-        shares.insert(0, 2.4)
+                                         eye_controls=None if model is None else _eye(model, body_xpos, body_xquat)))
+        shares.insert(0, max(1.6, 2.4 - 0.25 * max(0, rows - 8)))
     return rrb.Blueprint(
-        rrb.Horizontal(rrb.Vertical(*side, row_shares=shares), rrb.Tabs(*tabs, active_tab=0), column_shares=[2, 7]),
+        rrb.Horizontal(rrb.Vertical(*side, row_shares=shares), rrb.Tabs(*tabs, active_tab=0),
+                       column_shares=[SIDE_SHARE, TABS_SHARE]),
         collapse_panels=True,
     )
 
 
-def _eye(model: mujoco.MjModel) -> rrb.archetypes.EyeControls3D:
-    """A camera that frames the robot: looking at the model's centre from the front-left and above, far enough
-    for its extent (MuJoCo's ``stat.center`` and ``stat.extent``, the robot at its initial pose) to fit."""
-    centre, extent = np.asarray(model.stat.center, dtype=np.float64), float(model.stat.extent)
+def _eye(model: mujoco.MjModel, body_xpos: np.ndarray | None = None,
+         body_xquat: np.ndarray | None = None) -> rrb.archetypes.EyeControls3D:
+    """A camera that frames the robot over the whole run: looking from the front-left and above at the centre
+    of the box that holds every drawn geom's bounding sphere (its centre placed by the body poses
+    ``body_xpos`` (N, nbody, 3) and ``body_xquat`` (N, nbody, 4, wxyz), radius ``geom_rbound``) at every
+    recorded pose, from :data:`EYE_DISTANCE` times that box's half diagonal. Without poses (a live view before
+    the first period), MuJoCo's ``stat.center`` and ``stat.extent`` of the initial pose, which miss an arm
+    that moves away from it."""
+    drawn = [g for g in range(model.ngeom) if _drawn(model, g)]
+    if body_xpos is None or body_xquat is None or body_xpos.size == 0 or not drawn:
+        centre, radius = np.asarray(model.stat.center, dtype=np.float64), 0.5 * float(model.stat.extent)
+    else:
+        rows = slice(None, None, max(1, len(body_xpos) // 500))  # a few hundred poses frame the run as well
+        bodies = model.geom_bodyid[drawn]
+        xpos = np.asarray(body_xpos, dtype=np.float64)[rows][:, bodies]  # (n, geoms, 3)
+        quat = np.asarray(body_xquat, dtype=np.float64)[rows][:, bodies]
+        offset = np.broadcast_to(model.geom_pos[drawn], xpos.shape)
+        # v' = v + w t + u x t with t = 2 u x v: the geom's offset turned by its body's quaternion (w, u)
+        w, u = quat[..., :1], quat[..., 1:]
+        turn = 2.0 * np.cross(u, offset)
+        centres = xpos + offset + w * turn + np.cross(u, turn)
+        reach = model.geom_rbound[drawn][None, :, None]
+        low, high = (centres - reach).min(axis=(0, 1)), (centres + reach).max(axis=(0, 1))
+        centre, radius = 0.5 * (low + high), 0.5 * float(np.linalg.norm(high - low))
     direction = np.array([1.0, -1.4, 0.8])
-    position = centre + direction / np.linalg.norm(direction) * 0.85 * extent
+    position = centre + direction / np.linalg.norm(direction) * EYE_DISTANCE * max(radius, 1e-3)
     return rrb.archetypes.EyeControls3D(kind="Orbital", position=position, look_target=centre, eye_up=[0, 0, 1])
 
 

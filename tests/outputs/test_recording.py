@@ -17,8 +17,8 @@ from rerun.chunk import RrdReader
 from ftc_mj.results import VariantResult
 from ftc_mj.outputs.files import TEMPORARY
 from ftc_mj.outputs.layout import Figure, variant_styles
-from ftc_mj.outputs.recording import (DIAGNOSIS_SERIES, OPTIONAL_SERIES, SERIES, read_layout, read_series,
-                                     write_recording)
+from ftc_mj.outputs.recording import (DIAGNOSIS_SERIES, EYE_DISTANCE, OPTIONAL_SERIES, SERIES, _eye, read_layout,
+                                     read_series, tab_labels, write_recording)
 
 N, NJ, STRIDE = 500, 2, 10
 VARIANTS = ("nftsmc_sosmo", "nftsmc_tosmo")
@@ -221,6 +221,47 @@ def test_blueprint_geometry_and_poses(rrd: Path, chunks: list, model: mujoco.MjM
         got = np.array(quat, dtype=np.float32).reshape(-1, 4)
         assert np.array_equal(got, results[0].body_xquat[rows, b][:, [1, 2, 3, 0]].astype(np.float32))
     assert not any(c.entity_path.startswith("/world/world") and not c.is_static for c in chunks)
+
+
+def test_the_camera_frames_every_pose_of_the_run(model: mujoco.MjModel, results: list[VariantResult]) -> None:
+    """The robot camera looks at the centre of what the arm sweeps, not at the initial pose: an arm that swings
+    to one side moves the target there, and the camera stands back by the box's half diagonal."""
+    xpos, xquat = results[0].body_xpos, results[0].body_xquat
+    swung = xpos.copy()
+    swung[:, 1:, 1] += 2.0  # the links 2 m to the side all run long
+    centre = np.asarray(_eye(model, swung, xquat).look_target.as_arrow_array().to_pylist()[0])
+    eye = np.asarray(_eye(model, xpos, xquat).position.as_arrow_array().to_pylist()[0])
+    target = np.asarray(_eye(model, xpos, xquat).look_target.as_arrow_array().to_pylist()[0])
+    # the base (on the world body) stays at 0 and the box spans base and links: its centre moves, by less
+    assert 1.0 < centre[1] - target[1] < 2.0
+    # every geom's centre at every pose of the run (MuJoCo's own geom_xpos) is within the framed radius
+    radius = np.linalg.norm(eye - target) / EYE_DISTANCE
+    data = mujoco.MjData(model)
+    for q in results[0].q_ref[::50]:
+        data.qpos[:] = q
+        mujoco.mj_kinematics(model, data)
+        tool = data.geom_xpos[mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_GEOM, "tool")]
+        assert np.linalg.norm(tool - target) < radius
+    assert radius < 1.5  # and not the sphere of the whole reach about every body (the arm is 0.9 m)
+    # without poses (a live view before the first period): MuJoCo's statistics of the initial pose
+    initial = np.asarray(_eye(model).look_target.as_arrow_array().to_pylist()[0])
+    assert np.allclose(initial, model.stat.center, atol=1e-6)
+
+
+def test_tab_labels_fit_and_are_unique() -> None:
+    """Titles that fit stay; otherwise short labels, and two figures of one quantity are told apart."""
+    def fig(name: str, title: str, quantity: str) -> Figure:
+        return Figure(name=name, title=title, quantity=quantity, unit="", variants=("a",), joints=(0,))
+
+    few = [fig("e", "Tracking error", "tracking_error")]
+    assert tab_labels(few, other=True) == ["Tracking error", "Other signals"]
+    many = [fig("residual_smooth", "Residual and threshold: DO, ESO, momentum", "residual"),
+            fig("residual_sliding", "Residual and threshold: sliding-mode observers", "residual"),
+            fig("fig5_6", "Fig. 5.6: tracking error (zoom: the two TOSMO loops after convergence)", "tracking_error"),
+            fig("torque", "Control torque (command), every variant, every joint", "torque")]
+    labels = tab_labels(many, other=True)
+    assert labels == ["residual smooth", "residual sliding", "Fig. 5.6", "torque", "other"]
+    assert len(set(labels)) == len(labels)
 
 
 def test_capsule_is_centred_like_mujoco(chunks: list, model: mujoco.MjModel) -> None:
