@@ -375,14 +375,21 @@ def _log_events(rec: rr.RecordingStream, results: Sequence[VariantResult], fault
 
 def _info_markdown(scenario: str, seed: int | None, results: Sequence[VariantResult],
                    fault_onsets: Sequence[float], styles: Sequence[VariantStyle]) -> str:
-    # One heading line and a narrow table: it must read whole in the side panel (a third of a laptop screen).
-    lines = [f"**{scenario}** · seed {seed if seed is not None else 'not set'} · fault onsets [s]: "
-             f"{', '.join(f'{t:g}' for t in fault_onsets) or 'none'} · {len(results[0].t) if results else 0} "
-             "samples", "", "| variant | colour | observer | controller | status |", "|---|---|---|---|---|"]
-    for r, style in zip(results, styles):
-        status = r.status if r.diverged_at is None else f"diverged at {r.diverged_at:g} s"
-        colour = colour_name(style.color)
-        lines.append(f"| {r.name} | {colour} | {r.observer} | {r.controller} | {status} |")
+    """The info panel: one heading line and a narrow table that reads whole in the side panel (a third of a
+    laptop screen). A column whose value every variant shares (the status of runs that all ended "ok", the
+    controller of a host and its monitors) is said once in the heading instead of repeated on every row."""
+    rows = [{"observer": r.observer, "controller": r.controller,
+             "status": r.status if r.diverged_at is None else f"diverged at {r.diverged_at:g} s"} for r in results]
+    shared = {key: rows[0][key] for key in ("observer", "controller", "status")
+              if len(rows) > 1 and all(row[key] == rows[0][key] for row in rows)}
+    kept = [key for key in ("observer", "controller", "status") if key not in shared]
+    heading = (f"**{scenario}** · seed {seed if seed is not None else 'not set'} · fault onsets [s]: "
+               f"{', '.join(f'{t:g}' for t in fault_onsets) or 'none'} · {len(results[0].t) if results else 0} "
+               "samples" + "".join(f" · {key}: {value}" for key, value in shared.items()))
+    lines = [heading, "", "| " + " | ".join(["variant", "colour", *kept]) + " |",
+             "|" + "---|" * (2 + len(kept))]
+    for r, row, style in zip(results, rows, styles):
+        lines.append("| " + " | ".join([r.name, colour_name(style.color), *(row[key] for key in kept)]) + " |")
     return "\n".join(lines) + "\n"
 
 

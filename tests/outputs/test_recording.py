@@ -350,3 +350,23 @@ def test_failure_midway_keeps_previous_file(tmp_path: Path, model: mujoco.MjMode
         write_recording(tmp_path / "fresh.rrd", scenario="second", model=model, results=results)
     assert path.read_bytes() == before
     assert not (tmp_path / "fresh.rrd").exists() and no_temp_files(tmp_path)
+
+
+def test_the_info_table_says_a_shared_column_once_in_its_heading():
+    from types import SimpleNamespace
+
+    from ftc_mj.outputs.recording import _info_markdown
+
+    def result(name: str, observer: str, diverged_at: float | None = None) -> SimpleNamespace:
+        return SimpleNamespace(name=name, observer=observer, controller="nftsmc", status="ok",
+                               diverged_at=diverged_at, t=np.zeros(4))
+
+    style = SimpleNamespace(color="#d62728")
+    host_and_monitor = _info_markdown("s", 1, [result("a", "hs_tosmo"), result("a.m", "momentum")], [10.0],
+                                      [style, style])
+    assert "· controller: nftsmc · status: ok" in host_and_monitor.splitlines()[0]
+    assert "| variant | colour | observer |" in host_and_monitor and "| a.m | red | momentum |" in host_and_monitor
+    one_diverged = _info_markdown("s", 1, [result("a", "hs_tosmo"), result("b", "sosmo", 2.0)], [10.0],
+                                  [style, style])
+    assert "| variant | colour | observer | status |" in one_diverged and "| b | red | sosmo | diverged at 2 s |" \
+        in one_diverged
