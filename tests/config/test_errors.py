@@ -42,12 +42,12 @@ def test_no_suggestion_where_nothing_is_close(tmp_path):
 def test_the_unknown_key_comes_before_the_value_it_leaves_missing(tmp_path):
     raw = yaml.safe_load(BASE.read_text())
     raw["robot"]["model"] = str((BASE.parent / raw["robot"]["model"]).resolve())
-    raw["metricz"] = raw.pop("metrics")  # the required metrics section is now missing too
+    raw["variantz"] = raw.pop("variants")  # the required variants section is now missing too
     path = tmp_path / "s.yaml"
     path.write_text(yaml.safe_dump(raw))
     with pytest.raises(InputError) as caught:
         load_scenario(path)
-    assert caught.value.field == "metricz" and "did you mean 'metrics'" in caught.value.problem
+    assert caught.value.field == "variantz" and "did you mean 'variants'" in caught.value.problem
     assert "(and 1 more problem)" in caught.value.problem
 
 

@@ -101,4 +101,4 @@ def test_same_seed_same_files_across_processes(tmp_path: Path) -> None:
                                       read_series(tmp_path / "b.rrd", entity)[1], err_msg=entity)
     info = [chunk.to_record_batch().column("TextDocument:text").to_pylist()[0][0]
             for chunk in RrdReader(tmp_path / "c.rrd").stream().to_chunks() if chunk.entity_path == "/info"]
-    assert "seed: 2" in info[0]
+    assert "· seed 2 ·" in info[0]

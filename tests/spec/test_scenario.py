@@ -403,7 +403,6 @@ INVALID = [
     ("robot.model", DELETE, "robot.model", "required field is missing"),
     ("initial.q", DELETE, "initial.q", "required field is missing"),
     ("reference", DELETE, "reference", "required field is missing"),
-    ("metrics.window_start", DELETE, "metrics.window_start", "required field is missing"),
     ("terms.1.sign", DELETE, "terms.1.sign", "required field is missing"),
     ("variants.proposed.controller", DELETE, "variants.proposed.controller", "required field is missing"),
     ("variants.nftsmc.controller.gains.mu", DELETE, "variants.nftsmc.controller.gains.mu", "required field is missing"),
