@@ -7,7 +7,6 @@ from __future__ import annotations
 import os
 import shutil
 import signal
-import socket
 import subprocess
 import time
 from pathlib import Path
@@ -19,38 +18,23 @@ from rerun.chunk import RrdReader
 from ftc_mj.cli.run import main
 from ftc_mj.outputs import live
 from ftc_mj.outputs.recording import read_entities, read_layout
+from local_ports import free_port, listening
 
 RERUN = shutil.which("rerun")
 SCENARIO = Path(__file__).resolve().parents[2] / "scenarios" / "puma_fault.yaml"
-
-
-def _free_port() -> int:
-    with socket.socket() as s:
-        s.bind(("127.0.0.1", 0))
-        return s.getsockname()[1]
-
-
-def _listening(port: int, seconds: float) -> bool:
-    deadline = time.time() + seconds
-    while time.time() < deadline:
-        with socket.socket() as s:
-            if s.connect_ex(("127.0.0.1", port)) == 0:
-                return True
-        time.sleep(0.2)
-    return False
 
 
 class _Server:
     """``rerun --port P --save FILE``: a gRPC server that saves what it receives."""
 
     def __init__(self, received: Path):
-        self.port = _free_port()
+        self.port = free_port()
         self.process = subprocess.Popen([RERUN, "--port", str(self.port), "--save", str(received)],
                                         stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL, start_new_session=True)
         self.url = f"rerun+http://127.0.0.1:{self.port}/proxy"
 
     def __enter__(self) -> "_Server":
-        assert _listening(self.port, 60), "the rerun gRPC server did not start"
+        assert listening(self.port, 60), "the rerun gRPC server did not start"
         return self
 
     def __exit__(self, *exc: object) -> None:

@@ -9,7 +9,6 @@ import json
 import os
 import shutil
 import signal
-import socket
 import subprocess
 import tempfile
 import time
@@ -21,6 +20,7 @@ import numpy as np
 import pytest
 
 from ftc_mj.outputs.layout import variant_styles
+from local_ports import free_port, listening
 
 CHROMIUM = shutil.which("chromium") or shutil.which("chromium-browser")
 RERUN = shutil.which("rerun")
@@ -35,22 +35,6 @@ pytestmark = pytest.mark.skipif(
 
 #: Pixels of a variant's colour that make a plot "non-empty" (a 1000-sample line in one plot is thousands).
 MIN_PIXELS = 300
-
-
-def _free_port() -> int:
-    with socket.socket() as s:
-        s.bind(("127.0.0.1", 0))
-        return s.getsockname()[1]
-
-
-def _wait_for_port(port: int, seconds: float) -> bool:
-    end = time.time() + seconds
-    while time.time() < end:
-        with socket.socket() as s:
-            if s.connect_ex(("127.0.0.1", port)) == 0:
-                return True
-        time.sleep(0.2)
-    return False
 
 
 class _Page:
@@ -95,14 +79,14 @@ def test_recording_opens_in_the_web_viewer(tmp_path: Path) -> None:
                           "--duration", "1.0", "--quiet", "--out", str(recording)],
                          capture_output=True, text=True, timeout=300, env={**os.environ, "PYTHONPATH": os.getcwd()})
     assert run.returncode == 0, run.stderr
-    web, grpc, debug = _free_port(), _free_port(), _free_port()
+    web, grpc, debug = free_port(), free_port(), free_port()
     viewer = subprocess.Popen([RERUN, str(recording), "--web-viewer", "--bind", "127.0.0.1", "--web-viewer-port",
                                str(web), "--port", str(grpc)], stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL,
                               env={**os.environ, "BROWSER": "true"}, start_new_session=True)
     profile = tempfile.mkdtemp(prefix="viewer-test-")
     browser = None
     try:
-        assert _wait_for_port(web, 60), "the rerun web viewer did not start"
+        assert listening(web, 60), "the rerun web viewer did not start"
         browser = subprocess.Popen(
             [CHROMIUM, "--headless=new", "--no-sandbox", "--use-angle=swiftshader", "--enable-unsafe-swiftshader",
              "--ignore-gpu-blocklist", "--window-size=1600,1000", f"--user-data-dir={profile}",
