@@ -70,8 +70,8 @@ def main() -> None:
     # The bare physics with the rows one worker steps at once (its chunk of members, every variant), on all cores,
     # measured before the campaign, between its slices and after it (the machine's speed drifts from minute to
     # minute): the ratio is against their mean.
-    rows = min(len(campaign.runs), max(1, execute.WORKER_MEMORY // campaign.member_bytes)) * variants
     threads = execute.default_workers()
+    rows = max(len(task.runs) for task in execute.tasks_for(campaign, campaign.runs, None, threads)) * variants
 
     def physics_rounds(count: int) -> list[float]:
         return [bare(campaign.scenario.model, rows, campaign.scenario.substeps, min(periods, 4000), threads)

@@ -34,6 +34,7 @@ import pyarrow as pa
 import pyarrow.parquet as pq
 
 from ftc_mj.analysis.diagnosis import detection_statistics
+from ftc_mj.campaign.partition import partition
 from ftc_mj.campaign.population import Run, fingerprint, population, population_size
 from ftc_mj.campaign.spec import CampaignSpec
 from ftc_mj.engine.members import members_from_overrides
@@ -44,16 +45,13 @@ from ftc_mj.config.paths import input_file_problem
 from ftc_mj.outputs.files import parquet_bytes, write_atomic
 from ftc_mj.outputs.palette import declared_colours
 from ftc_mj.spec.loading import UnknownVariant, load_scenario
-from ftc_mj.spec.scenario import MAX_SEED, Scenario, series_bytes
+from ftc_mj.spec.scenario import MAX_SEED, MEMORY_SHARE, Scenario, machine_memory, series_bytes
 
-#: Memory for the series of one batch in one worker [bytes] (the batch engine steps members in chunks that fit).
-WORKER_MEMORY = 3 * 1024**3
+#: Memory for the series of one batch in a worker of a Dask cluster [bytes], whose machine is not this one (the
+#: batch engine steps members in chunks that fit).
+CLUSTER_WORKER_MEMORY = 3 * 1024**3
 #: Default largest batch: beyond it the per-period Python work is amortised and only memory grows.
 MAX_BATCH = 128
-#: Default fewest batches per worker: enough to balance the workers and save progress, few enough that batches
-#: stay large (a period's Python work is shared by a batch's rows: measured, 16 members cost about a fifth more
-#: per member than 46).
-BATCHES_PER_WORKER = 2
 
 
 @dataclass(frozen=True)
@@ -67,7 +65,7 @@ class Task:
     runs: tuple[tuple[int, str, dict[str, Any]], ...]  # (index, run_id, member values)
     scales: tuple[float, ...]
     nthread: int = 1
-    memory_budget: int = WORKER_MEMORY
+    memory_budget: int = CLUSTER_WORKER_MEMORY
 
 
 @dataclass
@@ -396,40 +394,47 @@ def default_workers() -> int:
     return max(1, len(os.sched_getaffinity(0)))
 
 
-def tasks_for(campaign: Campaign, pending: list[Run], batch_size: int | None, workers: int) -> list[Task]:
-    """The pending runs as batches of one group each: ``batch_size`` members (default: enough batches to keep
-    every worker busy and to save progress, at most :data:`MAX_BATCH`)."""
-    return member_tasks(campaign, [(run.index, run.run_id, run, run.member) for run in pending], batch_size, workers)
+def worker_memory(workers: int, scheduler: str | None = None) -> int:
+    """Memory for the series of one batch in each of ``workers`` workers [bytes]: on this machine, an equal part
+    of the share of its memory a run may take (:data:`~ftc_mj.spec.scenario.MEMORY_SHARE`); on the cluster at
+    ``scheduler``, :data:`CLUSTER_WORKER_MEMORY`."""
+    if scheduler is not None:
+        return CLUSTER_WORKER_MEMORY
+    return int(MEMORY_SHARE * machine_memory() / max(workers, 1))
+
+
+def tasks_for(campaign: Campaign, pending: list[Run], batch_size: int | None, workers: int,
+              scheduler: str | None = None) -> list[Task]:
+    """The pending runs as batches of one group each: ``batch_size`` members, or by default the largest batches
+    that give every worker the same share (:func:`member_tasks`)."""
+    return member_tasks(campaign, [(run.index, run.run_id, run, run.member) for run in pending], batch_size, workers,
+                        scheduler)
 
 
 def member_tasks(campaign: Campaign, members: list[tuple[int, str, Run, dict[str, Any]]], batch_size: int | None,
-                 workers: int) -> list[Task]:
+                 workers: int, scheduler: str | None = None) -> list[Task]:
     """Members ``(index, id, run, member values)`` (a run's, or a run's with other gains, as a tuning asks) as
-    batches of one group each; see :func:`tasks_for`. By default a batch holds no more members than a worker
-    steps at once (:data:`WORKER_MEMORY`), at most :data:`MAX_BATCH`, there are at least
-    :data:`BATCHES_PER_WORKER` per worker, and a group's batches are of equal sizes (no small last batch that
-    pays a period's Python work for a few rows)."""
-    even = batch_size is None
-    if batch_size is None:  # no larger than what a worker steps at once: more batches balance the workers
-        fits = max(1, WORKER_MEMORY // max(campaign.member_bytes, 1))
-        batch_size = max(1, min(MAX_BATCH, fits, math.ceil(len(members) / (BATCHES_PER_WORKER * workers))))
-    nthread = max(1, default_workers() // workers)
-    spec = campaign.spec
+    batches of one group each; see :func:`tasks_for`. By default (``batch_size`` None) the batches are those
+    of :func:`~ftc_mj.campaign.partition.partition`: the same share of members for every worker, each batch
+    as large as a worker steps at once (:func:`worker_memory`, at most :data:`MAX_BATCH`), largest first; with
+    ``batch_size``, each group is cut in order into batches of that many members (the last one smaller)."""
     by_group: dict[str, list] = {}
     for member in members:
         by_group.setdefault(member[2].group, []).append(member)
-    tasks = []
-    for group in by_group.values():
-        count = math.ceil(len(group) / batch_size)
-        bounds = ([len(group) * k // count for k in range(count + 1)] if even
-                  else list(range(0, len(group), batch_size)) + [len(group)])
-        for start, stop in zip(bounds, bounds[1:]):
-            chunk = group[start:stop]
-            tasks.append(Task(scenario=str(campaign.scenario_path), variants=tuple(campaign.variants),
-                              duration=spec.duration, structure=chunk[0][2].structure,
-                              runs=tuple((index, run_id, values) for index, run_id, _, values in chunk),
-                              scales=tuple(spec.diagnosis.threshold_scales), nthread=nthread))
-    return tasks
+    groups = list(by_group.values())
+    memory = worker_memory(workers, scheduler)
+    if batch_size is None:
+        cap = max(1, min(MAX_BATCH, memory // max(campaign.member_bytes, 1)))
+        chunks = [groups[b.group][b.start:b.stop] for b in partition([len(g) for g in groups], workers, cap)]
+    else:
+        chunks = [group[start:start + batch_size] for group in groups for start in range(0, len(group), batch_size)]
+    nthread = max(1, default_workers() // workers)
+    spec = campaign.spec
+    return [Task(scenario=str(campaign.scenario_path), variants=tuple(campaign.variants), duration=spec.duration,
+                 structure=chunk[0][2].structure,
+                 runs=tuple((index, run_id, values) for index, run_id, _, values in chunk),
+                 scales=tuple(spec.diagnosis.threshold_scales), nthread=nthread, memory_budget=memory)
+            for chunk in chunks]
 
 
 def check_directory(campaign: Campaign, out: Path) -> None:
@@ -484,7 +489,7 @@ def _execute(campaign: Campaign, out: Path, start: float, batch_size: int | None
     done = prepare_directory(campaign, out, progress.note)
     pending = [run for run in campaign.runs if run.run_id not in done]
     workers = workers or (default_workers() if scheduler is None else 1)
-    tasks = tasks_for(campaign, pending, batch_size, workers)
+    tasks = tasks_for(campaign, pending, batch_size, workers, scheduler)
     total, finished = len(campaign.runs), len(campaign.runs) - len(pending)
     progress.update(finished, total)
     for task, rows in results(tasks, workers, scheduler):

@@ -146,7 +146,7 @@ def evaluate(tuning: Tuning, candidates: list[dict[str, float]], conditions: lis
     k = len(conditions)
     members = [(i * k + j, f"{i}-{run.run_id}", run, {**run.member, **gains})
                for i, gains in enumerate(candidates) for j, run in enumerate(conditions)]
-    tasks = execute.member_tasks(tuning.campaign, members, None, workers)
+    tasks = execute.member_tasks(tuning.campaign, members, None, workers, scheduler)
     shape = (len(candidates), k)
     metric_names = list(tuning.spec.cost.weights)
     metrics = {m: np.full(shape, np.nan) for m in metric_names}
