@@ -63,7 +63,9 @@ def test_a_single_precision_grid_is_worked_in_double_precision() -> None:
     """The values are those of the grid's times, whatever their dtype: a float32 grid gives what the same
     numbers in float64 give, the onset compared in double precision too."""
     grid = T.astype(np.float32)
-    for profile in (PROFILES["incipient"], PROFILES["ramp"], PROFILES["intermittent_late"]):
+    # An onset that float32 cannot hold: t - onset in float32 would round where float64 does not.
+    for profile in (Profile("incipient", onset=0.35, rate=RATE), Profile("ramp", onset=0.35, ramp_time=0.7),
+                    PROFILES["intermittent_late"]):
         np.testing.assert_array_equal(profile.evaluate(grid, 3), profile.evaluate(grid.astype(float), 3))
     onset = float(np.float32(0.1)) + 1e-12  # just after the float32 time 0.1, equal to it in float32
     assert not Profile("abrupt", onset=onset).active(np.float32([0.1]))[0]
