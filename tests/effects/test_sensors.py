@@ -5,17 +5,16 @@ level."""
 
 from __future__ import annotations
 
+import warnings
 from pathlib import Path
 
 import numpy as np
 import pytest
-import warnings
-
 from fault_scenarios import ROOT, assert_input_error, puma_model, run, scenario_data
 
 from ftc_mj.analysis.metrics import compute_metrics
-from ftc_mj.effects import randomness
 from ftc_mj.config.errors import InputError
+from ftc_mj.effects import randomness
 from ftc_mj.effects.sensors import Channel, ChannelSpec, EncoderSpec, Measurement, compile_channel
 from ftc_mj.engine.runner import simulate_variant
 from ftc_mj.spec.loading import load_scenario

@@ -234,20 +234,23 @@ def test_names_and_the_term_function() -> None:
 
 
 TERM_ERRORS = [
-    (dict(value=["1", "2"]), "terms.0.value", "has 2 values, the robot has 3 joints"),
-    (dict(value=["1", "open('x')", "0"]), "terms.0.value.1", None),
-    (dict(onset=0.1, profile={"shape": "abrupt"}), "terms.0.profile", "give either a profile or onset and rate, not both"),
-    (dict(profile={"shape": "incipient", "rate": [1.0, 2.0]}), "terms.0.profile.rate",
+    ({"value": ["1", "2"]}, "terms.0.value", "has 2 values, the robot has 3 joints"),
+    ({"value": ["1", "open('x')", "0"]}, "terms.0.value.1", None),
+    ({"onset": 0.1, "profile": {"shape": "abrupt"}}, "terms.0.profile",
+     "give either a profile or onset and rate, not both"),
+    ({"profile": {"shape": "incipient", "rate": [1.0, 2.0]}}, "terms.0.profile.rate",
      "has 2 values, the robot has 3 joints"),
-    (dict(rate=2.0), "terms.0.rate", "an evolution rate needs an onset"),
-    (dict(onset=0.1, rate="speed"), "terms.0.rate", "'speed' is not one of the scenario's parameters"),
-    (dict(onset=0.1, rate=[1.0, 2.0]), "terms.0.rate", "has 2 values, the robot has 3 joints"),
+    ({"rate": 2.0}, "terms.0.rate", "an evolution rate needs an onset"),
+    ({"onset": 0.1, "rate": "speed"}, "terms.0.rate", "'speed' is not one of the scenario's parameters"),
+    ({"onset": 0.1, "rate": [1.0, 2.0]}, "terms.0.rate", "has 2 values, the robot has 3 joints"),
 ]
 
 
-@pytest.mark.parametrize(("change", "field", "problem"), TERM_ERRORS, ids=[e[1] + f" {i}" for i, e in enumerate(TERM_ERRORS)])
+@pytest.mark.parametrize(("change", "field", "problem"), TERM_ERRORS,
+                         ids=[f"{field} {i}" for i, (_, field, _) in enumerate(TERM_ERRORS)])
 def test_compile_errors_name_file_field_and_problem(change: dict, field: str, problem: str | None) -> None:
-    spec = TermSpec(**{**dict(kind="fault", space="torque", sign=1, value=["1", "0", "0"]), **change})
+    """Each problem of a term names the file, the exact field and (where this module writes it) the problem."""
+    spec = TermSpec(**{"kind": "fault", "space": "torque", "sign": 1, "value": ["1", "0", "0"], **change})
     with pytest.raises(InputError) as info:
         compile_terms([spec], "test.yaml", NJ, PARAMETERS)
     assert (info.value.file, info.value.field) == ("test.yaml", field)
