@@ -3,9 +3,11 @@
 
 from __future__ import annotations
 
+import functools
 import json
 from pathlib import Path
 
+import mujoco
 import numpy as np
 import pytest
 import yaml
@@ -20,6 +22,13 @@ from ftc_mj.spec.scenario import Scenario
 ROOT = Path(__file__).resolve().parents[1]
 FAULTS = ROOT / "scenarios" / "faults"
 PUMA_MODEL = ROOT / "models" / "puma560.xml"
+
+
+@functools.cache
+def puma_model() -> mujoco.MjModel:
+    """The PUMA 560 (three joints, ``joint1`` .. ``joint3``), loaded once: what the compile functions of
+    ftc_mj.effects take to resolve joint selections."""
+    return mujoco.MjModel.from_xml_path(str(PUMA_MODEL))
 
 
 def scenario_data(name: str = "puma_loss_of_effectiveness", variants: tuple[str, ...] = ("proposed",)) -> dict:

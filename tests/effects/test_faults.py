@@ -9,10 +9,11 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from fault_scenarios import assert_input_error, load, run, scenario_data, write
+from fault_scenarios import assert_input_error, load, puma_model, run, scenario_data, write
 from nominal_oracle import NominalModel
+from pydantic import TypeAdapter
 
-from ftc_mj.effects.faults import ActuatorFault, ActuatorFaults
+from ftc_mj.effects.faults import ActuatorFault, ActuatorFaults, ActuatorFaultSpec, compile_actuator_fault
 from ftc_mj.effects.profiles import Profile
 from ftc_mj.config.errors import InputError
 from ftc_mj.spec.loading import load_scenario
@@ -141,6 +142,31 @@ def test_intermittent_bias_is_on_for_the_duty_fraction() -> None:
     on = (T >= ONSET) & (T < 0.9) & (np.round((T - ONSET) / DT).astype(int) % 100 < 30)
     np.testing.assert_array_equal(applied.active, on)
     np.testing.assert_allclose(out[:, 1] - COMMAND[:, 1], np.where(on, 1.0, 0.0), atol=1e-14)
+
+
+def test_active_is_on_while_any_fault_is() -> None:
+    """Two faults on at different times: the run counts a fault as on whenever either is (the union, not the
+    last fault's own times)."""
+    first = make("bias", parameter=table({1: 1.0}), profile=Profile("abrupt", onset=0.2, end=0.4))
+    second = make("lock", joints=(2,), profile=Profile("abrupt", onset=0.7))
+    _, _, applied = delivered(first, second)
+    np.testing.assert_array_equal(applied.active, ((T >= 0.2) & (T < 0.4)) | (T >= 0.7))
+
+
+def test_lock_leaves_the_other_joints_alone_whatever_their_command() -> None:
+    """A non-finite command on a healthy joint at the lock instant stays in that sample: the lock holds only
+    its own joints' torques, so the healthy joint's later torques are its commands."""
+    command = COMMAND.copy()
+    command[K0, 0], command[K0, 2] = np.nan, np.inf
+    with np.errstate(invalid="ignore"):  # that sample's fault torque, inf - inf, is NaN
+        out, _, _ = delivered(make("lock"), command=command)
+    np.testing.assert_array_equal(out[K0 + 1:, [0, 2]], command[K0 + 1:, [0, 2]])
+    np.testing.assert_array_equal(out[K0:, 1], command[K0, 1])
+
+
+def test_an_unknown_kind_is_named() -> None:
+    with pytest.raises(ValueError, match="unknown actuator fault kind 'stuck'"):
+        ActuatorFaults([make("stuck")], T, NJ)
 
 
 # ------------------------------------------------------------------------------------------ scenario files
@@ -277,3 +303,38 @@ def test_closed_loop_acceleration_fault_term_force(tmp_path: Path) -> None:
     np.testing.assert_allclose(result.fault_acceleration[on], result.fault[on], rtol=1e-9, atol=1e-9)
     np.testing.assert_array_equal(result.fault_torque[~on], 0.0)
     np.testing.assert_array_equal(result.tau_delivered, result.tau)
+
+
+# ------------------------------------------------------------------------------------------ compiling
+
+
+def compiled(fault: dict, field: str = "actuator_faults.0") -> ActuatorFault:
+    """``fault`` validated and compiled for the PUMA on the grid T, as from the file ``f.yaml``."""
+    spec = TypeAdapter(ActuatorFaultSpec).validate_python(fault)
+    return compile_actuator_fault(spec, "f.yaml", field, puma_model(), T)
+
+
+def test_default_name_is_the_kind_and_the_index() -> None:
+    assert compiled({"kind": "bias", "offset": 1.0}, "actuator_faults.2").name == "bias2"
+    assert compiled({"kind": "lock"}, "variants.slow.actuator_faults.4").name == "lock4"
+    assert compiled({"kind": "lock", "name": "held elbow"}).name == "held elbow"
+
+
+def test_parameter_per_kind() -> None:
+    """alpha = 1 (the whole command lost) is within [0, 1]; lock and float carry no parameter."""
+    full = compiled({"kind": "loss_of_effectiveness", "joints": [2], "alpha": 1.0})
+    np.testing.assert_array_equal(full.parameter, table({1: 1.0}))
+    assert compiled({"kind": "lock"}).parameter is None
+    assert compiled({"kind": "float"}).parameter is None
+
+
+@pytest.mark.parametrize(("fault", "field", "problem"), [
+    # sqrt(0.25 - t) is NaN from the first sample after 0.25 s on; the message names that time.
+    ({"kind": "bias", "joints": [1, 3], "offset": ["0", "sqrt(0.25 - t)"]}, "actuator_faults.0.offset",
+     f"is not a finite number at t = {T[T > 0.25][0]:g}"),
+    ({"kind": "saturation", "joints": [1, 2], "limit": [5.0]}, "actuator_faults.0.limit", "has 1 values for 2 joints"),
+], ids=["offset not finite", "limit count"])
+def test_compile_errors_name_file_field_and_problem(fault: dict, field: str, problem: str) -> None:
+    with pytest.raises(InputError) as info:
+        compiled(fault)
+    assert (info.value.file, info.value.field, info.value.problem) == ("f.yaml", field, problem)

@@ -16,6 +16,8 @@ PROFILES = {
     "incipient": Profile("incipient", onset=1.0, rate=RATE),
     "ramp": Profile("ramp", onset=1.0, ramp_time=0.5, end=3.0),
     "intermittent": Profile("intermittent", onset=1.0, period=0.4, duty=0.25),
+    # 2 onset is no multiple of the period here: the cycles count from the onset, not from t = -onset.
+    "intermittent_late": Profile("intermittent", onset=0.3, period=0.4, duty=0.25),
     "always": Profile("abrupt"),
 }
 
@@ -43,4 +45,27 @@ def test_values() -> None:
     on = PROFILES["intermittent"].active(T)
     k = np.arange(len(T)) - 1000
     np.testing.assert_array_equal(on, (k >= 0) & (k % 400 < 100))
+    k = np.arange(len(T)) - 300
+    np.testing.assert_array_equal(PROFILES["intermittent_late"].active(T), (k >= 0) & (k % 400 < 100))
     assert PROFILES["always"].active(T).all()
+
+
+def test_intermittent_boundary_within_the_tolerance_counts_as_reached() -> None:
+    """1e-9 before the end of the on fraction the fault is already off (the boundary counts as reached), and
+    just before that it is still on."""
+    profile = Profile("intermittent", period=1.0, duty=0.5)
+    end = 0.5 - 1e-9
+    assert profile.weight(end) is None and profile.weight(end - 1e-12) == 1.0
+    np.testing.assert_array_equal(profile.active(np.array([end - 1e-12, end])), [True, False])
+
+
+def test_a_single_precision_grid_is_worked_in_double_precision() -> None:
+    """The values are those of the grid's times, whatever their dtype: a float32 grid gives what the same
+    numbers in float64 give, the onset compared in double precision too."""
+    grid = T.astype(np.float32)
+    # An onset that float32 cannot hold: t - onset in float32 would round where float64 does not.
+    for profile in (Profile("incipient", onset=0.35, rate=RATE), Profile("ramp", onset=0.35, ramp_time=0.7),
+                    PROFILES["intermittent_late"]):
+        np.testing.assert_array_equal(profile.evaluate(grid, 3), profile.evaluate(grid.astype(float), 3))
+    onset = float(np.float32(0.1)) + 1e-12  # just after the float32 time 0.1, equal to it in float32
+    assert not Profile("abrupt", onset=onset).active(np.float32([0.1]))[0]

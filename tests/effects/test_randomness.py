@@ -64,6 +64,18 @@ def test_variants_share_the_noise(tmp_path: Path) -> None:
     np.testing.assert_allclose(noise[0], expected, rtol=0, atol=1e-15)
 
 
+def test_each_random_element_has_its_own_stream_of_the_seed() -> None:
+    """Stream k of seed s is the k-th child of SeedSequence(s), as SeedSequence(s).spawn gives it; the encoder
+    and the tachometer streams differ (the same numbers on both would be one noise read twice)."""
+    children = np.random.SeedSequence(7).spawn(2)
+    for stream in (randomness.POSITION_NOISE, randomness.VELOCITY_NOISE):
+        np.testing.assert_array_equal(randomness.generator(7, stream).standard_normal(8),
+                                      np.random.default_rng(children[stream]).standard_normal(8))
+    position = randomness.generator(7, randomness.POSITION_NOISE).standard_normal(8)
+    velocity = randomness.generator(7, randomness.VELOCITY_NOISE).standard_normal(8)
+    assert not np.array_equal(position, velocity)
+
+
 def test_random_elements_do_not_disturb_each_other(tmp_path: Path) -> None:
     """Adding tachometer noise leaves the encoder noise as it was."""
     data = noisy(3)

@@ -5,15 +5,17 @@ level."""
 
 from __future__ import annotations
 
+import warnings
 from pathlib import Path
 
 import numpy as np
 import pytest
-from fault_scenarios import ROOT, assert_input_error, run, scenario_data
+from fault_scenarios import ROOT, assert_input_error, puma_model, run, scenario_data
 
 from ftc_mj.analysis.metrics import compute_metrics
+from ftc_mj.config.errors import InputError
 from ftc_mj.effects import randomness
-from ftc_mj.effects.sensors import Channel, Measurement
+from ftc_mj.effects.sensors import Channel, ChannelSpec, EncoderSpec, Measurement, compile_channel
 from ftc_mj.engine.runner import simulate_variant
 from ftc_mj.spec.loading import load_scenario
 
@@ -38,6 +40,31 @@ def read_all(ch: Channel, true: np.ndarray = TRUE, seed: int = 3) -> np.ndarray:
 
 def test_perfect_channel_passes_the_truth() -> None:
     np.testing.assert_array_equal(read_all(channel()), TRUE)
+
+
+def test_a_channel_without_offsets_passes_the_truth_bit_for_bit() -> None:
+    """No noise, bias or drift (quantisation on one joint): the readings are the truth's bits, down to the sign
+    of a zero (adding a zero offset would turn -0.0 into 0.0), and the channel never draws from its stream."""
+    true = TRUE.copy()
+    true[::2] = -0.0
+    generator = np.random.default_rng(3)
+    measurement = Measurement(channel(resolution=[0.0, 1e-3, 0.0]), T, [generator])
+    out = np.empty_like(true)
+    for k in range(len(true)):
+        measurement.read(k, true[k], out[k])
+    assert out[:, [0, 2]].tobytes() == true[:, [0, 2]].tobytes()
+    assert np.signbit(out[::2]).all()
+    assert generator.bit_generator.state == np.random.default_rng(3).bit_generator.state
+
+
+def test_partial_quantisation_warns_of_nothing() -> None:
+    """Encoders on some joints only: no division by the zero resolution of the others (a NumPy warning on every
+    run that sets the channel up)."""
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        out = read_all(channel(resolution=[0.0, 1e-3, 0.0]))
+    np.testing.assert_array_equal(out[:, [0, 2]], TRUE[:, [0, 2]])
+    np.testing.assert_allclose(out[:, 1], np.round(TRUE[:, 1] / 1e-3) * 1e-3, rtol=0, atol=1e-15)
 
 
 def test_quantisation_to_the_nearest_count() -> None:
@@ -79,6 +106,45 @@ def test_stuck_holds_the_last_reading() -> None:
     # Stuck from the first sample: the first reading holds.
     stuck = read_all(channel(stuck_onset=0.0, stuck_joints=np.ones(NJ, dtype=bool)))
     np.testing.assert_array_equal(stuck, np.broadcast_to(TRUE[0], TRUE.shape))
+
+
+def test_stuck_until_its_end() -> None:
+    """Compiled from a section with an end: stuck on its joints from the onset until (not at) the end."""
+    spec = ChannelSpec(stuck={"onset": 0.3, "end": 0.5, "joints": [1, "joint3"]})
+    ch = compile_channel(spec, "s.yaml", "sensors.position", puma_model())
+    assert (ch.stuck_onset, ch.stuck_end) == (0.3, 0.5)
+    held = (T >= 0.3) & (T < 0.5)
+    np.testing.assert_array_equal(ch.stuck(T), held[:, None] & np.array([True, False, True]))
+    out = read_all(ch)
+    k0, k1 = np.flatnonzero(held)[[0, -1]]
+    np.testing.assert_array_equal(out[k0:k1 + 1, [0, 2]], np.broadcast_to(TRUE[k0 - 1, [0, 2]], (k1 + 1 - k0, 2)))
+    np.testing.assert_array_equal(out[k1 + 1:], TRUE[k1 + 1:])
+
+
+def test_never_stuck_is_a_boolean_mask() -> None:
+    stuck = channel().stuck(T)
+    assert stuck.dtype == bool and stuck.shape == (N, NJ)
+    assert (~stuck).all()
+
+
+@pytest.mark.parametrize(("field", "spec"), [
+    ("resolution", ChannelSpec(resolution=[1e-3, 1e-3])),
+    ("noise_std", ChannelSpec(noise_std=[1e-3, 1e-3])),
+    ("bias", ChannelSpec(bias=[0.1, 0.2])),
+    ("drift_rate", ChannelSpec(drift_rate=[0.1, 0.2])),
+    ("counts_per_rev", EncoderSpec(counts_per_rev=[4096, 4096])),
+])
+def test_a_list_per_joint_must_have_one_per_joint(field: str, spec: ChannelSpec) -> None:
+    with pytest.raises(InputError) as info:
+        compile_channel(spec, "s.yaml", "sensors.position", puma_model())
+    assert (info.value.file, info.value.field) == ("s.yaml", f"sensors.position.{field}")
+    assert info.value.problem.startswith("has 2 values"), info.value.problem
+
+
+def test_counts_per_rev_give_the_resolution() -> None:
+    ch = compile_channel(EncoderSpec(counts_per_rev=[4096, 1000, 65536]), "s.yaml", "sensors.position",
+                         puma_model())
+    np.testing.assert_array_equal(ch.resolution, 2 * np.pi / np.array([4096, 1000, 65536]))
 
 
 def test_delay_of_whole_samples() -> None:

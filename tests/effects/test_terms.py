@@ -12,6 +12,7 @@ import numpy as np
 import pytest
 import yaml
 
+from ftc_mj.config.errors import InputError
 from ftc_mj.config.expressions import SCALAR_ROWS
 from ftc_mj.effects.terms import PlantTerms, TermSpec, compile_terms
 from ftc_mj.engine.runner import simulate_variant
@@ -60,11 +61,19 @@ def omega(zeta: np.ndarray) -> np.ndarray:
 
 def sweep(rate: float | str, sign: int, space: str, scale: np.ndarray, zeta: np.ndarray,
           extra: list[TermSpec] = ()) -> dict[str, np.ndarray]:
-    """Every sample of the grid through PlantTerms.apply, for rows with the given ``fault_scale`` and ``zeta``
-    parameters: the applied force and the fault sums, ``(len(TIMES), rows, NJ)`` each."""
-    rows = len(zeta)
+    """The fault term s VALUE, onset ONSET and the given ``rate``, after the ``extra`` terms, through
+    :func:`apply_terms`."""
     spec = TermSpec(kind="fault", space=space, sign=sign, value=VALUE, onset=ONSET, rate=rate, name="fault")
-    terms = compile_terms([*extra, spec], "test.yaml", NJ, PARAMETERS)
+    series, plant = apply_terms([*extra, spec], scale, zeta)
+    np.testing.assert_array_equal(plant.fault_on, TIMES >= ONSET)
+    return series
+
+
+def apply_terms(specs: list[TermSpec], scale: np.ndarray, zeta: np.ndarray) -> tuple[dict[str, np.ndarray], PlantTerms]:
+    """Every sample of the grid through PlantTerms.apply, for rows with the given ``fault_scale`` and ``zeta``
+    parameters: the applied force and the fault sums, ``(len(TIMES), rows, NJ)`` each, and the terms."""
+    rows = len(zeta)
+    terms = compile_terms(specs, "test.yaml", NJ, PARAMETERS)
     plant = PlantTerms(terms, TIMES, rows, NJ, np.column_stack([scale, zeta]), PARAMETERS)
     q, qd = states(rows)
     mass = masses(rows)
@@ -73,8 +82,7 @@ def sweep(rate: float | str, sign: int, space: str, scale: np.ndarray, zeta: np.
     for k, t in enumerate(TIMES.tolist()):
         plant.apply(k, t, q[k], qd[k], mass[k] if plant.needs_mass else None, out)
         series["applied"][k], series["fault"][k], series["fault_force"][k] = out, plant.fault, plant.fault_force
-    np.testing.assert_array_equal(plant.fault_on, TIMES >= ONSET)
-    return series
+    return series, plant
 
 
 def closed_form(sign: int, space: str, scale: np.ndarray, zeta: np.ndarray) -> dict[str, np.ndarray]:
@@ -152,6 +160,101 @@ def test_other_terms_add_and_stay_out_of_the_fault_sums() -> None:
     np.testing.assert_allclose(series["applied"], torque + expected["applied"], rtol=1e-12, atol=1e-12)
     np.testing.assert_allclose(series["fault"], expected["fault"], rtol=1e-12, atol=1e-12)
     np.testing.assert_allclose(series["fault_force"], expected["fault_force"], rtol=1e-12, atol=1e-12)
+
+
+def test_acceleration_friction_stays_out_of_the_fault_force() -> None:
+    """An acceleration-space friction term beside the acceleration-space fault: the applied force is M(q) times
+    both, the fault's generalized force M(q) times the fault alone (not the image of the whole acceleration
+    sum, which is the fault's only when the fault terms are all the acceleration terms)."""
+    friction = TermSpec(kind="friction", space="acceleration", sign=-1, value=["0.8*qd1", "0.6*sin(qd2)", "0.4"])
+    scale, zeta = np.array([1.0, -1.0]), np.array([2.0, 5.0])
+    series = sweep("zeta", 1, "acceleration", scale, zeta, extra=[friction])
+    expected = closed_form(1, "acceleration", scale, zeta)
+    _, qd = states(2)
+    acceleration = -np.stack([0.8 * qd[..., 0], 0.6 * np.sin(qd[..., 1]), np.full(qd.shape[:-1], 0.4)], axis=-1)
+    applied = np.einsum("krij,krj->kri", masses(2), acceleration) + expected["applied"]
+    np.testing.assert_allclose(series["applied"], applied, rtol=1e-12, atol=1e-12)
+    np.testing.assert_allclose(series["fault_force"], expected["fault_force"], rtol=1e-12, atol=1e-12)
+    np.testing.assert_allclose(series["fault"], expected["fault"], rtol=1e-12, atol=1e-12)
+
+
+def test_torque_and_acceleration_faults_add_in_the_fault_force() -> None:
+    """A torque-space fault from the start beside the acceleration-space one: the fault force is the torque
+    fault plus M(q) times the acceleration fault; the fault signal is their sum, each in its own space."""
+    torque_fault = TermSpec(kind="fault", space="torque", sign=1, value=["2.5", "-1.5*sin(q1)", "0"])
+    scale, zeta = np.array([1.0, 0.5]), np.array([3.0, 1.0])
+    series, plant = apply_terms([torque_fault, TermSpec(kind="fault", space="acceleration", sign=-1, value=VALUE,
+                                                        onset=ONSET, rate="zeta")], scale, zeta)
+    assert plant.fault_on.all()
+    expected = closed_form(-1, "acceleration", scale, zeta)
+    q, _ = states(2)
+    torque = np.stack([np.full(q.shape[:-1], 2.5), -1.5 * np.sin(q[..., 0]), np.zeros(q.shape[:-1])], axis=-1)
+    np.testing.assert_allclose(series["fault_force"], torque + expected["fault_force"], rtol=1e-12, atol=1e-12)
+    np.testing.assert_allclose(series["fault"], torque + expected["fault"], rtol=1e-12, atol=1e-12)
+    np.testing.assert_allclose(series["applied"], torque + expected["applied"], rtol=1e-12, atol=1e-12)
+
+
+def test_an_onset_without_a_rate_is_a_step() -> None:
+    """``onset`` alone: an abrupt profile, s f from the onset on, zero before."""
+    step = TermSpec(kind="fault", space="torque", sign=-1, value=VALUE, onset=ONSET)
+    (term,) = compile_terms([step], "test.yaml", NJ, PARAMETERS)
+    assert term.time_profile.shape == "abrupt" and term.rate is None and term.onset == ONSET
+    assert term.profile(ONSET - DT) is None and term.profile(ONSET) == 1.0
+    scale = np.array([1.0, -2.0])
+    series, _ = apply_terms([step], scale, np.ones(2))
+    expected = -phi(*states(2), scale) * (TIMES >= ONSET)[:, None, None]
+    np.testing.assert_allclose(series["fault"], expected, rtol=1e-12, atol=1e-12)
+
+
+def test_a_profile_section_and_the_always_on_term() -> None:
+    """A term's ``profile:`` takes the profile's own rate, one per joint; a term with neither profile nor onset
+    is on at full weight from the start."""
+    incipient = TermSpec(kind="disturbance", space="torque", sign=1, value=["1", "1", "1"],
+                         profile={"shape": "incipient", "onset": 0.2, "rate": 4.0})
+    always = TermSpec(kind="friction", space="torque", sign=-1, value=["qd1", "0", "0"])
+    first, second = compile_terms([incipient, always], "test.yaml", NJ, PARAMETERS)
+    np.testing.assert_array_equal(first.rate, [4.0, 4.0, 4.0])
+    np.testing.assert_allclose(first.profile(0.45), np.full(3, 1 - np.exp(-1.0)), rtol=1e-15)
+    assert second.time_profile is None and second.profile(0.0) == 1.0 and second.profile(1e3) == 1.0
+
+
+def test_names_and_the_term_function() -> None:
+    """Unnamed terms are called by their kind and index; a term's own function evaluates its expressions with
+    the scenario's parameters."""
+    specs = [TermSpec(kind="friction", space="torque", sign=-1, value=["qd1", "0", "0"]),
+             TermSpec(kind="fault", space="torque", sign=1, value=VALUE, name="Phi")]
+    friction, fault = compile_terms(specs, "test.yaml", NJ, PARAMETERS)
+    assert (friction.name, fault.name) == ("friction0", "Phi")
+    assert fault.parameters == tuple(PARAMETERS)
+    q, qd = states(2)
+    scale = np.array([0.5, -1.0])
+    out = np.empty((2, NJ))
+    fault.function.evaluate(0.3, q[5], qd[5], np.column_stack([scale, [1.0, 1.0]]), out)
+    np.testing.assert_allclose(out, phi(q[5:6], qd[5:6], scale)[0], rtol=1e-14, atol=1e-14)
+
+
+TERM_ERRORS = [
+    ({"value": ["1", "2"]}, "terms.0.value", "has 2 values, the robot has 3 joints"),
+    ({"value": ["1", "open('x')", "0"]}, "terms.0.value.1", None),
+    ({"onset": 0.1, "profile": {"shape": "abrupt"}}, "terms.0.profile",
+     "give either a profile or onset and rate, not both"),
+    ({"profile": {"shape": "incipient", "rate": [1.0, 2.0]}}, "terms.0.profile.rate",
+     "has 2 values, the robot has 3 joints"),
+    ({"rate": 2.0}, "terms.0.rate", "an evolution rate needs an onset"),
+    ({"onset": 0.1, "rate": "speed"}, "terms.0.rate", "'speed' is not one of the scenario's parameters"),
+    ({"onset": 0.1, "rate": [1.0, 2.0]}, "terms.0.rate", "has 2 values, the robot has 3 joints"),
+]
+
+
+@pytest.mark.parametrize(("change", "field", "problem"), TERM_ERRORS,
+                         ids=[f"{field} {i}" for i, (_, field, _) in enumerate(TERM_ERRORS)])
+def test_compile_errors_name_file_field_and_problem(change: dict, field: str, problem: str | None) -> None:
+    """Each problem of a term names the file, the exact field and (where this module writes it) the problem."""
+    spec = TermSpec(**{"kind": "fault", "space": "torque", "sign": 1, "value": ["1", "0", "0"], **change})
+    with pytest.raises(InputError) as info:
+        compile_terms([spec], "test.yaml", NJ, PARAMETERS)
+    assert (info.value.file, info.value.field) == ("test.yaml", field)
+    assert problem is None or info.value.problem == problem, info.value.problem
 
 
 def test_closed_loop_parameter_rate_equals_the_numeric_rate(tmp_path: Path) -> None:
