@@ -9,7 +9,7 @@ from typing import ClassVar
 import numpy as np
 import pytest
 
-from ftc_mj.methods.controllers import SMC, AdaptiveNFTSMC, SigmoidNFTSMC, SlidingModeController
+from ftc_mj.methods.controllers import SMC, AdaptiveNFTSMC, SigmoidNFTSMC
 from ftc_mj.methods.controllers.base import SwitchingConfig
 from ftc_mj.methods.gains import PositiveJoints
 
@@ -18,18 +18,13 @@ SURFACE = dict(beta1=15.0, beta2=10.0, gamma1=0.5, mu=0.5)
 
 
 class SlopeConfig(SwitchingConfig):
+    """The SMC's slope without a ``bound``: a third-party law of the frame whose gain is mu alone."""
+
     c: PositiveJoints
 
 
-class Unbounded(SlidingModeController):
-    """A third-party law on s = e_dot + c e whose configuration has no ``bound``."""
-
-    name: ClassVar[str] = "unbounded"
+class Unbounded(SMC):
     Config: ClassVar[type[SlopeConfig]] = SlopeConfig
-
-    def surface(self, t, e, e_dot):
-        np.add(e_dot, self.config.c * e, out=self.sliding)
-        return self.config.c * e_dot
 
 
 def make(cls, n_joints: int = 3, **gains):
