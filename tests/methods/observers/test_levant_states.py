@@ -12,8 +12,9 @@ import pytest
 
 from ftc_mj.methods.observers import Levant
 from ftc_mj.methods.observers.base import Observer
-from ftc_mj.methods.observers.levant import DifferentiatorGains, LevantVelocity
+from ftc_mj.methods.observers.levant import Differentiator, DifferentiatorGains, LevantVelocity
 from ftc_mj.methods.observers.ndob import LevantNDOB
+from ftc_mj.methods.primitives import scalar
 
 
 def make(order: str, n_joints: int = 2, **gains) -> Levant:
@@ -23,18 +24,27 @@ def make(order: str, n_joints: int = 2, **gains) -> Levant:
 
 @pytest.mark.parametrize("order", ["1", "2", "3", "5"])
 def test_reset_sets_position_velocity_and_zeros_the_higher_states(order):
+    """The differentiator's own reset (a building block a plugin may use without an observer around it, whose
+    reset would write z0 and z1 first), and the observer's."""
+    gains = DifferentiatorGains.model_validate({"order": order, "L": 4.0}, context={"n_joints": 2})
+    for differentiator in (Differentiator(gains, (2,), scalar(1e-3)), make(order).differentiator):
+        for z in differentiator.z:
+            z[:] = 7.0  # what a run leaves
+        differentiator.reset(np.array([0.1, -0.2]), np.array([0.5, -1.5]))
+        z = differentiator.z
+        assert len(z) == int(order) + 1
+        np.testing.assert_array_equal(z[0], [0.1, -0.2])
+        np.testing.assert_array_equal(z[1], [0.5, -1.5])
+        for higher in z[2:]:
+            np.testing.assert_array_equal(higher, 0.0)
     observer = make(order)
     for z in observer.differentiator.z:
-        z[:] = 7.0  # what a run leaves
+        z[:] = 7.0
     observer.reset(np.array([0.1, -0.2]), np.array([0.5, -1.5]))
-    z = observer.differentiator.z
-    assert len(z) == int(order) + 1
-    np.testing.assert_array_equal(z[0], [0.1, -0.2])
-    np.testing.assert_array_equal(z[1], [0.5, -1.5])
-    for higher in z[2:]:
-        np.testing.assert_array_equal(higher, 0.0)
     np.testing.assert_array_equal(observer.q_hat, [0.1, -0.2])
     np.testing.assert_array_equal(observer.qd_hat, [0.5, -1.5])
+    for higher in observer.differentiator.z[2:]:
+        np.testing.assert_array_equal(higher, 0.0)
 
 
 def test_every_order_has_its_lambdas_and_gains():
