@@ -86,7 +86,8 @@ def test_an_exponent_column_is_expanded_on_the_first_call_too(empty_caches):
     x = np.abs(np.random.default_rng(7).standard_normal((6, 40))) * 10.0
     column = np.full((6, 1), 0.5)
     per_element = np.power(x, np.full(x.shape, 0.5))
-    assert not np.array_equal(per_element, np.sqrt(x))  # this NumPy's pow and sqrt round apart somewhere here
+    if np.array_equal(per_element, np.sqrt(x)):
+        pytest.skip("pow rounds as sqrt on these values with this NumPy: no shortcut to show")
     for _ in range(2):
         np.testing.assert_array_equal(power(x, column), per_element)
     assert primitives._RESULT_SHAPES == {((6, 40), (6, 1)): (6, 40)}
