@@ -37,6 +37,7 @@ estimate itself.
 from __future__ import annotations
 
 import math
+import numbers
 from typing import Annotated, ClassVar, Literal
 
 import numpy as np
@@ -54,8 +55,9 @@ MAX_ORDER = len(LEVANT_LAMBDAS) - 1
 
 
 def _order_text(value: object) -> object:
-    """An order written as a number (``order: 2``) is the choice "2" (a choice is one for every member)."""
-    return str(value) if isinstance(value, int) and not isinstance(value, bool) else value
+    """An order written as an integer (``order: 2``, or a NumPy integer from a grid) is the choice "2" (a choice
+    is one for every member); a bool is no order."""
+    return str(value) if isinstance(value, numbers.Integral) and not isinstance(value, bool) else value
 
 
 #: The differentiator's order, a choice (it sets the number of states, so it is the same for every member).
