@@ -139,7 +139,10 @@ BAD = [
 @pytest.mark.parametrize("case, edit, section, expected", BAD, ids=[case[0] for case in BAD])
 def test_bad_input_is_one_line(tmp_path, monkeypatch, case, edit, section, expected):
     _bad_csv(tmp_path, edit or (lambda table: None))
-    extra = {key[2:]: section.pop(key) for key in list(section) if key.startswith("__")}
+    # Copies, not pops: the parameters are module-level dicts, shared by every run of this test in the process
+    # (mutmut runs the subset twice in one interpreter).
+    extra = {key[2:]: value for key, value in section.items() if key.startswith("__")}
+    section = {key: value for key, value in section.items() if not key.startswith("__")}
     variants = extra.pop("variants", None)
     path = log_scenario(tmp_path, {**CSV_LOG, "file": "log.csv", **section}, variants, **extra)
     monkeypatch.chdir(tmp_path)
