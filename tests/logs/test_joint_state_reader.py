@@ -9,7 +9,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from log_files import JOINT_STATE, joint_state, typestore, write_bag, write_mcap
+from log_files import JOINT_STATE, joint_state, write_bag, write_mcap
 
 from ftc_mj.config.errors import InputError
 from ftc_mj.logs import readers
@@ -133,3 +133,87 @@ def test_bad_messages_are_one_line(tmp_path, form):
     nameless = _write(tmp_path / "nameless", form, _messages(names=[]))
     assert _error(_read, nameless, form) == (f"{nameless}: log.joints: message 0 on '{TOPIC}' has no joint "
                                              "'joint1' (it names none)")
+
+
+@pytest.mark.parametrize("form", FORMS)
+def test_a_topic_missing_among_others_or_in_a_file_of_none(tmp_path, form):
+    where = "bag" if form == "rosbag2" else "file"
+    path = _write(tmp_path / "two", form, _messages() + _messages(topic="/other"))
+    assert _error(_read, path, form, topic="/states") == (f"{path}: log.topic: no topic '/states' in the {where} "
+                                                          f"(topics: {TOPIC}, /other)")
+    path = _write(tmp_path / "none", form, [])
+    assert _error(_read, path, form) == f"{path}: log.topic: no topic '{TOPIC}' in the {where} (topics: none)"
+    path = _write(tmp_path / "silent", form, [], topics=[TOPIC])
+    assert _error(_read, path, form) == f"{path}: log.topic: no {JOINT_STATE} messages on '{TOPIC}'"
+
+
+@pytest.mark.parametrize("form", FORMS)
+def test_more_messages_than_a_log_may_have(tmp_path, form, monkeypatch):
+    """At most MAX_SAMPLES messages: as many read, one more refused."""
+    monkeypatch.setattr(readers, "MAX_SAMPLES", 4)
+    assert len(_read(_write(tmp_path / "four", form, _messages(4)), form).times) == 4
+    path = _write(tmp_path / "five", form, _messages(5))
+    assert _error(_read, path, form) == f"{path}: log.topic: '{TOPIC}' has more than the 4 messages a log may have"
+
+
+@pytest.mark.parametrize("form", FORMS)
+def test_a_log_larger_than_a_log_may_be(tmp_path, form, monkeypatch):
+    monkeypatch.setattr(readers, "MAX_LOG_BYTES", 2**20)
+    path = _write(tmp_path, form, _messages())
+    (path if path.is_dir() else path.parent).joinpath("padding").write_bytes(b"\0" * 2**21)
+    if form == "mcap":  # a file's own size, not its folder's
+        assert len(_read(path, form).times) == 4
+        path.write_bytes(path.read_bytes() + b"\0" * 2**21)
+    assert _error(_read, path, form) == f"{path}: log.file: is 2 MiB, more than the 1 MiB a log may have"
+
+
+def test_bag_topics_of_another_type_and_folders_that_are_no_bag(tmp_path):
+    strings = write_bag(tmp_path / "strings", [], msgtype="std_msgs/msg/String", topics=[TOPIC])
+    assert _error(_read, strings, "rosbag2") == (f"{strings}: log.topic: '{TOPIC}' holds std_msgs/msg/String "
+                                                 f"messages, not {JOINT_STATE}")
+    empty = tmp_path / "empty"
+    empty.mkdir()
+    version = _write(tmp_path / "version", "rosbag2", _messages())
+    (version / "metadata.yaml").write_text("rosbag2_bagfile_information: {version: 999}\n")
+    for folder in (empty, version):
+        assert _error(_read, folder, "rosbag2").startswith(f"{folder}: log.file: is not a readable rosbag2 bag: ")
+
+
+def test_mcap_channels_that_are_not_cdr_joint_states_and_files_that_are_no_mcap(tmp_path):
+    data = joint_state(JOINTS, [0.0, 0.0])
+    cases = [({"schema": "std_msgs/msg/String"}, "std_msgs/msg/String (cdr)"),
+             ({"encoding": "json"}, f"{JOINT_STATE} (json)"),
+             ({"schema": None}, "schema-less (cdr)")]
+    for k, (options, held) in enumerate(cases):
+        path = write_mcap(tmp_path / f"{k}.mcap", [(TOPIC, 0, data)], **options)
+        assert _error(_read, path, "mcap") == (f"{path}: log.topic: '{TOPIC}' holds {held} messages, not "
+                                               f"CDR-encoded {JOINT_STATE}")
+    garbage = tmp_path / "garbage.mcap"
+    garbage.write_bytes(b"not an mcap file at all")
+    assert _error(_read, garbage, "mcap").startswith(f"{garbage}: log.file: is not a readable MCAP file: ")
+
+
+def _compile(path: Path, form: str):
+    spec = LogSpec.model_validate({"file": str(path), "format": form, "steps": {"resample": 0.25}})
+    return compile_log(spec, path.parent / "replay.yaml", JOINTS, None, "replay.yaml")
+
+
+@pytest.mark.parametrize("form", FORMS)
+def test_bad_values_name_the_joint_the_signal_and_the_message(tmp_path, form):
+    """Checked after reading (ftc_mj.logs.trajectory): the field names the topic's signal and joint, the sample
+    is the message counted from 0, and the time is the clock's."""
+    def nan_at(signal: str, k0: int, j0: int) -> dict:
+        return {signal: lambda k: [np.nan if (k, j) == (k0, j0) else 1.0 for j in range(2)]}
+
+    cases = [
+        (nan_at("position", 2, 1), "log.topic position of 'joint2': message 2: nan is not a finite number"),
+        (nan_at("velocity", 1, 0), "log.topic velocity of 'joint1': message 1: nan is not a finite number"),
+        (nan_at("effort", 3, 0), "log.topic effort of 'joint1': message 3: nan is not a finite number"),
+        ({"stamp": lambda k: int(0.5e9 * min(k, 2))},
+         "log.clock (header): message 3: the time does not increase (1 after 1)"),
+    ]
+    for k, (options, problem) in enumerate(cases):
+        path = _write(tmp_path / str(k), form, _messages(**options))
+        assert _error(_compile, path, form) == f"{path}: {problem}"
+    log = _compile(_write(tmp_path / "good", form, _messages()), form)
+    np.testing.assert_allclose(log.position[:, 1], [0.0, 0.1, 0.2, 0.3], rtol=1e-12)
