@@ -1,0 +1,89 @@
+"""The CSV reader (ftc_mj.logs.readers.read_csv) on small tables written here: leading blank lines, a single
+row, columns left unused (text among them), and each bad table as its exact one line; and the CSV export's
+exact text (ftc_mj.logs.export.csv_bytes: 17 significant digits, lower-case exponents, every signal's header)."""
+
+from __future__ import annotations
+
+from pathlib import Path
+from types import SimpleNamespace
+
+import numpy as np
+import pytest
+
+from ftc_mj.config.errors import InputError
+from ftc_mj.logs import readers
+from ftc_mj.logs.export import csv_bytes
+from ftc_mj.logs.readers import read_csv
+from ftc_mj.logs.spec import ColumnsSpec
+
+COLUMNS = ColumnsSpec(time="t", position=["q1", "q2"], torque=["i1", "i2"])
+HEADER = "t,q1,q2,i1,i2"
+
+
+def _file(tmp_path: Path, text: str | bytes, name: str = "log.csv") -> Path:
+    path = tmp_path / name
+    if isinstance(text, bytes):
+        path.write_bytes(text)
+    else:
+        path.write_text(text)
+    return path
+
+
+def _error(path: Path, columns: ColumnsSpec = COLUMNS) -> str:
+    with pytest.raises(InputError) as raised:
+        read_csv(path, columns, ",")
+    return str(raised.value)
+
+
+def test_leading_blank_lines_and_a_single_row(tmp_path):
+    recording = read_csv(_file(tmp_path, f"\n  \n{HEADER}\n0.5,1,2,3,4\n"), COLUMNS, ",")
+    np.testing.assert_array_equal(recording.times, [0.5])
+    np.testing.assert_array_equal(recording.position, [[1.0, 2.0]])
+    np.testing.assert_array_equal(recording.torque, [[3.0, 4.0]])
+    assert recording.velocity is None and recording.first == 2 and recording.sample == "row"
+
+
+def test_unused_columns_are_not_read(tmp_path):
+    """A text column and a number column between the used ones: neither is parsed nor taken."""
+    text = "t,note,q1,x,q2,i1,i2\n0,start,1,9,2,3,4\n0.1,moving,5,9,6,7,8\n"
+    recording = read_csv(_file(tmp_path, text), COLUMNS, ",")
+    np.testing.assert_array_equal(recording.position, [[1.0, 2.0], [5.0, 6.0]])
+    np.testing.assert_array_equal(recording.torque, [[3.0, 4.0], [7.0, 8.0]])
+
+
+def test_bad_tables_are_one_line(tmp_path):
+    cases = [
+        ("", "log.file: is empty"),
+        ("\n", "log.file: is empty"),
+        (HEADER + "\n", "log.file: has no rows of numbers"),
+        (b"t,q1,q2,i1,i2\n0,1,2,\xff,4\n", "log.file: is not UTF-8 text (byte 20)"),
+        ("tt,q1,q2,i1,i2\n0,1,2,3,4\n", "log.columns.time: no column 't' in the header (tt, q1, q2, i1, i2)"),
+    ]
+    for k, (text, problem) in enumerate(cases):
+        path = _file(tmp_path, text, f"{k}.csv")
+        assert _error(path) == f"{path}: {problem}"
+    # '#' starts no comment: a row of it is not numbers.
+    path = _file(tmp_path, f"{HEADER}\n0,1,2,3,4\n# paused\n", "hash.csv")
+    assert _error(path).startswith(f"{path}: log.file: is not a ','-separated table of numbers: ")
+
+
+def test_more_rows_or_bytes_than_a_log_may_have(tmp_path, monkeypatch):
+    monkeypatch.setattr(readers, "MAX_SAMPLES", 4)
+    rows = "".join(f"{k},1,2,3,4\n" for k in range(5))
+    assert len(read_csv(_file(tmp_path, HEADER + "\n" + rows[: -len("4,1,2,3,4\n")]), COLUMNS, ",").times) == 4
+    path = _file(tmp_path, HEADER + "\n" + rows, "five.csv")
+    assert _error(path) == f"{path}: log.file: has 5 rows, more than the 4 a log may have"
+    monkeypatch.setattr(readers, "MAX_LOG_BYTES", 2**20)
+    path = _file(tmp_path, HEADER + "\n" + "0,1,2,3,4\n" * 200_000, "big.csv")  # 1.9 MiB
+    assert _error(path) == f"{path}: log.file: is 2 MiB, more than the 1 MiB a log may have"
+
+
+def test_csv_export_text():
+    """17 significant digits (the doubles back exactly), exponents in lower case, a column per joint and
+    signal, the delivered torque last."""
+    q = np.array([[0.1, 1e-20], [-2.5, 3.0]])
+    run = SimpleNamespace(t=np.array([0.0, 0.25]), q_meas=q, qd_meas=None, tau=10 * q, tau_delivered=5 * q)
+    assert csv_bytes(run, ["a", "b"]).decode() == (
+        "t,q_a,q_b,tau_a,tau_b,tau_delivered_a,tau_delivered_b\n"
+        "0,0.10000000000000001,9.9999999999999995e-21,1,9.9999999999999998e-20,0.5,4.9999999999999999e-20\n"
+        "0.25,-2.5,3,-25,30,-12.5,15\n")
