@@ -87,3 +87,23 @@ def test_csv_export_text():
         "t,q_a,q_b,tau_a,tau_b,tau_delivered_a,tau_delivered_b\n"
         "0,0.10000000000000001,9.9999999999999995e-21,1,9.9999999999999998e-20,0.5,4.9999999999999999e-20\n"
         "0.25,-2.5,3,-25,30,-12.5,15\n")
+
+
+def test_a_utf8_log_reads_the_same_under_an_ascii_locale(tmp_path):
+    """The log is read as UTF-8, not in the locale's encoding: a header naming a column with a non-ASCII name
+    reads under the C locale with Python's UTF-8 mode off (this package's copy, run from the repository root)."""
+    import os
+    import subprocess
+    import sys
+
+    path = _file(tmp_path, "t,q\u00e91,q2,i1,i2\n0,1,2,3,4\n0.1,5,6,7,8\n")
+    code = ("import sys; from pathlib import Path; from ftc_mj.logs.readers import read_csv; "
+            "from ftc_mj.logs.spec import ColumnsSpec; "
+            "columns = ColumnsSpec(time='t', position=['q\\u00e91', 'q2'], torque=['i1', 'i2']); "
+            "print(read_csv(Path(sys.argv[1]), columns, ',').position.tolist())")
+    env = {**os.environ, "LC_ALL": "C", "PYTHONCOERCECLOCALE": "0", "PYTHONIOENCODING": "ascii"}
+    env.pop("PYTHONUTF8", None)
+    root = Path(__file__).resolve().parents[2]
+    out = subprocess.run([sys.executable, "-X", "utf8=0", "-c", code, str(path)], cwd=root, env=env,
+                         capture_output=True, text=True, check=True)
+    assert out.stdout.strip() == "[[1.0, 2.0], [5.0, 6.0]]"
