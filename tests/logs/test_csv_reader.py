@@ -107,3 +107,51 @@ def test_a_utf8_log_reads_the_same_under_an_ascii_locale(tmp_path):
     out = subprocess.run([sys.executable, "-X", "utf8=0", "-c", code, str(path)], cwd=root, env=env,
                          capture_output=True, text=True, check=True)
     assert out.stdout.strip() == "[[1.0, 2.0], [5.0, 6.0]]"
+
+
+def test_columns_past_the_last_by_index_or_by_name(tmp_path):
+    """Index 5 of a five-column file is past it; a name needs a header; a header of more than 12 names shows 12."""
+    path = _file(tmp_path, "0,1,2,3,4\n0.1,5,6,7,8\n")
+    by_index = ColumnsSpec(time=0, position=[1, 5], torque=[3, 4])
+    assert _error(path, by_index) == (f"{path}: log.columns.position.1: column 5 is not in the file (it has 5 "
+                                      "columns, 0 to 4)")
+    assert _error(path) == f"{path}: log.columns.time: names the column 't', but the file has no header row"
+    names = [f"c{k}" for k in range(13)]
+    for shown, header in ((", ".join(names[:12]) + ", ...", names), (", ".join(names[:12]), names[:12])):
+        path = _file(tmp_path, ",".join(header) + "\n" + ",".join("0" * len(header)) + "\n", f"{len(header)}.csv")
+        assert _error(path) == f"{path}: log.columns.time: no column 't' in the header ({shown})"
+
+
+def test_a_log_of_exactly_the_largest_size_is_read(tmp_path, monkeypatch):
+    path = _file(tmp_path, f"{HEADER}\n0,1,2,3,4\n0.1,5,6,7,8\n")
+    monkeypatch.setattr(readers, "MAX_LOG_BYTES", path.stat().st_size)
+    assert len(read_csv(path, COLUMNS, ",").times) == 2
+
+
+def _compile(path: Path, columns: dict):
+    from ftc_mj.logs.spec import LogSpec
+    from ftc_mj.logs.trajectory import compile_log
+
+    spec = LogSpec.model_validate({"file": str(path), "format": "csv", "columns": columns,
+                                   "steps": {"resample": 0.1}})
+    return compile_log(spec, path.parent / "replay.yaml", ["joint1", "joint2"], None, "replay.yaml")
+
+
+def test_values_checked_after_reading_are_exact_lines(tmp_path):
+    """ftc_mj.logs.trajectory: one row is too few (two are enough); a time that repeats or goes back names both
+    times; a bad torque is found past a signal the log lacks (no velocity columns)."""
+    columns = {"time": "t", "position": ["q1", "q2"], "torque": ["i1", "i2"]}
+    rows = ["0,1,2,3,4", "0.1,5,6,7,8", "0.2,1,2,3,4", "0.15,1,2,3,4"]
+    cases = [
+        (rows[:1], "log.columns.time: the log has 1 sample: at least two are needed"),
+        (rows[:2] + ["0.1,1,2,3,4"], "log.columns.time: row 4: the time does not increase (0.1 after 0.1)"),
+        (rows, "log.columns.time: row 5: the time does not increase (0.15 after 0.2)"),
+        (rows[:2] + ["0.2,1,2,3,nan"], "log.columns.torque.1: row 4: nan is not a finite number"),
+    ]
+    for k, (body, problem) in enumerate(cases):
+        path = _file(tmp_path, "\n".join([HEADER, *body]) + "\n", f"{k}.csv")
+        with pytest.raises(InputError) as raised:
+            _compile(path, columns)
+        assert str(raised.value) == f"{path}: {problem}"
+    log = _compile(_file(tmp_path, "\n".join([HEADER, *rows[:2]]) + "\n", "two.csv"), columns)
+    np.testing.assert_array_equal(log.position, [[1.0, 2.0], [5.0, 6.0]])
