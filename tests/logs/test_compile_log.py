@@ -53,7 +53,8 @@ def test_the_duration_and_the_grid_edges(tmp_path):
     """Five samples every 0.1 s: 0.5 s (five periods) is the longest duration; two periods are the fewest."""
     path = _csv(tmp_path, [0.0, 0.1, 0.2, 0.3, 0.4])
     assert _compile(path, duration=0.5).steps == 5
-    assert _error(path, duration=0.6) == "replay.yaml: duration: 0.6 s is longer than the log (5 periods of 0.1 s, 0.5 s)"
+    assert _error(path, duration=0.6) == ("replay.yaml: duration: 0.6 s is longer than the log (5 periods of "
+                                          "0.1 s, 0.5 s)")
     assert _compile(_csv(tmp_path, [0.0, 0.1], "two.csv")).steps == 2
     short = _csv(tmp_path, [0.0, 0.03, 0.06], "short.csv")
     assert _error(short) == "replay.yaml: log.steps.resample: the log spans 0.06 s: less than two periods of 0.1 s"
@@ -71,7 +72,8 @@ def test_sections_that_do_not_fit_the_robot(tmp_path):
     assert _error(path, columns={**COLUMNS, "torque": ["i1", "i2", "i2"]}) == (
         "replay.yaml: log.columns.torque: has 3 columns for 2 joints (log.joints)")
     no_torque = "the log holds no torque (or current): every observer needs the torque that was applied"
-    assert _error(path, columns={"time": "t", "position": ["q1", "q2"]}) == f"replay.yaml: log.columns.torque: {no_torque}"
+    no_torque_columns = {"time": "t", "position": ["q1", "q2"]}
+    assert _error(path, columns=no_torque_columns) == f"replay.yaml: log.columns.torque: {no_torque}"
     messages = [("/joint_states", k, joint_state(ROBOT, [0.1 * k, 0.0], stamp_ns=int(1.5e9 + 1e8 * k)))
                 for k in range(3)]
     bag = write_mcap(tmp_path / "log.mcap", messages)
