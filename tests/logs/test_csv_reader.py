@@ -106,7 +106,8 @@ def test_a_utf8_log_reads_the_same_under_an_ascii_locale(tmp_path):
     root = Path(__file__).resolve().parents[2]
     out = subprocess.run([sys.executable, "-X", "utf8=0", "-c", code, str(path)], cwd=root, env=env,
                          capture_output=True, text=True, check=True)
-    assert out.stdout.strip() == "[[1.0, 2.0], [5.0, 6.0]]"
+    here = read_csv(path, ColumnsSpec(time="t", position=["q\u00e91", "q2"], torque=["i1", "i2"]), ",")
+    assert out.stdout.strip() == str(here.position.tolist()) == "[[1.0, 2.0], [5.0, 6.0]]"
 
 
 def test_columns_past_the_last_by_index_or_by_name(tmp_path):
@@ -147,11 +148,14 @@ def test_values_checked_after_reading_are_exact_lines(tmp_path):
         (rows[:2] + ["0.1,1,2,3,4"], "log.columns.time: row 4: the time does not increase (0.1 after 0.1)"),
         (rows, "log.columns.time: row 5: the time does not increase (0.15 after 0.2)"),
         (rows[:2] + ["0.2,1,2,3,nan"], "log.columns.torque.1: row 4: nan is not a finite number"),
+        (rows[:2] + ["0.2,1,2,3,nan"], "log.columns.torque.1: row 3: nan is not a finite number"),  # no header
     ]
+    by_index = {"time": 0, "position": [1, 2], "torque": [3, 4]}
     for k, (body, problem) in enumerate(cases):
-        path = _file(tmp_path, "\n".join([HEADER, *body]) + "\n", f"{k}.csv")
+        headed = k < len(cases) - 1
+        path = _file(tmp_path, "\n".join([HEADER, *body] if headed else body) + "\n", f"{k}.csv")
         with pytest.raises(InputError) as raised:
-            _compile(path, columns)
+            _compile(path, columns if headed else by_index)
         assert str(raised.value) == f"{path}: {problem}"
     log = _compile(_file(tmp_path, "\n".join([HEADER, *rows[:2]]) + "\n", "two.csv"), columns)
     np.testing.assert_array_equal(log.position, [[1.0, 2.0], [5.0, 6.0]])

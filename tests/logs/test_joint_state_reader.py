@@ -80,9 +80,15 @@ def test_the_topic_among_others_and_a_one_joint_robot(tmp_path, form):
 
 
 def test_a_bags_storage_file_stands_for_its_folder(tmp_path):
+    """The storage file in its bag folder reads as the folder; moved out of it, it is no bag (the folder's
+    metadata is what makes a bag)."""
     folder = _write(tmp_path, "rosbag2", _messages())
     (storage,) = folder.glob("*.db3")
     np.testing.assert_array_equal(_read(storage, "rosbag2").position, _read(folder, "rosbag2").position)
+    alone = tmp_path / "alone"
+    alone.mkdir()
+    moved = storage.rename(alone / storage.name)
+    assert _error(_read, moved, "rosbag2").startswith(f"{moved}: log.file: is not a readable rosbag2 bag: ")
 
 
 def test_mcap_messages_in_log_time_order_and_a_file_without_summary(tmp_path):
