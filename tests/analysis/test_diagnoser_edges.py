@@ -14,9 +14,8 @@ DT = 0.25  # exact in binary: sample times and window ends compare exactly
 
 
 def _diagnoser(**kwargs) -> Diagnoser:
-    values = dict(space="acceleration", dt=DT, start=0.0, fixed=np.ones(1), k=0.0, persistence=1)
-    values.update(kwargs)
-    return Diagnoser(**values)
+    values = {"space": "acceleration", "dt": DT, "start": 0.0, "fixed": np.ones(1), "k": 0.0, "persistence": 1}
+    return Diagnoser(**{**values, **kwargs})
 
 
 def _diagnose(diagnoser: Diagnoser, estimate: np.ndarray, t0: float = 0.0) -> Diagnosis:

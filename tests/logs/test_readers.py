@@ -8,7 +8,15 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from log_files import CSV_LOG, joint_state, log_scenario, trajectory, write_bag, write_csv, write_mcap
+from log_files import (
+    CSV_LOG,
+    joint_state,
+    log_scenario,
+    trajectory,
+    write_bag,
+    write_csv,
+    write_mcap,
+)
 
 from ftc_mj import load_scenario
 from ftc_mj.config.errors import InputError
