@@ -173,7 +173,7 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--fresh", action="store_true", help="start each stage over")
     parser.add_argument("--report", action="store_true", help="only print the table of the last runs")
     parser.add_argument("--survivors", action="store_true",
-                        help="test again only the last run's survivors (after new tests)")
+                        help="test again only the last run's survivors and untested mutants (after new tests)")
     parser.add_argument("--diffs", action="store_true", help="write each open survivor's diff to survivors.txt")
     parser.add_argument("--max-children", type=int, default=2, help="mutants tested at once")
     args = parser.parse_args(argv)
@@ -186,7 +186,8 @@ def main(argv: list[str] | None = None) -> int:
             path = stage(name, TARGETS[name], args.fresh)
             print(f"== {name}: {' '.join(TARGETS[name].mutate)} with {' '.join(TARGETS[name].tests)}", flush=True)
             env = dict(os.environ, PYTHONPATH="")  # the staged copy, never an installed ftc_mj
-            again = [m for m, s in results(path).items() if s == "survived"] if args.survivors else []
+            # The survivors and the mutants no test reached: new tests may reach them now.
+            again = [m for m, s in results(path).items() if s in ("survived", "no tests")] if args.survivors else []
             if args.survivors and not again:
                 continue
             subprocess.run(["mutmut", "run", "--max-children", str(args.max_children), *again], cwd=path, env=env)

@@ -212,7 +212,7 @@ def _bag_messages(path: Path, topic: str, file: str) -> Iterator[tuple[int, obje
                 raise InputError(file, "log.topic", f"{topic!r} holds {wrong[0]} messages, not {JOINT_STATE}")
             for connection, received, data in reader.messages(connections=connections):
                 yield received, store.deserialize_cdr(data, connection.msgtype)
-    except ReaderError as error:
+    except (ReaderError, FileNotFoundError) as error:  # a folder without a bag's metadata: FileNotFoundError
         raise InputError(file, "log.file", f"is not a readable rosbag2 bag: {error}") from None
 
 

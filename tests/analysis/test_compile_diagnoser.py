@@ -34,3 +34,17 @@ def test_the_bound_is_a_function_of_the_robots_state():
     out = np.zeros((1, 2))
     diagnoser.bound.evaluate(0.5, np.array([[0.25, 0.0]]), np.array([[0.0, 3.0]]), np.zeros((1, 0)), out)
     np.testing.assert_array_equal(out, [[1.25, 6.5]])
+
+
+def test_the_diagnoser_carries_the_sections_values():
+    """Every field of the section reaches the compiled diagnoser: the space, the period, k, the filter and a
+    persistence of one sample (the bare rule, not raised to two)."""
+    diagnoser = _compile({"space": "torque", "threshold": {"k": 3.0, "fixed": [0.5, 0.25]},
+                          "baseline": {"start": 1.0, "end": 4.0}, "filter_time_constant": 0.02,
+                          "persistence": {"samples": 1}})
+    assert (diagnoser.space, diagnoser.dt, diagnoser.k) == ("torque", 0.001, 3.0)
+    assert diagnoser.filter_time_constant == 0.02 and diagnoser.persistence == 1
+    np.testing.assert_array_equal(diagnoser.fixed, [0.5, 0.25])
+    plain = _compile({"threshold": {"fixed": 1.0}, "persistence": {"samples": 7}})
+    assert (plain.space, plain.filter_time_constant, plain.persistence, plain.rule) == ("acceleration", 0.0, 7,
+                                                                                          "threshold")

@@ -94,3 +94,15 @@ def test_the_fault_peak_includes_the_onset_sample():
     residual[4, 0], residual[5:, 0] = 3.0, 1.5
     stats = detection_statistics(_diagnosis(residual), 1, np.array([4 * DT]), [1.0], 1)
     assert stats["residual_peak_fault"][0] == 3.0 and stats["residual_peak_healthy"][0] == 0.0
+
+
+def test_isolation_without_faults_and_with_an_onset_on_the_last_sample():
+    """Without faults every armed sample counts: the joint that alarms is named faulty, the other not. An onset
+    on the last sample leaves one armed sample at or after it: isolation is defined (not NaN)."""
+    residual = np.zeros((6, 2))
+    residual[2:4, 1] = 3.0
+    healthy = detection_statistics(_diagnosis(residual), 1, np.array([np.nan, np.nan]), [], 2)
+    np.testing.assert_array_equal(healthy["isolated"], [0.0, 1.0])
+    residual[5, 0] = 3.0
+    last = detection_statistics(_diagnosis(residual), 1, np.array([5 * DT, np.nan]), [], 2)
+    np.testing.assert_array_equal(last["isolated"], [1.0, 0.0])

@@ -30,7 +30,10 @@ def test_each_period_reads_its_own_sample_and_the_last_one_stays(rows):
     log = _log()
     plant = LogPlant(model, log, rows)
     position, velocity, acceleration = np.zeros((rows, 2)), np.zeros((rows, 2)), np.zeros((rows, 2))
-    plant.step(acceleration)  # a step before the reset: the reset goes back to sample 0 all the same
+    assert plant.alive.dtype == bool and plant.running == rows
+    plant.step(acceleration)  # a step before the reset: from sample 0 to 1; the reset goes back to sample 0
+    plant.read_positions(position)
+    np.testing.assert_array_equal(position, np.broadcast_to(log.position[1], (rows, 2)))
     plant.reset(np.zeros((rows, 2)), np.zeros((rows, 2)))
     for k in [0, 1, 2, 3, 3, 3]:  # three periods past the end: the last sample is held
         plant.read_positions(position)
@@ -60,5 +63,6 @@ def test_no_truth_and_no_velocity_left_untouched():
     np.testing.assert_array_equal(velocity, 0.0)
     assert not plant.has_truth and not plant.reads_state_exactly
     assert np.isnan(plant.qpos).all() and np.isnan(plant.qvel).all() and np.isnan(plant.bias).all()
-    with pytest.raises(TypeError):
+    assert plant.factor.shape == plant.diagonal_inverse.shape == (2, 0)  # no factorisation to solve with
+    with pytest.raises(TypeError, match=r"^a log holds no true M\(q\)$"):
         plant.mass_matrices()

@@ -1,4 +1,8 @@
-"""The simulated robots (ftc_mj.engine.plant.MuJoCoPlant) through the Plant protocol the loop uses."""
+"""The simulated robots (ftc_mj.engine.plant.MuJoCoPlant) through the Plant protocol the loop uses, and their
+edges: a period against MuJoCo's own mj_step (the first substep's acceleration, every substep, the sensors
+current after), the divergence limits exactly at and just past them per row, MuJoCo's bad-state warnings and
+errors stopping only their rows, the mass scales, the exact-reading flag, the poses, and the sensor columns
+copied from consecutive or scattered addresses."""
 
 from __future__ import annotations
 
@@ -6,10 +10,14 @@ from pathlib import Path
 
 import mujoco
 import numpy as np
+import pytest
+from mujoco.batch import SimulationError
 
-from ftc_mj.engine.plant import MuJoCoPlant
+from ftc_mj.engine.plant import MuJoCoPlant, _columns
 
 PUMA = Path(__file__).resolve().parents[2] / "models" / "puma560.xml"
+Q0 = np.array([[0.1, -0.2, 0.3], [0.0, 0.5, -0.5]])
+QD0 = np.array([[0.2, 0.0, -0.1], [0.0, 0.0, 0.0]])
 
 
 def test_reset_starts_every_row_again_at_its_initial_state():
@@ -36,3 +44,153 @@ def test_reset_starts_every_row_again_at_its_initial_state():
     again = np.zeros((2, 3))
     assert plant.step(again) is None
     np.testing.assert_array_equal(again, first)
+
+
+def _puma() -> mujoco.MjModel:
+    return mujoco.MjModel.from_xml_path(str(PUMA))
+
+
+def _driven(plant: MuJoCoPlant) -> None:
+    plant.ctrl[:] = [[1.0, 2.0, 3.0], [-1.0, 0.0, 2.0]]
+    plant.applied[:] = [[0.5, 0.0, 0.0], [0.0, 0.0, -0.5]]
+
+
+@pytest.mark.parametrize("substeps", [1, 3])
+def test_a_period_is_mujocos_substeps_with_the_first_acceleration(substeps):
+    """Bit for bit MuJoCo's mj_step, ``substeps`` times under the held inputs: the acceleration of the first
+    at the sampled state, the state after the last, and the encoders and tachometers read at that state."""
+    model = _puma()
+    plant = MuJoCoPlant(model, 2, substeps=substeps, nthread=1)
+    assert plant.running == 2 and plant.batch.nthread == 1 and plant.batch.persistent is True
+    plant.reset(Q0, QD0)
+    _driven(plant)
+    acceleration = np.zeros((2, 3))
+    assert plant.step(acceleration) is None
+    positions, velocities = np.zeros((2, 3)), np.zeros((2, 3))
+    plant.read_positions(positions)
+    plant.read_velocities(velocities)
+    for row in range(2):
+        data = mujoco.MjData(model)
+        data.qpos[:], data.qvel[:] = Q0[row], QD0[row]
+        data.ctrl[:], data.qfrc_applied[:] = plant.ctrl[row], plant.applied[row]
+        mujoco.mj_forward(model, data)
+        np.testing.assert_array_equal(acceleration[row], data.qacc)
+        for _ in range(substeps):
+            mujoco.mj_step(model, data)
+        np.testing.assert_array_equal(plant.qpos[row], data.qpos)
+        np.testing.assert_array_equal(plant.qvel[row], data.qvel)
+        np.testing.assert_array_equal(positions[row], data.qpos)  # jointpos sensors at the new state
+        np.testing.assert_array_equal(velocities[row], data.qvel)
+
+
+def test_a_plant_steps_every_row_before_its_first_reset():
+    """A new plant stands at the model's initial state: its first period is that of a reset to it."""
+    model = _puma()
+    fresh, reset = MuJoCoPlant(model, 2, substeps=2, nthread=1), MuJoCoPlant(model, 2, substeps=2, nthread=1)
+    reset.reset(np.tile(model.qpos0, (2, 1)), np.zeros((2, 3)))
+    first, again = np.zeros((2, 3)), np.zeros((2, 3))
+    for plant, out in ((fresh, first), (reset, again)):
+        _driven(plant)
+        plant.step(out)
+    np.testing.assert_array_equal(first, again)
+    np.testing.assert_array_equal(fresh.qpos, reset.qpos)
+
+
+def test_the_limits_are_inclusive_and_stop_only_their_rows():
+    """|q| <= 1 and |qd| <= 5 is within, the limits themselves too; a row past one stops alone, the others
+    run on, and stopped rows stay stopped when another one stops."""
+    plant = MuJoCoPlant(_puma(), 2, substeps=1, nthread=1, max_position=1.0, max_velocity=5.0)
+    plant.reset(np.array([[1.0, -1.0, 0.5], [0.0, 0.2, 0.0]]), np.array([[5.0, -5.0, 0.0], [0.0, 0.0, 0.0]]))
+    assert plant.check() is None
+    plant.qpos[1, 1] = 1.5  # row 1's position past the limit, its velocity within; row 0 at both limits
+    np.testing.assert_array_equal(plant.check(), [False, True])
+    assert plant.running == 1
+    plant.qvel[0, 2] = -5.5  # now row 0's velocity, its positions within
+    np.testing.assert_array_equal(plant.check(), [True, False])
+    assert plant.running == 0 and not plant.alive.any()
+
+
+def test_a_bad_state_warning_stops_its_row_and_a_stopped_row_stays_put():
+    """A velocity MuJoCo calls huge (it warns and resets that simulation): that row stops, the other runs on;
+    the stopped row is not stepped again."""
+    plant = MuJoCoPlant(_puma(), 2, substeps=2, nthread=1)
+    plant.reset(Q0, np.array([[0.0, 0.0, 0.0], [0.0, 1e11, 0.0]]))
+    _driven(plant)
+    acceleration = np.zeros((2, 3))
+    np.testing.assert_array_equal(plant.step(acceleration), [False, True])
+    assert plant.running == 1
+    stopped, running = plant.qpos[1].copy(), plant.qpos[0].copy()
+    assert plant.step(acceleration) is None
+    np.testing.assert_array_equal(plant.qpos[1], stopped)
+    assert not np.array_equal(plant.qpos[0], running)
+
+
+def test_mujoco_errors_stop_the_rows_they_name_in_either_substep(monkeypatch):
+    """The first substep fails row 0, the others fail row 1 (a stand-in for MuJoCo's per-simulation errors):
+    both stop; beside a bad-state warning of row 2 the errors are kept too."""
+    plant = MuJoCoPlant(_puma(), 3, substeps=2, nthread=1)
+    plant.reset(np.zeros((3, 3)), np.zeros((3, 3)))
+    calls = []
+
+    def step(ids=None, nstep=1, stage=0):
+        calls.append(nstep)
+        raise SimulationError(np.array([0 if len(calls) == 1 else 1]), "stand-in")
+
+    monkeypatch.setattr(plant.batch, "step", step)
+    np.testing.assert_array_equal(plant.step(np.zeros((3, 3))), [True, True, False])
+    assert calls == [1, 1] and plant.running == 1
+    plant.reset(np.zeros((3, 3)), np.zeros((3, 3)))
+    calls.clear()
+    plant.batch.warning[2, int(mujoco.mjtWarning.mjWARN_BADQACC), 1] = 1
+    np.testing.assert_array_equal(plant.step(np.zeros((3, 3))), [True, True, True])
+
+
+def test_mass_scales_scale_each_rows_mass_matrix():
+    """Scales 1 and 2, and 2 and 2: the scaled rows' M(q) is twice the model's (powers of two: exactly)."""
+    model = _puma()
+    plain = MuJoCoPlant(model, 1, substeps=1, nthread=1)
+    plain.reset(Q0[:1], QD0[:1])
+    mass = plain.mass_matrices()[0].copy()
+    for scale in ([1.0, 2.0], [2.0, 2.0]):
+        plant = MuJoCoPlant(model, 2, substeps=1, nthread=1, mass_scale=np.array(scale))
+        plant.reset(np.tile(Q0[0], (2, 1)), np.tile(QD0[0], (2, 1)))
+        for row, factor in enumerate(scale):
+            np.testing.assert_array_equal(plant.mass_matrices()[row], factor * mass)
+
+
+def _one_joint(position_cutoff: float, velocity_cutoff: float) -> mujoco.MjModel:
+    return mujoco.MjModel.from_xml_string(f"""
+<mujoco><worldbody><body><joint name="j" axis="0 1 0"/>
+  <geom type="capsule" size="0.05" fromto="0 0 0 0.5 0 0" mass="1"/></body></worldbody>
+  <sensor><jointpos joint="j" cutoff="{position_cutoff}"/><jointvel joint="j" cutoff="{velocity_cutoff}"/></sensor>
+</mujoco>""")
+
+
+def test_the_encoders_read_exactly_without_a_cutoff_on_them():
+    """Only the position sensors' cutoff counts (a jointvel cutoff does not clip the encoders); one joint, one
+    sensor of each kind."""
+    assert MuJoCoPlant(_puma(), 1, substeps=1, nthread=1).reads_state_exactly is True
+    assert MuJoCoPlant(_one_joint(0.0, 2.0), 1, substeps=1, nthread=1).reads_state_exactly is True
+    assert MuJoCoPlant(_one_joint(0.5, 0.0), 1, substeps=1, nthread=1).reads_state_exactly is False
+
+
+def test_the_poses_are_the_forward_kinematics_of_each_row():
+    model = _puma()
+    plant = MuJoCoPlant(model, 2, substeps=1, nthread=1)
+    plant.reset(Q0, QD0)
+    xpos, xquat = plant.poses()
+    for row in range(2):
+        data = mujoco.MjData(model)
+        data.qpos[:] = Q0[row]
+        mujoco.mj_kinematics(model, data)
+        np.testing.assert_array_equal(xpos[row], data.xpos)
+        np.testing.assert_array_equal(xquat[row], data.xquat)
+
+
+@pytest.mark.parametrize("addresses", [[2, 3, 4], [0], [5, 1, 2], []])
+def test_sensor_columns_from_any_addresses(addresses):
+    """Consecutive addresses (at an offset, or one), scattered ones, none: the columns themselves, in order."""
+    values = np.arange(12.0).reshape(2, 6) * [[1.0], [-1.0]]
+    out = np.full((2, len(addresses)), np.nan)
+    _columns(values, np.array(addresses, dtype=int))(out)
+    np.testing.assert_array_equal(out, values[:, addresses])

@@ -8,7 +8,15 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from log_files import CSV_LOG, log_scenario, trajectory, write_csv
+from log_files import (
+    CSV_LOG,
+    joint_state,
+    log_scenario,
+    trajectory,
+    write_bag,
+    write_csv,
+    write_mcap,
+)
 
 from ftc_mj import load_scenario
 from ftc_mj.config.errors import InputError
@@ -61,40 +69,14 @@ def _write_named(tmp_path, form, t, q, qd, tau, names):
     def pick(x):
         return np.column_stack([x[:, columns[name]] if name in columns else np.zeros(len(t)) for name in names])
 
-    from rosbags.typesys import Stores, get_typestore
-
-    store = get_typestore(Stores.ROS2_HUMBLE)
-    JointState, Header = store.types["sensor_msgs/msg/JointState"], store.types["std_msgs/msg/Header"]
-    Time = store.types["builtin_interfaces/msg/Time"]
     qn, qdn, taun = pick(q), pick(qd), pick(tau)
-    payloads = []
+    messages = []
     for k in range(len(t)):
         ns = int(round(t[k] * 1e9))
-        message = JointState(header=Header(stamp=Time(sec=ns // 10**9, nanosec=ns % 10**9), frame_id=""),
-                             name=list(names), position=qn[k], velocity=qdn[k], effort=taun[k])
-        payloads.append((ns, bytes(store.serialize_cdr(message, "sensor_msgs/msg/JointState"))))
+        messages.append(("/joint_states", ns, joint_state(names, qn[k], qdn[k], taun[k], ns)))
     if form == "rosbag2":
-        from rosbags.rosbag2 import Writer
-
-        folder = tmp_path / "bag"
-        with Writer(folder, version=9) as writer:
-            connection = writer.add_connection("/joint_states", "sensor_msgs/msg/JointState", typestore=store)
-            for ns, data in payloads:
-                writer.write(connection, ns, data)
-        return folder
-    from mcap.writer import Writer
-
-    path = tmp_path / "log.mcap"
-    with path.open("wb") as stream:
-        writer = Writer(stream)
-        writer.start(profile="ros2")
-        definition = store.generate_msgdef("sensor_msgs/msg/JointState")[0]
-        schema = writer.register_schema("sensor_msgs/msg/JointState", "ros2msg", definition.encode())
-        channel = writer.register_channel("/joint_states", "cdr", schema)
-        for ns, data in payloads:
-            writer.add_message(channel, log_time=ns, data=data, publish_time=ns)
-        writer.finish()
-    return path
+        return write_bag(tmp_path / "bag", messages)
+    return write_mcap(tmp_path / "log.mcap", messages)
 
 
 def _bad_csv(tmp_path: Path, edit) -> Path:
@@ -139,7 +121,10 @@ BAD = [
 @pytest.mark.parametrize("case, edit, section, expected", BAD, ids=[case[0] for case in BAD])
 def test_bad_input_is_one_line(tmp_path, monkeypatch, case, edit, section, expected):
     _bad_csv(tmp_path, edit or (lambda table: None))
-    extra = {key[2:]: section.pop(key) for key in list(section) if key.startswith("__")}
+    # Copies, not pops: the parameters are module-level dicts, shared by every run of this test in the process
+    # (mutmut runs the subset twice in one interpreter).
+    extra = {key[2:]: value for key, value in section.items() if key.startswith("__")}
+    section = {key: value for key, value in section.items() if not key.startswith("__")}
     variants = extra.pop("variants", None)
     path = log_scenario(tmp_path, {**CSV_LOG, "file": "log.csv", **section}, variants, **extra)
     monkeypatch.chdir(tmp_path)
