@@ -1,5 +1,5 @@
-"""Bugs seeded by hand, one at a time, into the baselines, the log plant and the benchmark's scores: each must
-fail the tests of its module. The complement of tools/mutation.py for the bugs a person makes (a sign, a
+"""Bugs seeded by hand, one at a time, into the baselines, the log plant, the benchmark's scores, a fault's
+parameter rate and the detection delay: each must fail the tests of its module. The complement of tools/mutation.py for the bugs a person makes (a sign, a
 swapped operand, an exponent, an off-by-one) rather than every operator mutmut can flip.
 
 Usage, from the repository root: ``nice -n 10 python tools/seeded_bugs.py [WORD ...]`` (the bugs whose
@@ -37,6 +37,11 @@ BUGS = [
     Bug("momentum: C^T qd - G as G - C^T qd", M + "momentum.py",
         "np.subtract(model.coriolis_transpose, model.gravity,", "np.subtract(model.gravity, model.coriolis_transpose,",
         (TM + "test_momentum.py",)),
+    Bug("terms: a fault whose rate is a parameter enters with the wrong sign", "ftc_mj/effects/terms.py",
+        "                if sign > 0:\n", "                if sign < 0:\n", ("tests/effects/test_terms.py",)),
+    Bug("diagnosis: the detection delay from the first fault onset, not the joint's own", "ftc_mj/analysis/diagnosis.py",
+        "out[\"detection_delay\"][joint] = t[first] - onset", "out[\"detection_delay\"][joint] = t[first] - first_fault",
+        ("tests/analysis/test_diagnosis.py",)),
     Bug("momentum: z integrates tau - r instead of tau + r", M + "momentum.py",
         "rate = np.add(tau, self.residual, out=self._rate)", "rate = np.subtract(tau, self.residual, out=self._rate)",
         (TM + "test_momentum.py",)),
