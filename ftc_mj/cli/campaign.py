@@ -45,7 +45,9 @@ def build_parser(prog: str = PROG) -> argparse.ArgumentParser:
     run.add_argument("--set", action="append", default=[], metavar="KEY=VALUE", dest="overrides",
                      help="set a scenario field in every run (joins the campaign's set), e.g. "
                           "sensors.position.noise_std=0")
-    run.add_argument("--batch-size", type=int, metavar="B", help="members stepped together per batch")
+    run.add_argument("--batch-size", type=int, metavar="B",
+                     help="members stepped together per batch (default: the largest batches a worker's memory "
+                          "allows, the same share for every worker)")
     run.add_argument("--workers", type=int, metavar="N", help="worker processes (default: all cores)")
     run.add_argument("--scheduler", metavar="ADDRESS", help="a Dask scheduler, e.g. tcp://127.0.0.1:8786")
     run.add_argument("--quiet", action="store_true", help="no progress bar and no summary")
