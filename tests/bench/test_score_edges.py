@@ -9,6 +9,7 @@ import numpy as np
 import pytest
 
 from ftc_mj.bench import score as sc
+from ftc_mj.campaign import statistics as st
 
 
 def _runs(healthy, fault, seconds=None) -> sc.DiagnosisRuns:
@@ -101,8 +102,6 @@ def test_a_run_armed_for_less_than_a_second_counts_for_the_false_alarm_rate():
 def test_delay_and_false_alarm_intervals_use_the_resamples_given():
     """The delay and false-alarm intervals are the summaries' bootstrap with the resamples asked for (many
     spread values, so that another number of resamples gives another interval)."""
-    from ftc_mj.campaign import statistics as st
-
     draw = np.random.default_rng(11)
     delays, alarms, seconds = draw.uniform(0.05, 0.5, 20), draw.integers(0, 5, 20).astype(float), np.full(20, 900.0)
     runs = sc.DiagnosisRuns(healthy_peak=np.full(20, 0.1), healthy_alarms=alarms, healthy_seconds=seconds,
@@ -125,8 +124,6 @@ def test_no_auc_without_healthy_runs():
 
 
 def test_tracking_intervals_use_the_resamples_given():
-    from ftc_mj.campaign import statistics as st
-
     tracking = sc.TrackingRuns(healthy_rms=np.array([1e-3, 3e-3, 2e-3]), faulty_rms=np.array([2e-3, 4e-3]),
                                fault_peak=np.array([0.1, 0.3]), chattering=np.array([10.0, 30.0, 20.0]),
                                diverged=np.zeros(3, bool))
