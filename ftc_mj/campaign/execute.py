@@ -47,7 +47,7 @@ from ftc_mj.outputs.palette import declared_colours
 from ftc_mj.spec.loading import UnknownVariant, load_scenario
 from ftc_mj.spec.scenario import MAX_SEED, MEMORY_SHARE, Scenario, machine_memory, series_bytes
 
-#: Memory for the series of one batch in a worker of a Dask cluster [bytes], whose machine is not this one (the
+#: Memory for the series of one batch in a worker of a Dask cluster [bytes], on a machine other than the local one (the
 #: batch engine steps members in chunks that fit).
 CLUSTER_WORKER_MEMORY = 3 * 1024**3
 #: Default largest batch: beyond it the per-period Python work is amortised and only memory grows.
@@ -395,7 +395,7 @@ def default_workers() -> int:
 
 
 def worker_memory(workers: int, scheduler: str | None = None) -> int:
-    """Memory for the series of one batch in each of ``workers`` workers [bytes]: on this machine, an equal part
+    """Memory for the series of one batch in each of ``workers`` workers [bytes]: on the local machine, an equal part
     of the share of its memory a run may take (:data:`~ftc_mj.spec.scenario.MEMORY_SHARE`); on the cluster at
     ``scheduler``, :data:`CLUSTER_WORKER_MEMORY`."""
     if scheduler is not None:
