@@ -47,8 +47,8 @@ from ftc_mj.outputs.palette import declared_colours
 from ftc_mj.spec.loading import UnknownVariant, load_scenario
 from ftc_mj.spec.scenario import MAX_SEED, MEMORY_SHARE, Scenario, machine_memory, series_bytes
 
-#: Memory for the series of one batch in a worker of a Dask cluster [bytes], on a machine other than the local one (the
-#: batch engine steps members in chunks that fit).
+#: Memory for the series of one batch in a worker of a Dask cluster [bytes], on a machine other than the local
+#: one (the batch engine steps members in chunks that fit).
 CLUSTER_WORKER_MEMORY = 3 * 1024**3
 #: Default largest batch: beyond it the per-period Python work is amortised and only memory grows.
 MAX_BATCH = 128
