@@ -22,10 +22,14 @@ from typing import ClassVar
 import numpy as np
 from pydantic import model_validator
 
+from ftc_mj.methods import compiled
+from ftc_mj.methods.compiled import kernel
 from ftc_mj.methods.gains import GainConfig, NonNegativeFloat, PositiveJoints
 from ftc_mj.methods.observers.base import Observer
-from ftc_mj.methods.primitives import signed_power
+from ftc_mj.methods.primitives import scalar, signed_power
 from ftc_mj.robot.nominal import StepModel
+
+_TWO_THIRDS, _ONE_THIRD = scalar(2 / 3), scalar(1 / 3)
 
 
 class TOSMOConfig(GainConfig):
@@ -74,8 +78,21 @@ class TOSMO(Observer):
         self._sign = np.zeros(self.shape)
         self._q_hat_rate = np.zeros(self.shape)
         self._qdd_hat = np.zeros(self.shape)
+        #: The fused law (:mod:`ftc_mj.methods.compiled`): |x1~| raised to 1/3 apart from the 2/3 in ``_power``.
+        self._power_third = np.zeros(self.shape)
+        self._gamma = getattr(config, "gamma", self.k1)  # Gamma of (5.6); unused (any array) in the TOSMO
+        self._fused = compiled.fused(self, (TOSMO, HighSpeedTOSMO), self.k1, self.k2, self._luaf_step, self._gamma)
 
     def update(self, t: float, q_meas: np.ndarray, model: StepModel) -> None:
+        if self._fused:
+            magnitude, magnitude_third = self._power, self._power_third
+            _errors(q_meas, self.q_hat, self._error, self._sign, magnitude, magnitude_third)
+            # The powers by NumPy, in place with a number, as signed_power raises them.
+            np.power(magnitude, _TWO_THIRDS, magnitude)
+            np.power(magnitude_third, _ONE_THIRD, magnitude_third)
+            _injection(self._error, magnitude, magnitude_third, self.k1, self.k2, self._gamma,
+                       type(self) is HighSpeedTOSMO, self.qd_hat, self.luaf_hat, self._q_hat_rate, self.injection)
+            return
         error = np.subtract(q_meas, self.q_hat, out=self._error)
         np.sign(error, out=self._sign)
         # dx1_hat/dt - x2_hat: k1 |x1~|^(2/3) sign(x1~) (+ Gamma x1~), reused in the second line of (5.6).
@@ -91,6 +108,10 @@ class TOSMO(Observer):
         return correction
 
     def advance(self, tau: np.ndarray, model: StepModel) -> None:
+        if self._fused:
+            _advance(model.psi_hat, model.command_acceleration(tau), self.injection, self._q_hat_rate, float(self.dt),
+                     self._luaf_step, self._sign, self.q_hat, self.qd_hat, self.luaf_hat)
+            return
         qdd_hat = np.add(model.psi_hat, model.command_acceleration(tau), out=self._qdd_hat)
         qdd_hat += self.injection
         self.q_hat += self.dt * self._q_hat_rate
@@ -112,3 +133,44 @@ class HighSpeedTOSMO(TOSMO):
         """The correction plus Gamma times ``signal``: Gamma x1~ in the first line of (5.6), Gamma (dx1_hat/dt -
         x2_hat) in the second."""
         return correction + self.linear_gain * signal
+
+
+@kernel
+def _errors(q_meas, q_hat, error, sign, magnitude, magnitude_third):  # noqa: ANN001, ANN202
+    """x1~ = x1 - x1_hat, its sign, and |x1~| twice (to be raised to 2/3 and 1/3)."""
+    for i in range(error.shape[0]):
+        for j in range(error.shape[1]):
+            e = q_meas[i, j] - q_hat[i, j]
+            error[i, j] = e
+            sign[i, j] = compiled.sign(e)
+            magnitude[i, j] = magnitude_third[i, j] = abs(e)
+
+
+@kernel
+def _injection(error, power, power_third, k1, k2, gamma, linear, qd_hat, luaf_hat, q_hat_rate,  # noqa: ANN001, ANN202
+               injection):
+    """The first line of (5.6) less the estimate (into ``q_hat_rate``) and the injection of the second, from
+    |x1~|^(2/3) and |x1~|^(1/3); with ``linear`` the Gamma terms, else the TOSMO (3.11)."""
+    for i in range(error.shape[0]):
+        for j in range(error.shape[1]):
+            e = error[i, j]
+            position_correction = k1[i, j] * np.copysign(power[i, j], e)
+            if linear:
+                position_correction = position_correction + gamma[i, j] * e
+            q_hat_rate[i, j] = qd_hat[i, j] + position_correction
+            velocity_correction = k2[i, j] * np.copysign(power_third[i, j], e)
+            if linear:
+                velocity_correction = velocity_correction + gamma[i, j] * position_correction
+            injection[i, j] = velocity_correction + luaf_hat[i, j]
+
+
+@kernel
+def _advance(psi_hat, command, injection, q_hat_rate, dt, luaf_step, sign, q_hat, qd_hat,  # noqa: ANN001, ANN202
+             luaf_hat):
+    """One Euler period of (5.6): x1_hat, x2_hat and the LUaF estimate (5.13)."""
+    for i in range(q_hat.shape[0]):
+        for j in range(q_hat.shape[1]):
+            qdd_hat = (psi_hat[i, j] + command[i, j]) + injection[i, j]
+            q_hat[i, j] += dt * q_hat_rate[i, j]
+            qd_hat[i, j] += dt * qdd_hat
+            luaf_hat[i, j] += luaf_step[i, j] * sign[i, j]

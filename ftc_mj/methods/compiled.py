@@ -1,0 +1,87 @@
+"""Fused laws: a shipped method's element-wise arithmetic in a few compiled kernels, its powers left to NumPy.
+
+A law written in NumPy (the reference: every plugin's ``update``, ``advance`` or ``compute`` as documented)
+pays NumPy's cost per call, about half a microsecond whatever the size, some fifteen calls per law and
+period; at a campaign's batch sizes that per-call cost is most of the law's cost. The laws the shipped
+scenarios run most (the TOSMO and high-speed TOSMO, eqs. (3.11), (5.6); the SOSMO, (4.37); the NFTSMC,
+(5.15)-(5.27)) therefore also have a fused path: the same operations, in the same order, in a few Numba
+kernels per period.
+
+**The same bits.** Addition, subtraction, multiplication, division, ``sqrt``, ``abs``, ``copysign`` and the
+sign are exact IEEE operations: compiled code and NumPy's SIMD loops give the same bits. Numba compiles them
+without fast-math (no fused multiply-add, no reassociation). Fractional powers are not exact: NumPy's ``pow``
+here is SVML's, Numba's is the C library's, and they differ in the last bit for some values. So a fused law
+keeps every ``power`` a NumPy call, on operands of the same types, shapes and strides as the reference's
+(:mod:`ftc_mj.methods.primitives` explains why those decide NumPy's kernel), and fuses the arithmetic around
+it. ``tests/methods/test_compiled.py`` checks each fused law against its reference bit for bit, member by
+member, on random states; the shipped scenarios' series hashes do not move.
+
+**Which objects.** The fused path serves the shipped class itself; a subclass runs the NumPy law, so that its
+overrides are honoured. A plugin in plain NumPy needs nothing of this module.
+
+**The switch.** :func:`reference_laws` makes the methods built inside it use their NumPy law (the tests, and
+the benchmarks that measure what fusing saves, in one run).
+"""
+
+from __future__ import annotations
+
+import os
+
+os.environ.setdefault("NUMBA_DISABLE_INTEL_SVML", "1")  # before Numba is imported: ftc_mj.robot.rigid says why
+
+from collections.abc import Iterator  # noqa: E402
+from contextlib import contextmanager  # noqa: E402
+
+import numba  # noqa: E402
+import numpy as np  # noqa: E402
+from numba.extending import overload  # noqa: E402
+
+from ftc_mj.methods.plugin import Method  # noqa: E402
+
+_reference = False
+
+
+@contextmanager
+def reference_laws() -> Iterator[None]:
+    """Methods built inside use their NumPy law (the reference), not the fused one."""
+    global _reference
+    previous, _reference = _reference, True
+    try:
+        yield
+    finally:
+        _reference = previous
+
+
+def fused(method: Method, classes: tuple[type, ...], *operands: object) -> bool:
+    """Whether ``method`` takes its fused path: it is an instance of one of ``classes`` exactly (not of a
+    subclass), runs members (state ``(members, n)``, as in the engine) with every gain in ``operands`` an
+    array of that shape, and is not built inside :func:`reference_laws`."""
+    return (not _reference and type(method) in classes and len(method.shape) == 2
+            and all(type(operand) is np.ndarray and operand.shape == method.shape for operand in operands))
+
+
+#: The decorator of every fused kernel: cached on disk, no fast-math, NumPy's semantics for division.
+kernel = numba.njit(cache=True, nogil=True, fastmath=False, error_model="numpy")
+
+
+def entry(values: np.ndarray, member: int, joint: int) -> float:
+    """``values[member, joint]`` as NumPy broadcasting reads it: a row ``(n,)`` (the reference shared by every
+    member), a row per member ``(members, n)``, or a single row ``(1, n)`` for every member."""
+    raise NotImplementedError("a compiled helper: call it from a kernel")
+
+
+@overload(entry, inline="always")
+def _entry(values, member, joint):  # noqa: ANN001, ANN202 (Numba's typing)
+    if values.ndim == 1:
+        return lambda values, member, joint: values[joint]
+    return lambda values, member, joint: values[min(member, values.shape[0] - 1), joint]
+
+
+@numba.njit(cache=True, inline="always")
+def sign(x: float) -> float:
+    """``np.sign``: -1, 0 or 1, zero (positive) for both zeros, NaN for NaN."""
+    if x > 0.0:
+        return 1.0
+    if x < 0.0:
+        return -1.0
+    return 0.0 if x == 0.0 else x

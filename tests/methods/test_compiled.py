@@ -1,0 +1,154 @@
+"""The fused laws (ftc_mj.methods.compiled) against their NumPy reference, bit for bit.
+
+Each shipped law with a fused path runs twice on the same random inputs, fused and built inside
+``reference_laws()``: B members (B != n) with their own gains, errors of every scale, exact zeros (sign(0)),
+negative and positive values, a member gone NaN (a stopped row of the engine). Every state and output must have
+the same bits every period. Then the rules of the switch: subclasses, standalone laws and ``reference_laws``
+take the reference; and the engine's series of a shipped scenario are the same either way.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+from types import SimpleNamespace
+
+import numpy as np
+import pytest
+
+from ftc_mj import load_scenario
+from ftc_mj.engine.batching import stack
+from ftc_mj.engine.loop import simulate
+from ftc_mj.engine.members import single
+from ftc_mj.methods import compiled
+from ftc_mj.methods.controllers import NFTSMC
+from ftc_mj.methods.controllers.nftsmc import AdaptiveNFTSMC
+from ftc_mj.methods.observers import SOSMO, HighSpeedTOSMO, TOSMO
+from ftc_mj.robot.nominal import matvec
+
+SCENARIOS = Path(__file__).resolve().parents[2] / "scenarios"
+N, MEMBERS, DT, PERIODS = 3, 5, 1e-3, 60
+OBSERVERS = {
+    TOSMO: [dict(D=22.0), dict(k1=[3.0, 4.0, 5.0], k2=[6.0, 7.0, 8.0], k3=[20.0, 21.0, 22.0])],
+    HighSpeedTOSMO: [dict(D=22.0, gamma=5.0), dict(D=10.0, gamma=0.0)],
+    SOSMO: [dict(L=22.0, filter_time_constant=0.01), dict(k1=[5.0, 6.0, 7.0], k2=[20.0, 25.0, 30.0],
+                                                          filter_time_constant=0.002)],
+}
+NFTSMC_GAINS = [dict(beta1=15.0, beta2=10.0, beta3=10.0, beta4=5.0, gamma1=0.5, bound=0.5, mu=0.5),
+                dict(beta1=[5.0, 6.0, 7.0], beta2=3.0, gamma1=0.6, gamma2=0.65, bound=[1.0, 2.0, 3.0], mu=0.1)]
+
+
+def build(cls, member_gains: list[dict], reference: bool):
+    configs = [cls.Config.model_validate(g, context={"n_joints": N}) for g in member_gains]
+    if reference:
+        with compiled.reference_laws():
+            return cls(stack(configs, N), N, DT, len(configs))
+    return cls(stack(configs, N), N, DT, len(configs))
+
+
+def member_gains(option: dict) -> list[dict]:
+    """MEMBERS gain sets: ``option`` with each member's numbers scaled apart."""
+    gains = []
+    for m in range(MEMBERS):
+        gains.append({name: (value if isinstance(value, str) else
+                             (np.asarray(value) * (1 + 0.05 * m)).tolist()) for name, value in option.items()})
+    return gains
+
+
+def random_rows(rng: np.random.Generator, k: int) -> np.ndarray:
+    """``(MEMBERS, N)`` values of every scale, with exact zeros, and member 1 NaN from period 40 on."""
+    rows = rng.normal(size=(MEMBERS, N)) * 10.0 ** rng.integers(-7, 1, size=(MEMBERS, N))
+    rows[rng.random((MEMBERS, N)) < 0.1] = 0.0
+    if k >= 40:
+        rows[1] = np.nan
+    return rows
+
+
+def assert_same(fused, reference, names: list[str], k: int) -> None:
+    for name in names:
+        np.testing.assert_array_equal(getattr(fused, name), getattr(reference, name), err_msg=f"{name}, period {k}")
+
+
+@pytest.mark.parametrize(("cls", "option"), [(cls, option) for cls, options in OBSERVERS.items() for option in options],
+                         ids=lambda value: value.name if isinstance(value, type) else "-".join(value))
+def test_fused_observer_equals_its_reference(cls, option):
+    gains = member_gains(option)
+    fused, reference = build(cls, gains, False), build(cls, gains, True)
+    assert fused._fused and not reference._fused
+    rng = np.random.default_rng(0)
+    q0 = rng.normal(size=(MEMBERS, N))
+    for observer in (fused, reference):
+        observer.reset(q0, np.zeros((MEMBERS, N)))
+    q = q0.copy()
+    for k in range(PERIODS):
+        q += random_rows(rng, k)
+        model = SimpleNamespace(psi_hat=rng.normal(size=(MEMBERS, N)), command=rng.normal(size=(MEMBERS, N)))
+        model.command_acceleration = lambda tau, model=model: model.command
+        tau = rng.normal(size=(MEMBERS, N))
+        for observer in (fused, reference):
+            observer.update(k * DT, q, model)
+        assert_same(fused, reference, ["injection", "qd_hat", "luaf_hat"], k)
+        for observer in (fused, reference):
+            observer.advance(tau, model)
+        assert_same(fused, reference, ["q_hat", "qd_hat", "luaf_hat"], k)
+    assert np.isnan(fused.q_hat[1]).all() and np.isfinite(fused.q_hat[[0, 2, 3, 4]]).all()
+
+
+@pytest.mark.parametrize("option", NFTSMC_GAINS, ids=["chapter-5", "chapter-4"])
+@pytest.mark.parametrize("compensation", ["injection", "estimate", "none"])
+@pytest.mark.parametrize("shared_reference", [True, False], ids=["reference-row", "reference-per-member"])
+def test_fused_nftsmc_equals_its_reference(option, compensation, shared_reference):
+    gains = [{**g, "compensation": compensation} for g in member_gains(option)]
+    fused, reference = build(NFTSMC, gains, False), build(NFTSMC, gains, True)
+    assert fused._fused and not reference._fused
+    rng = np.random.default_rng(1)
+    for controller in (fused, reference):
+        controller.reset()
+    for k in range(PERIODS):
+        shape = (3, N) if shared_reference else (3, MEMBERS, N)
+        q_ref, qd_ref, qdd_ref = rng.normal(size=shape)
+        q = q_ref + random_rows(rng, k)
+        observer = SimpleNamespace(qd_hat=qd_ref + random_rows(rng, k), luaf_hat=rng.normal(size=(MEMBERS, N)),
+                                   injection=rng.normal(size=(MEMBERS, N)))
+        A = rng.normal(size=(MEMBERS, N, N))
+        M, psi = A @ A.transpose(0, 2, 1) + N * np.eye(N), rng.normal(size=(MEMBERS, N))
+        model = SimpleNamespace(M=M, psi_control=psi, control_velocity=lambda qd_hat: qd_hat,
+                                apply_M=lambda v, out, M=M: matvec(M, v, out))
+        taus = [controller.compute(k * DT, q_ref, qd_ref, qdd_ref, q, observer, model).copy()
+                for controller in (fused, reference)]
+        np.testing.assert_array_equal(taus[0], taus[1], err_msg=f"tau, period {k}")
+        assert_same(fused, reference, ["sliding", "_integral"], k)
+
+
+def test_subclasses_standalone_laws_and_the_switch_take_the_reference():
+    class DoubledTOSMO(TOSMO):
+        """A user's subclass: its override must be honoured, so it runs the NumPy law."""
+
+        def _linear(self, correction, signal):
+            return 2.0 * correction
+
+    gains = member_gains(OBSERVERS[TOSMO][0])
+    assert not build(DoubledTOSMO, gains, False)._fused
+    assert not build(AdaptiveNFTSMC, [dict(beta1=1.0, beta2=1.0, gamma1=0.5, rho=1.0, mu=0.5)] * 2, False)._fused
+    standalone = TOSMO(TOSMO.Config.model_validate(dict(D=22.0), context={"n_joints": N}), N, DT)
+    assert not standalone._fused  # (n,) states: the reference law
+    with compiled.reference_laws():
+        with compiled.reference_laws():
+            pass
+        assert not build(TOSMO, gains, False)._fused  # still inside the outer one
+    assert build(TOSMO, gains, False)._fused
+    doubled, plain = build(DoubledTOSMO, gains, False), build(TOSMO, gains, False)
+    q = np.full((MEMBERS, N), 1e-3)
+    for observer in (doubled, plain):
+        observer.reset(np.zeros((MEMBERS, N)), np.zeros((MEMBERS, N)))
+        observer.update(0.0, q, None)
+    np.testing.assert_array_equal(doubled.injection, 2.0 * plain.injection)
+
+
+def test_the_engine_gives_the_same_series_either_way():
+    scenario = load_scenario(SCENARIOS / "puma_fault.yaml", duration=0.5)
+    fused = simulate(scenario, single(scenario))
+    with compiled.reference_laws():
+        reference = simulate(scenario, single(scenario))
+    for name, values in fused.series.items():
+        np.testing.assert_array_equal(values, reference.series[name], err_msg=name)
+    assert np.abs(fused.series["luaf_hat"]).max() > 0.0
