@@ -19,6 +19,10 @@ member, on random states; the shipped scenarios' series hashes do not move.
 **Which objects.** The fused path serves the shipped class itself; a subclass runs the NumPy law, so that its
 overrides are honoured. A plugin in plain NumPy needs nothing of this module.
 
+**First run.** The kernels compile on the first run on a machine (about a second per law) and are
+cached by Numba as the nominal model's are (:mod:`ftc_mj.robot.rigid`); the first fused law of a module built in a
+process says so in one line on stderr when its kernels will compile.
+
 **The switch.** :func:`reference_laws` makes the methods built inside it use their NumPy law (the tests, and
 the benchmarks that measure what fusing saves, in one run).
 """
@@ -29,7 +33,9 @@ import os
 
 os.environ.setdefault("NUMBA_DISABLE_INTEL_SVML", "1")  # before Numba is imported: ftc_mj.robot.rigid says why
 
-from collections.abc import Iterator  # noqa: E402
+import inspect  # noqa: E402
+import sys  # noqa: E402
+from collections.abc import Callable, Iterator  # noqa: E402
 from contextlib import contextmanager  # noqa: E402
 
 import numba  # noqa: E402
@@ -37,8 +43,12 @@ import numpy as np  # noqa: E402
 from numba.extending import overload  # noqa: E402
 
 from ftc_mj.methods.plugin import Method  # noqa: E402
+from ftc_mj.robot.rigid import cache_is_cold  # noqa: E402
 
 _reference = False
+#: The fused kernels of each plugin module, for the first run's announcement; the modules announced.
+_KERNELS: dict[str, list[numba.core.registry.CPUDispatcher]] = {}
+_announced: set[str] = set()
 
 
 @contextmanager
@@ -56,12 +66,32 @@ def fused(method: Method, classes: tuple[type, ...], *operands: object) -> bool:
     """Whether ``method`` takes its fused path: it is an instance of one of ``classes`` exactly (not of a
     subclass), runs members (state ``(members, n)``, as in the engine) with every gain in ``operands`` an
     array of that shape, and is not built inside :func:`reference_laws`."""
-    return (not _reference and type(method) in classes and len(method.shape) == 2
-            and all(type(operand) is np.ndarray and operand.shape == method.shape for operand in operands))
+    chosen = (not _reference and type(method) in classes and len(method.shape) == 2
+              and all(type(operand) is np.ndarray and operand.shape == method.shape for operand in operands))
+    if chosen and type(method).__module__ not in _announced:
+        announce_compilation(type(method).__module__)
+    return chosen
 
 
-#: The decorator of every fused kernel: cached on disk, no fast-math, NumPy's semantics for division.
-kernel = numba.njit(cache=True, nogil=True, fastmath=False, error_model="numpy")
+def kernel(function: Callable) -> numba.core.registry.CPUDispatcher:
+    """The decorator of every fused kernel: compiled without fast-math, NumPy's semantics for division, cached
+    on disk."""
+    dispatcher = numba.njit(cache=True, nogil=True, fastmath=False, error_model="numpy")(function)
+    _KERNELS.setdefault(function.__module__, []).append(dispatcher)
+    return dispatcher
+
+
+def announce_compilation(module: str) -> None:
+    """One line on stderr, once per plugin module and process, when its fused kernels will compile (the first
+    run on a machine, or after an update)."""
+    _announced.add(module)
+    source = inspect.getsourcefile(sys.modules[module])
+    cold = [dispatcher for dispatcher in _KERNELS.get(module, []) if cache_is_cold(dispatcher, source)]
+    if cold:
+        where = getattr(cold[0]._cache, "_cache_path", "Numba's cache")
+        law = module.rsplit(".", 1)[-1]
+        print(f"compiling the fused {law} law (first run on this machine, a second; cached in {where})",
+              file=sys.stderr, flush=True)
 
 
 def entry(values: np.ndarray, member: int, joint: int) -> float:

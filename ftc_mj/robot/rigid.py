@@ -189,15 +189,15 @@ class RigidTree:
                   momentum_points, coriolis_transpose, gravity)
 
 
-def cache_is_cold() -> bool:
-    """Whether the kernel's first call in this process will compile: Numba's cache holds no index of it, or
-    one older than this file (Numba then compiles again)."""
-    cache = getattr(_evaluate, "_cache", None)
+def cache_is_cold(dispatcher: numba.core.registry.CPUDispatcher | None = None, source: str = __file__) -> bool:
+    """Whether the first call in this process of a cached kernel (default: the rigid-body kernel) will compile:
+    Numba's cache holds no index of it, or one older than its source file (Numba then compiles again)."""
+    cache = getattr(_evaluate if dispatcher is None else dispatcher, "_cache", None)
     index = getattr(getattr(cache, "_cache_file", None), "_index_path", None)
     if index is None:  # a Numba without this layout: say nothing rather than something wrong
         return False
     try:
-        return os.stat(index).st_mtime < os.stat(__file__).st_mtime
+        return os.stat(index).st_mtime < os.stat(source).st_mtime
     except OSError:
         return True
 

@@ -152,3 +152,37 @@ def test_the_engine_gives_the_same_series_either_way():
     for name, values in fused.series.items():
         np.testing.assert_array_equal(values, reference.series[name], err_msg=name)
     assert np.abs(fused.series["luaf_hat"]).max() > 0.0
+
+
+FIRST_CALL = """
+import numpy as np
+from ftc_mj.engine.batching import stack
+from ftc_mj.methods.observers import TOSMO
+config = stack([TOSMO.Config.model_validate(dict(D=22.0), context={"n_joints": 3})] * 2, 3)
+observer = TOSMO(config, 3, 1e-3, 2)
+observer.reset(np.zeros((2, 3)), np.zeros((2, 3)))
+observer.update(0.0, np.ones((2, 3)), None)
+model = type("Model", (), {"psi_hat": np.zeros((2, 3)), "command_acceleration": lambda self, tau: tau})()
+observer.advance(np.zeros((2, 3)), model)
+"""
+
+
+def test_the_first_compilation_is_announced_once_per_law_and_cached(tmp_path):
+    """An empty cache (a fresh NUMBA_CACHE_DIR): one line on stderr naming the law and the cache; the next
+    process loads the cached kernels and says nothing."""
+    import os
+    import subprocess
+    import sys
+
+    env = {**os.environ, "NUMBA_CACHE_DIR": str(tmp_path), "PYTHONPATH": str(Path(__file__).resolve().parents[2])}
+
+    def stderr() -> list[str]:
+        done = subprocess.run([sys.executable, "-c", FIRST_CALL], env=env, capture_output=True, text=True,
+                              timeout=600)
+        assert done.returncode == 0, done.stderr
+        return [line for line in done.stderr.splitlines() if line.strip()]
+
+    first = stderr()
+    assert len(first) == 1 and first[0].startswith("compiling the fused tosmo law (first run on this machine")
+    assert str(tmp_path) in first[0]
+    assert stderr() == []
