@@ -243,7 +243,8 @@ class _Run:
         # What each estimator (the variant's observer, then its monitors) reads beyond M and Psi.
         needs = [[_needs(kind) for kind in (v.observer_type, *(m.observer_type for m in v.monitors))] for v in variants]
         nominal = nominal_batch(scenario.model, layout.per_point(members.nominal_mass_scale), threads,
-                                momentum_points=layout.estimator_points([[bool(s) for s in v] for v in needs]))
+                                momentum_points=layout.estimator_points([[bool(s) for s in v] for v in needs]),
+                                mass_points=per_row(members.nominal_mass_scale))
         mass = mass_at_readings(plant, nominal, scenario.model, per_row(members.nominal_mass_scale),
                                 per_row(members.plant_mass_scale), scenario.position_sensor is not None, threads)
         solver = SparseSolver(scenario.model)
@@ -333,9 +334,10 @@ class _Run:
         plant, nominal, stopped = self.plant, self.nominal, None
         if plant.running < self.layout.rows:  # stopped rows may hold NaN or inf: evaluate them at rest instead
             stopped = ~plant.alive
-            at_rest(nominal, stopped[self.layout.point_rows])
+            at_rest(nominal, np.flatnonzero(stopped[self.layout.point_rows]))  # indices: the Psi points alone
+        self.mass.prepare(self.readings.q_meas, stopped)
         nominal.evaluate()
-        self.mass.evaluate(self.readings.q_meas, stopped)
+        self.mass.evaluate()
 
     def control(self, k: int, t: float) -> None:
         """3. Each observer's injection, each controller's torque; the commands go to ``ctrl``."""

@@ -18,6 +18,7 @@ from collections.abc import Callable
 from typing import Protocol
 
 import mujoco
+import numba
 import numpy as np
 from mujoco.batch import Batch, SimulationError
 
@@ -30,9 +31,6 @@ _NO_STAGE = int(mujoco.mjtStage.mjSTAGE_NONE)
 #: MuJoCo warnings after which it resets a simulation: that is a divergence here.
 _RESET_WARNINGS = slice(int(mujoco.mjtWarning.mjWARN_BADQPOS), int(mujoco.mjtWarning.mjWARN_BADQACC) + 1)
 assert _RESET_WARNINGS.stop - _RESET_WARNINGS.start == 3  # bad qpos, bad qvel, bad qacc: adjacent in mjtWarning
-#: Up to this many rows :meth:`MuJoCoPlant.check` compares Python floats, beyond it NumPy's reductions: a
-#: crossover of its own (a few comparisons per row against half a dozen array calls), not the expressions'.
-CHECK_SCALAR_ROWS = 16
 
 
 class Plant(Protocol):
@@ -148,14 +146,10 @@ class MuJoCoPlant(Plant):
 
     def check(self) -> np.ndarray | None:
         # NaN fails every comparison, so it stops its row too (the engine runs under np.errstate(all="ignore")).
-        if len(self.alive) <= CHECK_SCALAR_ROWS:  # a few rows: Python floats (NaN fails every comparison)
-            if all(abs(x) <= self.max_position for row in self.qpos.tolist() for x in row) and all(
-                    abs(x) <= self.max_velocity for row in self.qvel.tolist() for x in row):
-                return None
+        if _within(self.qpos, self.qvel, self.max_position, self.max_velocity):
+            return None  # every row within: one compiled pass, the usual case
         np.abs(self.qpos, out=self._position)
         np.abs(self.qvel, out=self._velocity)
-        if self._position.max() <= self.max_position and self._velocity.max() <= self.max_velocity:
-            return None  # every row within (a NaN makes its maximum NaN, which fails the comparison)
         within = (self._position <= self.max_position).all(axis=1) & (self._velocity <= self.max_velocity).all(axis=1)
         return self._stop(~within & self.alive)
 
@@ -281,3 +275,16 @@ def _kinematics(model: mujoco.MjModel, positions: np.ndarray) -> tuple[np.ndarra
         mujoco.mj_kinematics(model, data)
         xpos[k], xquat[k] = data.xpos, data.xquat
     return xpos, xquat
+
+
+@numba.njit(cache=True, nogil=True)
+def _within(qpos: np.ndarray, qvel: np.ndarray, max_position: float, max_velocity: float) -> bool:
+    """Whether every |qpos| <= max_position and every |qvel| <= max_velocity (NaN is not)."""
+    for r in range(qpos.shape[0]):
+        for j in range(qpos.shape[1]):
+            if not abs(qpos[r, j]) <= max_position:
+                return False
+        for j in range(qvel.shape[1]):
+            if not abs(qvel[r, j]) <= max_velocity:
+                return False
+    return True

@@ -21,7 +21,7 @@ import mujoco
 import numpy as np
 from mujoco.batch import Batch
 
-from ftc_mj.robot.rigid import RigidTree
+from ftc_mj.robot.rigid import RigidTree, evaluate, solve_factored
 from ftc_mj.config.types import PositiveFloat, Strict
 
 
@@ -217,64 +217,34 @@ class DenseMass:
         return self.out
 
 
-#: Up to this many rows :class:`SparseSolver` calls ``mj_solveM`` row by row, beyond it works on columns (a
-#: dozen array operations whatever the rows). Either path gives the same bits. A crossover of this solve's own
-#: costs, not the state functions' (:data:`ftc_mj.config.expressions.SCALAR_ROWS`: Python floats against
-#: NumPy on a few rows, where one row is a whole lambdified expression, far dearer than one mj_solveM).
-SOLVER_ROWS = 4
-
-
 class SparseSolver:
     """M(q)^-1 v for many rows at once with MuJoCo's own factorisation ``qLD``, ``qLDiagInv`` of each row: the
-    operations of ``mj_solveM`` in its order, over a batch, so each row's answer is bit for bit what
-    ``mj_solveM`` gives on one MjData (tested), and costs a few array operations whatever the batch size.
-    The model is the one whose sparsity the factors have (any mass scale: only the structure is used)."""
+    operations of ``mj_solveM`` in its order (:func:`~ftc_mj.robot.rigid.solve_factored`, compiled), so each
+    row's answer is bit for bit what ``mj_solveM`` gives on one MjData (tested), in one call whatever the
+    batch size. The model is the one whose sparsity the factors have (any mass scale: only the structure is
+    used)."""
 
     def __init__(self, model: mujoco.MjModel):
-        def off_diagonal(i: int) -> list[tuple[int, int]]:  # (address, column) of row i's entries left of the diagonal
-            start = model.M_rowadr[i]
-            return [(int(start + j), int(model.M_colind[start + j])) for j in range(model.M_rownnz[i] - 1)]
-
-        self._rows = [(i, off_diagonal(i)) for i in range(model.nv)]
-        self._rows = [(i, entries) for i, entries in self._rows if entries]
-        self._model, self._data = model, mujoco.MjData(model)  # the scratch MjData of small batches
-        self._factor, self._diagonal_inverse = self._data.qLD, self._data.qLDiagInv  # views, made once
-        self._rhs, self._solution = np.zeros((1, model.nv)), np.zeros((1, model.nv))
+        # The rows with entries left of the diagonal, in order, and those entries (address in qLD, column),
+        # row after row: mj_solveM's loops over the sparse structure, flattened.
+        rows, starts, addresses, columns = [], [0], [], []
+        for i in range(model.nv):
+            first = model.M_rowadr[i]
+            entries = [(int(first + j), int(model.M_colind[first + j])) for j in range(model.M_rownnz[i] - 1)]
+            if entries:
+                rows.append(i)
+                addresses += [address for address, _ in entries]
+                columns += [column for _, column in entries]
+                starts.append(len(addresses))
+        self._structure = tuple(np.asarray(values, dtype=np.int64) for values in (rows, starts, addresses, columns))
+        self._n = model.nv
 
     def solve(self, factor: np.ndarray, diagonal_inverse: np.ndarray, vector: np.ndarray, out: np.ndarray) -> np.ndarray:
-        """``out = M^-1 vector`` per row, from the rows' ``qLD`` ``(rows, nM)`` and ``qLDiagInv`` ``(rows, n)``.
-
-        Up to :data:`SOLVER_ROWS` rows are solved by ``mj_solveM`` itself (NumPy's per-call cost would
-        dominate), more on columns with its operations in its order: the same bits either way (tested)."""
-        if len(out) <= SOLVER_ROWS:  # mj_solveM itself, row by row, on a scratch MjData holding the row's factor
-            model, data, rhs, solution = self._model, self._data, self._rhs, self._solution
-            for row in range(len(out)):
-                self._factor[:] = factor[row]
-                self._diagonal_inverse[:] = diagonal_inverse[row]
-                rhs[0] = vector[row] if vector.ndim == 2 else vector
-                mujoco.mj_solveM(model, data, solution, rhs)
-                out[row] = solution[0]
-            return out
-        # One column at a time: NumPy's fastest operations here are on 1-D views with small temporaries (2-D
-        # slices, broadcasting and out= buffers cost more per call than they save on a few hundred rows).
-        np.copyto(out, vector)
-        for i, entries in reversed(self._rows):  # x <- L'^-1 x
-            for address, column in entries:
-                out[:, column] -= factor[:, address] * out[:, i]
-        out *= diagonal_inverse  # x <- D^-1 x
-        for i, entries in self._rows:  # x <- L^-1 x: x_i -= the row's sparse dot product, as mju_dotSparse sums it
-            products = [factor[:, address] * out[:, column] for address, column in entries]
-            whole = len(products) - len(products) % 4
-            if whole:  # four lanes over whole groups of four, summed as (0 + 2) + (1 + 3), then the rest
-                for j in range(4, whole):
-                    products[j % 4] += products[j]
-                dot = products[0] + products[2]
-                dot += products[1] + products[3]
-            else:  # fewer than four: from the left
-                dot, whole = products[0], 1
-            for product in products[whole:]:
-                dot += product
-            out[:, i] -= dot
+        """``out = M^-1 vector`` per row, from the rows' ``qLD`` ``(rows, nM)`` and ``qLDiagInv`` ``(rows, n)``;
+        ``vector`` is ``(rows, n)`` or one ``(n,)`` for every row."""
+        if vector.ndim == 1:
+            vector = np.broadcast_to(vector, (len(out), self._n))
+        solve_factored(factor, diagonal_inverse, vector, out, *self._structure)
         return out
 
 
@@ -322,19 +292,21 @@ class NominalBatch(Protocol):
 
 
 def nominal_batch(model: mujoco.MjModel, mass_scale: np.ndarray, nthread: int,
-                  mass_only: bool = False, momentum_points: np.ndarray | None = None) -> NominalBatch:
+                  mass_only: bool = False, momentum_points: np.ndarray | None = None,
+                  mass_points: np.ndarray | None = None) -> NominalBatch:
     """The nominal model of ``model`` at ``len(mass_scale)`` points, one mass scale each: the compiled
     rigid-body algorithms where the robot is a tree of hinge and slide joints (every shipped scenario's; not
     Menagerie's Panda with its coupled fingers), MuJoCo's own batch (``nthread`` threads) otherwise.
 
     ``momentum_points``: a ``(points,)`` mask of the points where C(q, qd)^T qd and G(q) are wanted as well
-    (:data:`NEEDS`), or None: nowhere, at no cost."""
+    (:data:`NEEDS`), or None: nowhere, at no cost. ``mass_points``: the mass scales of M-only points the
+    compiled model evaluates in the same call (its ``at_readings``); MuJoCo's batch ignores them."""
     rigid = rigid_body_model(model)
     mass_scale = np.asarray(mass_scale, dtype=float)
     tree = RigidTree.from_model(rigid)
     if tree is None:
         return MuJoCoNominal(rigid, mass_scale, nthread, mass_only, momentum_points)
-    return CompiledNominal(tree, rigid, mass_scale, mass_only, momentum_points, nthread)
+    return CompiledNominal(tree, rigid, mass_scale, mass_only, momentum_points, nthread, mass_points)
 
 
 #: Fewest points per thread for :class:`CompiledNominal` to split its points over threads: below it, handing a
@@ -356,49 +328,59 @@ class CompiledNominal(NominalBatch):
     mass_from_plant = False
 
     def __init__(self, tree: RigidTree, model: mujoco.MjModel, mass_scale: np.ndarray, mass_only: bool = False,
-                 momentum_points: np.ndarray | None = None, nthread: int = 1):
+                 momentum_points: np.ndarray | None = None, nthread: int = 1, mass_points: np.ndarray | None = None):
         """``model``: the rigid-body model whose tree ``tree`` is (for M's sparse layout). ``nthread`` > 1: the
         points are cut into as many slices (at least :data:`POINTS_PER_THREAD` each), evaluated at once on
         threads (the kernel releases the GIL); a point's numbers come from its inputs alone, so its bits are
-        the same however the points are cut."""
-        points, n = len(mass_scale), model.nv
-        self._tree, self._inertias, self._with_velocity = tree, tree.scaled(mass_scale), not mass_only
+        the same however the points are cut. ``mass_points``: the mass scales of more points, after these,
+        where only M is wanted (M at the readings, evaluated in the same call: :attr:`at_readings`)."""
+        velocity_points, n = 0 if mass_only else len(mass_scale), model.nv
+        extra = np.zeros(0) if mass_points is None else np.asarray(mass_points, dtype=float)
+        points = len(mass_scale) + len(extra)
+        self._tree, self._inertias = tree, tree.scaled(np.concatenate([np.asarray(mass_scale, dtype=float), extra]))
         self.qpos, self.qvel, self.applied = np.zeros((points, n)), np.zeros((points, n)), np.zeros((points, n))
         self._qacc, self._bias = np.zeros((points, n)), np.zeros((points, n))
         self._sparse_M = np.zeros((points, model.nM))
         self.factor, self.diagonal_inverse = np.zeros((points, model.nM)), np.ones((points, n))
         self._dense = DenseMass(model, points)
-        self._momentum_points = _momentum_points(momentum_points, points, mass_only)
+        self._momentum_points = _momentum_points(momentum_points, len(mass_scale), mass_only)
         self.coriolis_transpose = self.gravity = None
         if self._momentum_points is not None:
+            self._momentum_points = np.concatenate([self._momentum_points, np.zeros(len(extra), dtype=np.bool_)])
             self.coriolis_transpose, self.gravity = np.zeros((points, n)), np.zeros((points, n))
+        #: The M-only points (views), or None.
+        self.at_readings = None if mass_points is None else MassPoints(self, model, slice(len(mass_scale), points))
         slices = max(1, min(nthread, points // POINTS_PER_THREAD))
         bounds = np.linspace(0, points, slices + 1).astype(int)
-        # Each slice's arguments, views made once: the per-point arrays cut along their first axis.
-        self._slices = [self._arguments(slice(start, stop)) for start, stop in zip(bounds[:-1], bounds[1:])]
+        # Each slice's kernel arguments, views made once: the per-point arrays cut along their first axis.
+        self._slices = [self._arguments(slice(start, stop), velocity_points)
+                        for start, stop in zip(bounds[:-1], bounds[1:])]
         # Threads from the second call on: the first may compile the kernel (and say so), once.
         self._pool: ThreadPoolExecutor | None = None
         self._threads = slices - 1
 
-    def _arguments(self, points: slice) -> tuple:
-        """The kernel's arguments for the points ``points``."""
+    def _arguments(self, points: slice, velocity_points: int) -> tuple:
+        """The kernel's arguments for the points ``points`` (of which those before ``velocity_points`` have the
+        velocity terms)."""
         cut = lambda array: None if array is None else array[points]  # noqa: E731
-        return (*(array[points] for array in self._inertias), self.qpos[points], self.qvel[points],
-                self.applied[points], self._sparse_M[points], self.factor[points], self.diagonal_inverse[points],
-                self._qacc[points], self._bias[points], self._with_velocity, cut(self._momentum_points),
-                cut(self.coriolis_transpose), cut(self.gravity))
+        return self._tree.arguments(
+            *(array[points] for array in self._inertias), self.qpos[points], self.qvel[points],
+            self.applied[points], self._sparse_M[points], self.factor[points], self.diagonal_inverse[points],
+            self._qacc[points], self._bias[points], velocity_points > points.start, cut(self._momentum_points),
+            cut(self.coriolis_transpose), cut(self.gravity),
+            velocity_points=min(max(velocity_points - points.start, 0), points.stop - points.start))
 
     def evaluate(self) -> None:
-        evaluate, pool = self._tree.evaluate, self._pool
+        pool = self._pool
         if pool is None:  # one slice, or the first call
             for arguments in self._slices:
-                evaluate(*arguments)
+                evaluate(arguments)
             if self._threads:
                 self._pool = _threads(self._threads)
             return
         first, *others = self._slices
-        pending = [pool.submit(evaluate, *arguments) for arguments in others]
-        evaluate(*first)  # the first slice on the calling thread, meanwhile
+        pending = [pool.submit(evaluate, arguments) for arguments in others]
+        evaluate(first)  # the first slice on the calling thread, meanwhile
         for future in pending:
             future.result()
 
@@ -410,12 +392,29 @@ class CompiledNominal(NominalBatch):
         return self._dense.update(self._sparse_M)
 
 
+class MassPoints:
+    """The M-only points of a :class:`CompiledNominal` (its ``mass_points``): views of its arrays, evaluated by
+    its :meth:`~CompiledNominal.evaluate`. Set ``qpos`` before it; :meth:`mass_matrices` after."""
+
+    def __init__(self, batch: CompiledNominal, model: mujoco.MjModel, points: slice):
+        self.qpos, self.qvel, self.applied = batch.qpos[points], batch.qvel[points], batch.applied[points]
+        self.factor, self.diagonal_inverse = batch.factor[points], batch.diagonal_inverse[points]
+        self._sparse_M = batch._sparse_M[points]
+        self._dense = DenseMass(model, points.stop - points.start)
+
+    def mass_matrices(self) -> np.ndarray:
+        """``(points, n, n)``: M(q) at each point, from the batch's last evaluation (an internal buffer)."""
+        return self._dense.update(self._sparse_M)
+
+
 class MuJoCoNominal(NominalBatch):
     """:class:`NominalBatch` on a private :class:`mujoco.batch.Batch`, one simulation per point, evaluated by
     MuJoCo itself (its forward pass up to the acceleration, or the position stage for a ``mass_only`` batch)."""
 
     #: MuJoCo's own numbers: a plant of the same model at the same position has the same M, bit for bit.
     mass_from_plant = True
+    #: No M-only points of its own: M at the readings is a batch apart or the plant's.
+    at_readings = None
 
     def __init__(self, model: mujoco.MjModel, mass_scale: np.ndarray, nthread: int, mass_only: bool = False,
                  momentum_points: np.ndarray | None = None):

@@ -171,22 +171,46 @@ class RigidTree:
                  qpos: np.ndarray, qvel: np.ndarray, applied: np.ndarray, sparse_M: np.ndarray,
                  factor: np.ndarray, diagonal_inverse: np.ndarray, qacc: np.ndarray, bias: np.ndarray,
                  with_velocity: bool, momentum_points: np.ndarray | None = None,
-                 coriolis_transpose: np.ndarray | None = None, gravity: np.ndarray | None = None) -> None:
+                 coriolis_transpose: np.ndarray | None = None, gravity: np.ndarray | None = None,
+                 velocity_points: int | None = None) -> None:
         """At every point: M (sparse), its factorisation and, ``with_velocity``, C qd + G into ``bias`` and
         M^-1 (applied - bias) into ``qacc``. The per-point inertias come from :meth:`scaled`.
 
         ``momentum_points`` (a ``(points,)`` mask, with ``with_velocity``): where C(q, qd)^T qd and G(q) are
         computed as well, into ``coriolis_transpose`` and ``gravity`` ``(points, n)`` (the module docstring);
-        the other points' rows are left as they are. None: nowhere (nothing computed, nothing written)."""
+        the other points' rows are left as they are. None: nowhere (nothing computed, nothing written).
+        ``velocity_points``: with ``with_velocity``, only the first that many points have the velocity terms,
+        the others M alone (None: every point)."""
+        evaluate(self.arguments(mass, first_moment, inertia, armature, qpos, qvel, applied, sparse_M, factor,
+                                diagonal_inverse, qacc, bias, with_velocity, momentum_points, coriolis_transpose,
+                                gravity, velocity_points))
+
+    def arguments(self, mass: np.ndarray, first_moment: np.ndarray, inertia: np.ndarray, armature: np.ndarray,
+                  qpos: np.ndarray, qvel: np.ndarray, applied: np.ndarray, sparse_M: np.ndarray,
+                  factor: np.ndarray, diagonal_inverse: np.ndarray, qacc: np.ndarray, bias: np.ndarray,
+                  with_velocity: bool, momentum_points: np.ndarray | None = None,
+                  coriolis_transpose: np.ndarray | None = None, gravity: np.ndarray | None = None,
+                  velocity_points: int | None = None) -> tuple:
+        """The compiled kernel's arguments for :meth:`evaluate`'s, for :func:`evaluate`: made once where the
+        same points are evaluated every period (the call then skips this wrapper)."""
         if momentum_points is None:
             momentum_points, coriolis_transpose, gravity = _NO_POINTS, _NO_TERMS, _NO_TERMS
-        if not _evaluate.overloads:  # its ``signatures`` builds a list of types per call: dearer than the kernel
-            announce_compilation()
-        _evaluate(self.parent, self.offset_position, self.offset_rotation, self.hinge, self.axis, self.anchor,
-                  self.reference, self.gravity, self.sparse_row, self.sparse_column,
-                  mass, first_moment, inertia, armature, qpos, qvel, applied,
-                  sparse_M, factor, diagonal_inverse, qacc, bias, with_velocity,
-                  momentum_points, coriolis_transpose, gravity)
+        if not with_velocity:
+            velocity_points = 0
+        elif velocity_points is None:
+            velocity_points = len(qpos)
+        return (self.parent, self.offset_position, self.offset_rotation, self.hinge, self.axis, self.anchor,
+                self.reference, self.gravity, self.sparse_row, self.sparse_column,
+                mass, first_moment, inertia, armature, qpos, qvel, applied,
+                sparse_M, factor, diagonal_inverse, qacc, bias, int(velocity_points),
+                momentum_points, coriolis_transpose, gravity)
+
+
+def evaluate(arguments: tuple) -> None:
+    """The compiled kernel on :meth:`RigidTree.arguments`; its first call in a process may compile it (said once)."""
+    if not _evaluate.overloads:  # its ``signatures`` builds a list of types per call: dearer than the kernel
+        announce_compilation()
+    _evaluate(*arguments)
 
 
 def cache_is_cold(dispatcher: numba.core.registry.CPUDispatcher | None = None, source: str = __file__) -> bool:
@@ -239,10 +263,10 @@ def _apply_inertia(m: float, h: np.ndarray, inertia: np.ndarray, motion: np.ndar
 @numba.njit(cache=True, nogil=True, fastmath=False, error_model="numpy")
 def _evaluate(parent, offset_position, offset_rotation, hinge, axis, anchor, reference, gravity, sparse_row,
               sparse_column, mass, first_moment, inertia, armature, qpos, qvel, applied, sparse_M, factor,
-              diagonal_inverse, qacc, bias, with_velocity, momentum_points, coriolis_transpose,
+              diagonal_inverse, qacc, bias, velocity_points, momentum_points, coriolis_transpose,
               gravity_torque):  # pragma: no cover - compiled (tested through its wrapper)
     """:meth:`RigidTree.evaluate` over the points ``p``: kinematics and each node's inertia in world coordinates,
-    Newton-Euler (``with_velocity``), composite inertias, C^T qd and G where ``momentum_points`` asks, M, L'DL
+    Newton-Euler (the first ``velocity_points`` points), composite inertias, C^T qd and G where ``momentum_points`` asks, M, L'DL
     and the solve. One point's numbers come from its inputs alone (scratch arrays are rewritten per point); the
     momentum terms only add outputs, the other quantities are computed as without them."""
     points, n = qpos.shape
@@ -270,6 +294,7 @@ def _evaluate(parent, offset_position, offset_rotation, hinge, axis, anchor, ref
         base[3 + r] = -gravity[r]
     any_momentum = len(momentum_points) > 0
     for p in range(points):
+        with_velocity = p < velocity_points
         with_momentum = with_velocity and any_momentum and momentum_points[p]
         for i in range(n):
             # The body frame before the joint: the parent's frame composed with the offset.
@@ -455,3 +480,43 @@ def _evaluate(parent, offset_position, offset_rotation, hinge, axis, anchor, ref
                     rhs[i] -= dense[i, j] * rhs[j]
                     j = parent[j]
                 qacc[p, i] = rhs[i]
+
+
+@numba.njit(cache=True, nogil=True, fastmath=False, error_model="numpy")
+def solve_factored(factor, diagonal_inverse, vector, out, rows, starts, addresses, columns):  # noqa: ANN001, ANN201
+    """``out[r] = M_r^-1 vector[r]`` from MuJoCo's factorisation M = L' D L of each row r (``qLD``,
+    ``qLDiagInv``), with ``mj_solveM``'s operations in its order: x <- L'^-1 x from the last row up, x <- D^-1
+    x, x <- L^-1 x from the first row down, each row's sparse dot product summed as ``mju_dotSparse`` sums
+    it (four lanes over whole groups of four, added as (0 + 2) + (1 + 3), then the rest; fewer than four from
+    the left). The sparse structure is flattened: ``rows`` with entries left of the diagonal, their entries
+    ``starts[k]:starts[k + 1]`` of ``addresses`` (in qLD) and ``columns``."""
+    for r in range(out.shape[0]):
+        for j in range(out.shape[1]):
+            out[r, j] = vector[r, j]
+        for k in range(len(rows) - 1, -1, -1):  # x <- L'^-1 x
+            x_i = out[r, rows[k]]
+            for e in range(starts[k], starts[k + 1]):
+                out[r, columns[e]] -= factor[r, addresses[e]] * x_i
+        for j in range(out.shape[1]):  # x <- D^-1 x
+            out[r, j] *= diagonal_inverse[r, j]
+        for k in range(len(rows)):  # x <- L^-1 x
+            first, count = starts[k], starts[k + 1] - starts[k]
+            whole = count - count % 4
+            if whole:
+                lane0 = factor[r, addresses[first]] * out[r, columns[first]]
+                lane1 = factor[r, addresses[first + 1]] * out[r, columns[first + 1]]
+                lane2 = factor[r, addresses[first + 2]] * out[r, columns[first + 2]]
+                lane3 = factor[r, addresses[first + 3]] * out[r, columns[first + 3]]
+                for j in range(4, whole, 4):
+                    e = first + j
+                    lane0 += factor[r, addresses[e]] * out[r, columns[e]]
+                    lane1 += factor[r, addresses[e + 1]] * out[r, columns[e + 1]]
+                    lane2 += factor[r, addresses[e + 2]] * out[r, columns[e + 2]]
+                    lane3 += factor[r, addresses[e + 3]] * out[r, columns[e + 3]]
+                dot = lane0 + lane2
+                dot += lane1 + lane3
+            else:
+                dot, whole = factor[r, addresses[first]] * out[r, columns[first]], 1
+            for j in range(whole, count):
+                dot += factor[r, addresses[first + j]] * out[r, columns[first + j]]
+            out[r, rows[k]] -= dot

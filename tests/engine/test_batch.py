@@ -299,13 +299,11 @@ def test_a_rate_parameter_must_be_one_of_the_parameters(tmp_path):
 
 
 def test_a_seven_joint_arm_in_a_large_batch_equals_its_single_runs():
-    """More rows than the small-batch path takes (whose solves are MuJoCo's own): the batched sparse solve must
-    sum M's longer rows (four and more entries) as mj_solveM does, or the members drift from their single runs."""
-    from ftc_mj.robot.nominal import SOLVER_ROWS
-
+    """Five members: the batched sparse solve must sum M's longer rows (four and more entries) as mj_solveM
+    does, or the members drift from their single runs."""
     scenario = load_scenario(ROOT / "scenarios" / "robots" / "panda_fault.yaml", duration=0.3)
     assert scenario.n_joints == 7
-    count = SOLVER_ROWS + 1  # each variant's block has more rows than the small-batch solve takes
+    count = 5
     run = simulate(scenario, replicates(scenario, count), nthread=2)
     for member in (0, count - 1):
         alone = simulate(scenario, members_from_overrides(scenario, [{"seed": scenario.spec.seed + member}]))

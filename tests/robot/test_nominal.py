@@ -184,9 +184,10 @@ def test_nominal_batch_is_the_single_state_model_at_every_point(model):
 @pytest.mark.parametrize("name", ["puma560.xml", "ur5e.xml", "panda.xml", "two_link.xml"])
 def test_sparse_solver_is_mj_solveM_bit_for_bit(name):
     """The engine's batched M^-1 v repeats mj_solveM's operations on MuJoCo's own factorisation: each row's
-    answer is exactly what one MjData gives (so observers solve as they did on one MjData), on the row path
-    and on the column path, also for rows of four or more entries (mju_dotSparse sums those in four lanes)."""
-    from ftc_mj.robot.nominal import SOLVER_ROWS, SparseSolver
+    answer is exactly what one MjData gives (so observers solve as they did on one MjData), for any number of
+    rows, also for rows of four or more entries (mju_dotSparse sums those in four lanes), and with one vector
+    for every row."""
+    from ftc_mj.robot.nominal import SparseSolver
 
     model = mujoco.MjModel.from_xml_path(str(PUMA.parent / name))
     nv = model.nv
@@ -203,12 +204,15 @@ def test_sparse_solver_is_mj_solveM_bit_for_bit(name):
         solution = np.zeros((1, nv))
         mujoco.mj_solveM(model, data, solution, v[row:row + 1].copy())
         expected.append(solution[0])
-    for many in (1, 2, 40):  # up to SOLVER_ROWS row by row on floats, beyond on columns: the same bits
-        for count in sorted({1, SOLVER_ROWS, SOLVER_ROWS + 1, many * rows}):
+    for many in (1, 2, 40):
+        for count in sorted({1, 4, 5, many * rows}):
             out = np.zeros((count, nv))
             tiled = [np.tile(x, (many, 1))[:count] for x in (factors, diagonals, v, expected)]
             SparseSolver(model).solve(*tiled[:3], out)
             np.testing.assert_array_equal(out, tiled[3])
+    out = np.zeros((3, nv))  # one vector for every row
+    SparseSolver(model).solve(np.tile(factors[0], (3, 1)), np.tile(diagonals[0], (3, 1)), v[0], out)
+    np.testing.assert_array_equal(out, np.tile(expected[0], (3, 1)))
 
 
 def test_dense_mass_fills_every_entry_from_the_sparse_values():
