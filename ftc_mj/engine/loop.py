@@ -13,13 +13,12 @@ Per control period k (time t_k = k * control_dt, zero-order hold on the command)
 3. each observer forms its injection (``update``); each controller computes its torque; ``ctrl`` = torque;
 4. friction, disturbance and fault terms on the *true* state of all rows, and what the actuator faults
    deliver beyond the command, go to ``applied`` (:mod:`ftc_mj.effects.terms`, :mod:`~.faults`); the
-   plant's factorisation of M(q) is kept for the truths;
+   truths that need the plant's M(q)^-1 at the sample instant are solved (:mod:`ftc_mj.engine.truths`);
 5. M(x1)^-1 tau of every row's command is solved at once; each observer integrates over the period; the
    plant steps (:class:`~ftc_mj.engine.plant.Plant`).
 
-After the last period, the truths that need M(q)^-1 (the true LUaF, the fault's acceleration) are solved over
-every sample at once (:mod:`ftc_mj.engine.truths`); the series (:mod:`ftc_mj.engine.series`) are cut where
-each row stopped.
+After the last period, the true LUaF is completed from the true accelerations (:mod:`ftc_mj.engine.truths`);
+the series (:mod:`ftc_mj.engine.series`) are cut where each row stopped.
 
 A scenario with a ``log`` section replays it instead of simulating (:class:`~ftc_mj.engine.plant.LogPlant`):
 the readings are the log's, every controller is the log's torque
@@ -300,7 +299,7 @@ class _Run:
             scenario.diagnoser is not None and scenario.diagnoser.space == "torque", poses)
         truths = None
         if plant.has_truth:
-            truths = Truths.allocate(steps, plant,
+            truths = Truths.allocate(solver, plant,
                                      per_row(members.nominal_mass_scale) / per_row(members.plant_mass_scale))
         return cls(times, layout, plant, readings, nominal, mass, solver, tau, command_acceleration, blocks, inputs,
                    reference, series, poses, truths, Stops(np.full(rows, steps), np.full(rows, np.nan)))
@@ -384,8 +383,9 @@ class _Run:
         plant, inputs, series, tau = self.plant, self.inputs, self.series.rows, self.tau
         terms = inputs.terms
         true_mass = self.mass.true_mass() if terms.needs_mass else None
-        if self.truths is not None:
-            self.truths.record(k, plant, tau)  # M(q) of the sample instant and tau / c - C qd - G
+        truths = self.truths
+        if truths is not None:  # M(q)^-1 (tau / c - C qd - G) at the sample instant
+            truths.record(plant, tau, series["luaf_true"][k])
         terms.apply(k, t, plant.qpos, plant.qvel, true_mass, plant.applied)
         fault_terms_on = inputs.fault_terms_on[k]
         if fault_terms_on:
@@ -400,6 +400,8 @@ class _Run:
             series["tau_delivered"][k] = actuators.delivered
         if actuators is not None or fault_terms_on:
             series["fault_torque"][k] = terms.fault_force
+            if truths is not None and inputs.fault_on[k]:  # the fault's acceleration M(q)^-1 f
+                truths.fault(plant, series["fault_torque"][k], series["fault_acceleration"][k])
 
     def advance(self, k: int) -> None:
         """5. The observers integrate over the period (:meth:`integrate_observers`); the plant steps
@@ -423,13 +425,12 @@ class _Run:
         self.stop(self.plant.step(self.series.rows["qdd_true"][k]), k)
 
     def finish_truth(self) -> None:
-        """The truths solved with the samples' factorisations of M(q) (:meth:`Truths.solve`)."""
+        """The true LUaF from the true accelerations and the per-period solves (:meth:`Truths.finish`)."""
         series = self.series.rows
         if self.truths is None:  # no true LUaF; no fault acts on a log (its fault series stay zero)
             series["luaf_true"].fill(np.nan)
             return
-        self.truths.solve(self.solver, series["qdd_true"], series["fault_torque"], self.inputs.fault_on,
-                          series["luaf_true"], series["fault_acceleration"])
+        self.truths.finish(series["qdd_true"], series["luaf_true"])
 
     def result(self) -> BatchRun:
         """The series, cut where each row stopped."""
