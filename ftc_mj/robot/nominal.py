@@ -350,14 +350,21 @@ class CompiledNominal(NominalBatch):
             self.coriolis_transpose, self.gravity = np.zeros((points, n)), np.zeros((points, n))
         #: The M-only points (views), or None.
         self.at_readings = None if mass_points is None else MassPoints(self, model, slice(len(mass_scale), points))
-        slices = max(1, min(nthread, points // POINTS_PER_THREAD))
-        bounds = np.linspace(0, points, slices + 1).astype(int)
-        # Each slice's kernel arguments, views made once: the per-point arrays cut along their first axis.
-        self._slices = [self._arguments(slice(start, stop), velocity_points)
-                        for start, stop in zip(bounds[:-1], bounds[1:])]
+        threads = max(1, min(nthread, len(mass_scale) // POINTS_PER_THREAD))
+        # Each thread's kernel calls, their arguments (views) made once. One thread: one call over every point.
+        # More: each an equal share of the points with velocity terms and one of the M-only points (cheaper
+        # per point), so that no thread waits for another.
+        if threads == 1:
+            self._tasks = [[self._arguments(slice(0, points), velocity_points)]]
+        else:
+            self._tasks = [[self._arguments(part, velocity_points)
+                            for part in (_share(0, len(mass_scale), t, threads), _share(len(mass_scale), points, t,
+                                                                                        threads))
+                            if part.stop > part.start]
+                           for t in range(threads)]
         # Threads from the second call on: the first may compile the kernel (and say so), once.
         self._pool: ThreadPoolExecutor | None = None
-        self._threads = slices - 1
+        self._threads = threads - 1
 
     def _arguments(self, points: slice, velocity_points: int) -> tuple:
         """The kernel's arguments for the points ``points`` (of which those before ``velocity_points`` have the
@@ -372,15 +379,15 @@ class CompiledNominal(NominalBatch):
 
     def evaluate(self) -> None:
         pool = self._pool
-        if pool is None:  # one slice, or the first call
-            for arguments in self._slices:
-                evaluate(arguments)
+        if pool is None:  # one thread, or the first call
+            for task in self._tasks:
+                _run(task)
             if self._threads:
                 self._pool = _threads(self._threads)
             return
-        first, *others = self._slices
-        pending = [pool.submit(evaluate, arguments) for arguments in others]
-        evaluate(first)  # the first slice on the calling thread, meanwhile
+        first, *others = self._tasks
+        pending = [pool.submit(_run, task) for task in others]
+        _run(first)  # the first thread's share on the calling thread, meanwhile
         for future in pending:
             future.result()
 
@@ -390,6 +397,18 @@ class CompiledNominal(NominalBatch):
 
     def mass_matrices(self) -> np.ndarray:
         return self._dense.update(self._sparse_M)
+
+
+def _share(start: int, stop: int, part: int, parts: int) -> slice:
+    """Part ``part`` of ``parts`` near-equal consecutive parts of ``start:stop``."""
+    bounds = np.linspace(start, stop, parts + 1).astype(int)
+    return slice(int(bounds[part]), int(bounds[part + 1]))
+
+
+def _run(task: list[tuple]) -> None:
+    """One thread's kernel calls."""
+    for arguments in task:
+        evaluate(arguments)
 
 
 class MassPoints:

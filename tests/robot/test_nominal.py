@@ -442,20 +442,25 @@ def test_the_mujoco_momentum_terms_of_a_point_do_not_depend_on_the_other_points(
         nominal_batch(ball, np.ones(2), 1, momentum_points=np.ones(2, bool))
 
 
-@pytest.mark.parametrize("mass_only", [False, True])
-def test_compiled_points_cut_over_threads_keep_their_bits(model, mass_only):
-    """With threads the compiled batch cuts its points into slices evaluated at once: every output keeps the
-    bits of the one-thread batch, the momentum terms included, and each slice writes only its own points."""
+@pytest.mark.parametrize("kind", ["psi", "mass_only", "psi and M-only points"])
+def test_compiled_points_cut_over_threads_keep_their_bits(model, kind):
+    """With threads the compiled batch cuts its points into shares evaluated at once (an equal share of the
+    points with velocity terms and of the M-only points per thread): every output keeps the bits of the
+    one-thread batch, the momentum terms included, and each share writes only its own points."""
     from ftc_mj.robot.nominal import POINTS_PER_THREAD
-    points = 3 * POINTS_PER_THREAD + 5
+    mass_only = kind == "mass_only"
+    psi_points = 3 * POINTS_PER_THREAD + 5
     rng = np.random.default_rng(21)
+    scale = rng.uniform(0.8, 1.2, psi_points)
+    extra = rng.uniform(0.8, 1.2, 2 * POINTS_PER_THREAD + 1) if kind == "psi and M-only points" else None
+    points = psi_points + (0 if extra is None else len(extra))
     q, qd, applied = (rng.uniform(-np.pi, np.pi, (points, 3)), rng.uniform(-2.0, 2.0, (points, 3)),
                       rng.normal(size=(points, 3)))
-    scale = rng.uniform(0.8, 1.2, points)
-    mask = None if mass_only else rng.uniform(size=points) < 0.5
-    one, three = (nominal_batch(model, scale, threads, mass_only=mass_only, momentum_points=mask)
+    mask = None if mass_only else rng.uniform(size=psi_points) < 0.5
+    one, three = (nominal_batch(model, scale, threads, mass_only=mass_only, momentum_points=mask, mass_points=extra)
                   for threads in (1, 3))
-    assert isinstance(three, CompiledNominal) and len(three._slices) == 3 and len(one._slices) == 1
+    assert isinstance(three, CompiledNominal) and len(three._tasks) == 3 and len(one._tasks) == 1
+    assert [len(task) for task in three._tasks] == [1 if extra is None else 2] * 3 and len(one._tasks[0]) == 1
     for batch in (one, three):  # the first call on the calling thread (it may compile), the second on threads
         batch.qpos[:], batch.qvel[:], batch.applied[:] = -q, qd, applied
         batch.evaluate()
