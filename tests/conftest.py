@@ -14,3 +14,19 @@ from pathlib import Path
 _TESTS = str(Path(__file__).resolve().parent)
 if _TESTS not in sys.path:
     sys.path.insert(0, _TESTS)
+
+
+import pytest  # noqa: E402
+
+
+@pytest.fixture(scope="session", autouse=True)
+def compiled_kernels() -> None:
+    """Every kernel the shipped scenarios use, compiled (or loaded from Numba's cache) once before any test: the
+    tests that start ``ftc-mj`` in a subprocess and read its stderr then see a warm cache, as a user's second
+    run does (the first run's one-line announcements have tests of their own, with a fresh cache)."""
+    from ftc_mj import load_scenario
+    from ftc_mj.engine.loop import simulate
+    from ftc_mj.engine.members import single
+
+    scenario = load_scenario(Path(__file__).resolve().parents[1] / "scenarios" / "puma_fault.yaml", duration=0.01)
+    simulate(scenario, single(scenario))

@@ -115,3 +115,13 @@ def sign(x: float) -> float:
     if x < 0.0:
         return -1.0
     return 0.0 if x == 0.0 else x
+
+
+@numba.njit(cache=True, inline="always")
+def euler_state(psi_hat: np.ndarray, command: np.ndarray, injection: np.ndarray, q_hat_rate: np.ndarray,
+                dt: float, q_hat: np.ndarray, qd_hat: np.ndarray, i: int, j: int) -> None:
+    """One Euler period of an observer's x1_hat, x2_hat at member i, joint j: x1_hat += dt x1_hat' and
+    x2_hat += dt ((Psi + M^-1 u) + injection), in the NumPy laws' order of operations."""
+    qdd_hat = (psi_hat[i, j] + command[i, j]) + injection[i, j]
+    q_hat[i, j] += dt * q_hat_rate[i, j]
+    qd_hat[i, j] += dt * qdd_hat

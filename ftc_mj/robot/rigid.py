@@ -167,23 +167,9 @@ class RigidTree:
         return (scale[:, None] * self.mass, scale[:, None, None] * self.first_moment,
                 scale[:, None, None, None] * self.inertia, scale[:, None] * self.armature)
 
-    def evaluate(self, mass: np.ndarray, first_moment: np.ndarray, inertia: np.ndarray, armature: np.ndarray,
-                 qpos: np.ndarray, qvel: np.ndarray, applied: np.ndarray, sparse_M: np.ndarray,
-                 factor: np.ndarray, diagonal_inverse: np.ndarray, qacc: np.ndarray, bias: np.ndarray,
-                 with_velocity: bool, momentum_points: np.ndarray | None = None,
-                 coriolis_transpose: np.ndarray | None = None, gravity: np.ndarray | None = None,
-                 velocity_points: int | None = None) -> None:
-        """At every point: M (sparse), its factorisation and, ``with_velocity``, C qd + G into ``bias`` and
-        M^-1 (applied - bias) into ``qacc``. The per-point inertias come from :meth:`scaled`.
-
-        ``momentum_points`` (a ``(points,)`` mask, with ``with_velocity``): where C(q, qd)^T qd and G(q) are
-        computed as well, into ``coriolis_transpose`` and ``gravity`` ``(points, n)`` (the module docstring);
-        the other points' rows are left as they are. None: nowhere (nothing computed, nothing written).
-        ``velocity_points``: with ``with_velocity``, only the first that many points have the velocity terms,
-        the others M alone (None: every point)."""
-        evaluate(self.arguments(mass, first_moment, inertia, armature, qpos, qvel, applied, sparse_M, factor,
-                                diagonal_inverse, qacc, bias, with_velocity, momentum_points, coriolis_transpose,
-                                gravity, velocity_points))
+    def evaluate(self, *arguments: object, **keywords: object) -> None:
+        """The kernel at every point, on :meth:`arguments`' parameters (what it computes is said there)."""
+        evaluate(self.arguments(*arguments, **keywords))
 
     def arguments(self, mass: np.ndarray, first_moment: np.ndarray, inertia: np.ndarray, armature: np.ndarray,
                   qpos: np.ndarray, qvel: np.ndarray, applied: np.ndarray, sparse_M: np.ndarray,
@@ -191,8 +177,16 @@ class RigidTree:
                   with_velocity: bool, momentum_points: np.ndarray | None = None,
                   coriolis_transpose: np.ndarray | None = None, gravity: np.ndarray | None = None,
                   velocity_points: int | None = None) -> tuple:
-        """The compiled kernel's arguments for :meth:`evaluate`'s, for :func:`evaluate`: made once where the
-        same points are evaluated every period (the call then skips this wrapper)."""
+        """The compiled kernel's arguments, for :func:`evaluate` (made once where the same points are evaluated
+        every period: the call then skips this wrapper). The kernel computes, at every point: M (sparse), its
+        factorisation and, ``with_velocity``, C qd + G into ``bias`` and M^-1 (applied - bias) into ``qacc``.
+        The per-point inertias come from :meth:`scaled`.
+
+        ``momentum_points`` (a ``(points,)`` mask, with ``with_velocity``): where C(q, qd)^T qd and G(q) are
+        computed as well, into ``coriolis_transpose`` and ``gravity`` ``(points, n)`` (the module docstring);
+        the other points' rows are left as they are. None: nowhere (nothing computed, nothing written).
+        ``velocity_points``: with ``with_velocity``, only the first that many points have the velocity terms,
+        the others M alone (None: every point)."""
         if momentum_points is None:
             momentum_points, coriolis_transpose, gravity = _NO_POINTS, _NO_TERMS, _NO_TERMS
         if not with_velocity:

@@ -84,7 +84,5 @@ def _advance(psi_hat, command, injection, q_hat_rate, dt, filter_weight, q_hat, 
     """One Euler period of (4.37) and the LUaF filter's exact step."""
     for i in range(q_hat.shape[0]):
         for j in range(q_hat.shape[1]):
-            qdd_hat = (psi_hat[i, j] + command[i, j]) + injection[i, j]
-            q_hat[i, j] += dt * q_hat_rate[i, j]
-            qd_hat[i, j] += dt * qdd_hat
+            compiled.euler_state(psi_hat, command, injection, q_hat_rate, dt, q_hat, qd_hat, i, j)
             luaf_hat[i, j] += filter_weight[i, j] * (injection[i, j] - luaf_hat[i, j])

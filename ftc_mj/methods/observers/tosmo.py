@@ -170,7 +170,5 @@ def _advance(psi_hat, command, injection, q_hat_rate, dt, luaf_step, sign, q_hat
     """One Euler period of (5.6): x1_hat, x2_hat and the LUaF estimate (5.13)."""
     for i in range(q_hat.shape[0]):
         for j in range(q_hat.shape[1]):
-            qdd_hat = (psi_hat[i, j] + command[i, j]) + injection[i, j]
-            q_hat[i, j] += dt * q_hat_rate[i, j]
-            qd_hat[i, j] += dt * qdd_hat
+            compiled.euler_state(psi_hat, command, injection, q_hat_rate, dt, q_hat, qd_hat, i, j)
             luaf_hat[i, j] += luaf_step[i, j] * sign[i, j]
