@@ -4,11 +4,19 @@ from __future__ import annotations
 
 from pathlib import Path
 
+import pytest
+
 from ftc_mj.cli.main import main
+from ftc_mj.robot.packages import resolve_package_uri
 
 ROOT = Path(__file__).resolve().parents[2]
+#: The URDF scenarios' arm comes from the optional extra ``robots`` (example-robot-data), not from ``test``.
+needs_example_robot_data = pytest.mark.skipif(
+    resolve_package_uri("package://example-robot-data/robots/ur_description/urdf/ur5_robot.urdf") is None,
+    reason="example-robot-data is not installed (pip install -e '.[robots]')")
 
 
+@needs_example_robot_data
 def test_check_a_scenario_prints_every_joint(capsys):
     assert main(["robot", "check", str(ROOT / "scenarios" / "robots" / "ur5_urdf.yaml")]) == 0
     out = capsys.readouterr().out
@@ -18,10 +26,14 @@ def test_check_a_scenario_prints_every_joint(capsys):
     assert "warning: no joint has armature" in out  # the URDF carries none
 
 
-def test_check_a_robot_file_and_set(capsys):
+def test_check_a_robot_file(capsys):
     assert main(["robot", "check", str(ROOT / "models" / "puma560.xml")]) == 0
     out = capsys.readouterr().out
     assert "joint1" in out and "no warnings" in out and "peak tau_ref" in out
+
+
+@needs_example_robot_data
+def test_check_with_set(capsys):
     scenario = str(ROOT / "scenarios" / "robots" / "ur5_urdf.yaml")
     assert main(["robot", "check", scenario, "--set", "robot.armature=0.1"]) == 0
     assert "no joint has armature" not in capsys.readouterr().out
