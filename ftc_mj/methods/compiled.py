@@ -96,12 +96,16 @@ def announce_compilation(module: str) -> None:
 
 def entry(values: np.ndarray, member: int, joint: int) -> float:
     """``values[member, joint]`` as NumPy broadcasting reads it: a row ``(n,)`` (the reference shared by every
-    member), a row per member ``(members, n)``, or a single row ``(1, n)`` for every member."""
-    raise NotImplementedError("a compiled helper: call it from a kernel")
+    member), a row per member ``(members, n)``, or a single row ``(1, n)`` for every member. In a kernel its
+    compiled form (below) is used, one per number of dimensions."""
+    if values.ndim == 1:
+        return float(values[joint])
+    return float(values[min(member, values.shape[0] - 1), joint])
 
 
 @overload(entry, inline="always")
 def _entry(values, member, joint):  # noqa: ANN001, ANN202 (Numba's typing)
+    """:func:`entry` compiled for the array type at hand."""
     if values.ndim == 1:
         return lambda values, member, joint: values[joint]
     return lambda values, member, joint: values[min(member, values.shape[0] - 1), joint]

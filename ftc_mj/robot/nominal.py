@@ -373,7 +373,7 @@ class CompiledNominal(NominalBatch):
         return self._tree.arguments(
             *(array[points] for array in self._inertias), self.qpos[points], self.qvel[points],
             self.applied[points], self._sparse_M[points], self.factor[points], self.diagonal_inverse[points],
-            self._qacc[points], self._bias[points], velocity_points > points.start, cut(self._momentum_points),
+            self._qacc[points], self._bias[points], True, cut(self._momentum_points),
             cut(self.coriolis_transpose), cut(self.gravity),
             velocity_points=min(max(velocity_points - points.start, 0), points.stop - points.start))
 

@@ -260,8 +260,8 @@ def _evaluate(parent, offset_position, offset_rotation, hinge, axis, anchor, ref
               diagonal_inverse, qacc, bias, velocity_points, momentum_points, coriolis_transpose,
               gravity_torque):  # pragma: no cover - compiled (tested through its wrapper)
     """:meth:`RigidTree.evaluate` over the points ``p``: kinematics and each node's inertia in world coordinates,
-    Newton-Euler (the first ``velocity_points`` points), composite inertias, C^T qd and G where ``momentum_points`` asks, M, L'DL
-    and the solve. One point's numbers come from its inputs alone (scratch arrays are rewritten per point); the
+    Newton-Euler (the first ``velocity_points`` points), composite inertias, C^T qd and G where
+    ``momentum_points`` asks, M, L'DL and the solve. One point's numbers come from its inputs alone (scratch arrays are rewritten per point); the
     momentum terms only add outputs, the other quantities are computed as without them."""
     points, n = qpos.shape
     rotation = np.empty((n, 3, 3))

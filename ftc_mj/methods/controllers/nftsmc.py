@@ -86,6 +86,7 @@ class NFTSMC(SlidingModeController):
         self._magnitude, self._magnitude_rate = np.zeros(self.shape), np.zeros(self.shape)
         self._power, self._power_rate, self._cube = np.zeros(self.shape), np.zeros(self.shape), np.zeros(self.shape)
         self._negative_u = np.zeros(self.shape)
+        self._period = float(dt)
 
     def reset(self) -> None:
         super().reset()
@@ -104,7 +105,7 @@ class NFTSMC(SlidingModeController):
         np.power(e, 3, self._cube)
         compensation = self.observer_compensation(observer)
         _negative_control(e, e_dot, self._power, self._power_rate, self._cube, c.beta1, c.beta2, c.beta3, c.beta4,
-                          float(self.dt), self._integral, self.sliding, qdd_ref, model.psi_control,
+                          self._period, self._integral, self.sliding, qdd_ref, model.psi_control,
                           e if compensation is None else compensation, compensation is not None, self._gain,
                           self._negative_u)
         return model.apply_M(self._negative_u, out=self.tau)

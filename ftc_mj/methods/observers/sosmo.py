@@ -47,7 +47,7 @@ class SOSMO(Observer):
         self._filter_weight = 1.0 - exp(-self.dt / config.filter_time_constant)
         self._q_hat_rate = np.zeros(self.shape)
         # The fused law (:mod:`ftc_mj.methods.compiled`): the power 1/2 is sqrt in both, as signed_power takes it.
-        self._fused = compiled.fused(self, (SOSMO,), self.k1, self.k2, self._filter_weight)
+        self._fused, self._period = compiled.fused(self, (SOSMO,), self.k1, self.k2, self._filter_weight), float(dt)
 
     def update(self, t: float, q_meas: np.ndarray, model: StepModel) -> None:
         if self._fused:
@@ -59,7 +59,7 @@ class SOSMO(Observer):
 
     def advance(self, tau: np.ndarray, model: StepModel) -> None:
         if self._fused:
-            _advance(model.psi_hat, model.command_acceleration(tau), self.injection, self._q_hat_rate, float(self.dt),
+            _advance(model.psi_hat, model.command_acceleration(tau), self.injection, self._q_hat_rate, self._period,
                      self._filter_weight, self.q_hat, self.qd_hat, self.luaf_hat)
             return
         qdd_hat = model.psi_hat + model.command_acceleration(tau) + self.injection

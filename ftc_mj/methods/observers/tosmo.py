@@ -82,6 +82,7 @@ class TOSMO(Observer):
         self._power_third = np.zeros(self.shape)
         self._gamma = getattr(config, "gamma", self.k1)  # Gamma of (5.6); unused (any array) in the TOSMO
         self._fused = compiled.fused(self, (TOSMO, HighSpeedTOSMO), self.k1, self.k2, self._luaf_step, self._gamma)
+        self._linear_terms, self._period = type(self) is HighSpeedTOSMO, float(dt)
 
     def update(self, t: float, q_meas: np.ndarray, model: StepModel) -> None:
         if self._fused:
@@ -91,7 +92,7 @@ class TOSMO(Observer):
             np.power(magnitude, _TWO_THIRDS, magnitude)
             np.power(magnitude_third, _ONE_THIRD, magnitude_third)
             _injection(self._error, magnitude, magnitude_third, self.k1, self.k2, self._gamma,
-                       type(self) is HighSpeedTOSMO, self.qd_hat, self.luaf_hat, self._q_hat_rate, self.injection)
+                       self._linear_terms, self.qd_hat, self.luaf_hat, self._q_hat_rate, self.injection)
             return
         error = np.subtract(q_meas, self.q_hat, out=self._error)
         np.sign(error, out=self._sign)
@@ -109,7 +110,7 @@ class TOSMO(Observer):
 
     def advance(self, tau: np.ndarray, model: StepModel) -> None:
         if self._fused:
-            _advance(model.psi_hat, model.command_acceleration(tau), self.injection, self._q_hat_rate, float(self.dt),
+            _advance(model.psi_hat, model.command_acceleration(tau), self.injection, self._q_hat_rate, self._period,
                      self._luaf_step, self._sign, self.q_hat, self.qd_hat, self.luaf_hat)
             return
         qdd_hat = np.add(model.psi_hat, model.command_acceleration(tau), out=self._qdd_hat)
