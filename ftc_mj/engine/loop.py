@@ -31,7 +31,9 @@ plant: only readings, time, the reference, their own commands and the nominal mo
 from __future__ import annotations
 
 import os
-from collections.abc import Callable
+import threading
+from collections.abc import Callable, Iterator
+from contextlib import contextmanager
 from dataclasses import dataclass
 from functools import cached_property
 
@@ -155,12 +157,33 @@ def simulate(
 
     MuJoCo's printed warnings are silenced meanwhile: the bad-state warnings are each row's divergence, which
     the run reports itself (with the variant, the member and the time)."""
-    previous = mujoco.get_mju_user_warning()
-    mujoco.set_mju_user_warning(_quiet)
-    try:
+    with quiet_warnings():
         return _simulate(scenario, members, record_poses, progress, nthread, on_chunk)
+
+
+_quiet_lock = threading.Lock()
+_quiet_depth = 0
+_previous_warning: Callable[[str], None] | None = None
+
+
+@contextmanager
+def quiet_warnings() -> Iterator[None]:
+    """MuJoCo's printed warnings silenced meanwhile (the batch still counts them per simulation). Runs on
+    several threads at once share it: the first to enter installs the silent handler, the last to leave puts
+    the previous one back (MuJoCo's handler is global, not per thread)."""
+    global _quiet_depth, _previous_warning
+    with _quiet_lock:
+        if _quiet_depth == 0:
+            _previous_warning = mujoco.get_mju_user_warning()
+            mujoco.set_mju_user_warning(_quiet)
+        _quiet_depth += 1
+    try:
+        yield
     finally:
-        mujoco.set_mju_user_warning(previous)
+        with _quiet_lock:
+            _quiet_depth -= 1
+            if _quiet_depth == 0:
+                mujoco.set_mju_user_warning(_previous_warning)
 
 
 def _quiet(message: str) -> None:

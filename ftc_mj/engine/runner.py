@@ -16,7 +16,9 @@ Both go through :func:`ftc_mj.engine.loop.simulate`.
 from __future__ import annotations
 
 import dataclasses
+import os
 from collections.abc import Callable
+from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass
 
 import numpy as np
@@ -27,6 +29,11 @@ from ftc_mj.engine.loop import BatchRun, ChunkCallback, ProgressCallback, simula
 from ftc_mj.engine.members import Members, single
 from ftc_mj.results import VariantResult
 from ftc_mj.spec.scenario import Scenario, Variant, series_bytes
+
+#: From this many rows (members x variants) a chunk on two or more threads is run as two interleaved halves
+#: (:func:`_interleaved`); below it the Python of the two halves would contend for the GIL more than their
+#: physics overlaps (``benchmarks/batch_cost.py --members`` measures both sides of it).
+INTERLEAVED_ROWS = 96
 
 #: Default memory for the series of one chunk of members [bytes].
 DEFAULT_MEMORY_BUDGET = 2 * 1024**3
@@ -100,12 +107,46 @@ def run_batch(
     ``on_result(member, results)`` sees each member's whole results before they are dropped."""
     per_member = int(series_bytes(scenario.spec, scenario.n_joints))
     chunk = max(1, min(members.count, memory_budget // max(per_member, 1)))
+    threads = nthread if nthread > 0 else os.cpu_count() or 1
     outcomes: list[MemberOutcome] = []
     for start in range(0, members.count, chunk):
         stop = min(members.count, start + chunk)
-        run = simulate(scenario, members.select(slice(start, stop)), progress=progress, nthread=nthread)
-        outcomes += member_outcomes(scenario, run, start, on_result)
-        del run
+        if threads < 2 or (stop - start) * len(scenario.variants) < INTERLEAVED_ROWS:
+            run = simulate(scenario, members.select(slice(start, stop)), progress=progress, nthread=nthread)
+            outcomes += member_outcomes(scenario, run, start, on_result)
+            del run
+        else:
+            outcomes += _interleaved(scenario, members, start, stop, threads, progress, on_result)
+    return outcomes
+
+
+def _interleaved(scenario: Scenario, members: Members, start: int, stop: int, threads: int,
+                 progress: ProgressCallback | None,
+                 on_result: Callable[[int, list[VariantResult]], None] | None) -> list[MemberOutcome]:
+    """Members ``start:stop`` as two halves, each its own run in its own Python thread on half the threads.
+
+    MuJoCo's step and the compiled kernels release the GIL, so one half's physics runs while the other's
+    Python laws run: the cost above physics is paid beside it, not after it. A member's results do not depend on
+    the members it is stepped with (the batch guarantee), so the halves give the outcomes of one run; the
+    first half alone reports progress (both step through the same samples), and ``on_result`` is called in
+    member order after both halves are done."""
+    middle = (start + stop + 1) // 2
+    halves = [(start, middle), (middle, stop)]
+    kept: list[list[tuple[int, list[VariantResult]]]] = [[], []]
+
+    def half(index: int) -> list[MemberOutcome]:
+        first, last = halves[index]
+        run = simulate(scenario, members.select(slice(first, last)), progress=progress if index == 0 else None,
+                       nthread=max(1, threads // 2))
+        keep = None if on_result is None else (lambda member, results: kept[index].append((member, results)))
+        return member_outcomes(scenario, run, first, keep)
+
+    with ThreadPoolExecutor(max_workers=2, thread_name_prefix="ftc_mj-batch") as pool:
+        futures = [pool.submit(half, index) for index in range(2)]
+        outcomes = [outcome for future in futures for outcome in future.result()]
+    if on_result is not None:
+        for member, results in kept[0] + kept[1]:
+            on_result(member, results)
     return outcomes
 
 

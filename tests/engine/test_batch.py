@@ -11,7 +11,8 @@ import numpy as np
 import pytest
 import yaml
 
-from ftc_mj.engine.loop import simulate
+from ftc_mj.engine import runner
+from ftc_mj.engine.loop import quiet_warnings, simulate
 from ftc_mj.engine.members import Members, members_from_overrides, replicates
 from ftc_mj.engine.runner import run_batch, variant_result
 from ftc_mj.config.errors import InputError
@@ -196,6 +197,45 @@ def test_chunks_give_the_metrics_of_one_batch(scenario):
         assert a.status == b.status
         for metric, values in a.metrics.items():
             np.testing.assert_allclose(values, b.metrics[metric], rtol=1e-12, atol=0, err_msg=metric)  # sums in another order
+
+
+def test_interleaved_halves_give_the_outcomes_of_one_run(scenario, monkeypatch):
+    """A chunk on two threads as two interleaved halves (of 3 and 2 members): the same outcomes bit for bit, in
+    the same order, and ``on_result`` sees the members in order, as one run on one thread gives them."""
+    members = members_from_overrides(scenario, MEMBERS)
+    seen: dict[int, list[tuple[int, list[str]]]] = {1: [], 2: []}
+    outcomes = {}
+    monkeypatch.setattr(runner, "INTERLEAVED_ROWS", 0)  # halves whatever the chunk's size
+    for threads in (1, 2):
+        outcomes[threads] = run_batch(scenario, members, nthread=threads, on_result=lambda member, results, t=threads:
+                                      seen[t].append((member, [result.name for result in results])))
+    assert seen[1] == seen[2] and [member for member, _ in seen[2]] == list(range(len(MEMBERS)))
+    one, halves = outcomes[1], outcomes[2]
+    assert [(o.member, o.variant, o.status) for o in one] == [(o.member, o.variant, o.status) for o in halves]
+    for a, b in zip(one, halves):
+        for metric, values in a.metrics.items():
+            np.testing.assert_array_equal(values, b.metrics[metric], err_msg=f"{a.member} {a.variant} {metric}")
+
+
+def test_quiet_warnings_restores_the_handler_after_overlapping_runs():
+    """Runs on several threads overlap in the silenced-warnings section; the last one out restores the handler."""
+    import mujoco
+
+    def mine(message: str) -> None:
+        pass
+
+    previous = mujoco.get_mju_user_warning()
+    mujoco.set_mju_user_warning(mine)
+    try:
+        outer, inner = quiet_warnings(), quiet_warnings()
+        outer.__enter__()
+        inner.__enter__()
+        outer.__exit__(None, None, None)  # the first to leave is not the last: still silent
+        assert mujoco.get_mju_user_warning() is not mine
+        inner.__exit__(None, None, None)
+        assert mujoco.get_mju_user_warning() is mine
+    finally:
+        mujoco.set_mju_user_warning(previous)
 
 
 @pytest.mark.parametrize("override, message", [
