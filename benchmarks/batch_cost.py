@@ -22,6 +22,7 @@ import numpy as np
 from mujoco.batch import Batch
 
 from ftc_mj.engine.members import replicates
+from ftc_mj.engine.plant import PERSISTENT_ROWS
 from ftc_mj.engine.runner import run_batch
 from ftc_mj.spec.loading import load_scenario
 
@@ -29,8 +30,9 @@ SCENARIO = Path(__file__).resolve().parents[1] / "scenarios" / "puma_fault.yaml"
 
 
 def bare(model: mujoco.MjModel, members: int, substeps: int, periods: int, threads: int) -> float:
-    """Seconds per member and period of a Batch that only writes ``ctrl`` (a PD law) between steps."""
-    batch = Batch(model, members, nthread=threads, persistent=True)
+    """Seconds per member and period of a Batch that only writes ``ctrl`` (a PD law) between steps: the plant's
+    kind of batch for as many rows (:data:`~ftc_mj.engine.plant.PERSISTENT_ROWS`)."""
+    batch = Batch(model, members, nthread=threads, persistent=members <= PERSISTENT_ROWS)
     qpos, ctrl = batch.bind("qpos"), batch.bind("ctrl")
     stage = int(mujoco.mjtStage.mjSTAGE_VEL)
     start = time.perf_counter()

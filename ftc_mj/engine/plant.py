@@ -86,15 +86,24 @@ class Plant(Protocol):
         ``acceleration`` ``(rows, n)``; the newly stopped rows (a mask), or None."""
 
 
+#: Up to this many rows the plant's batch keeps one MjData per row (``persistent``: a step continues from the
+#: stages the last one computed); beyond it, one MjData per thread that loads each row's state. Both give the
+#: same bits (the batch's guarantee). A persistent row's MjData is some 25 KB here: a few dozen fit in a core's
+#: cache and save the stages computed again, but a campaign batch's hundreds evict the loop's own arrays
+#: between two steps (``benchmarks/loop_phases.py``: the physics phase 17.8-19.0 against 22.0-23.4 us per
+#: row-period of 336 rows; a single row 20.5 against 23.3 us per period persistent).
+PERSISTENT_ROWS = 32
+
+
 class MuJoCoPlant(Plant):
-    """:class:`Plant` simulated by MuJoCo: one simulation of a persistent :class:`mujoco.batch.Batch` per row."""
+    """:class:`Plant` simulated by MuJoCo: one simulation of a :class:`mujoco.batch.Batch` per row."""
 
     has_truth = True
 
     def __init__(self, model: mujoco.MjModel, rows: int, substeps: int, nthread: int,
                  mass_scale: np.ndarray | None = None, max_position: float = np.inf, max_velocity: float = np.inf):
         """``mass_scale``: one per row, scales masses, inertias and armature of that row's model."""
-        self.batch = Batch(model, rows, nthread=nthread, persistent=True)
+        self.batch = Batch(model, rows, nthread=nthread, persistent=rows <= PERSISTENT_ROWS)
         if mass_scale is not None and np.any(mass_scale != 1.0):
             scale_masses(self.batch.expand, mass_scale)
             self.batch.set_const()
@@ -127,7 +136,11 @@ class MuJoCoPlant(Plant):
         self.batch.forward(stage=_POSITION_VELOCITY_STAGE)
 
     def poses(self) -> tuple[np.ndarray, np.ndarray]:
-        return self.batch.bind("xpos"), self.batch.bind("xquat")
+        """Bound on demand (every bound field is copied out after each call); the stages computed again at the
+        current state fill them at once (a bound derived field is zero until the next call)."""
+        poses = self.batch.bind("xpos"), self.batch.bind("xquat")
+        self.batch.forward(stage=_POSITION_VELOCITY_STAGE)
+        return poses
 
     @staticmethod
     def _sensor_ids(model: mujoco.MjModel) -> np.ndarray:

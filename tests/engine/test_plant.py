@@ -194,3 +194,35 @@ def test_sensor_columns_from_any_addresses(addresses):
     out = np.full((2, len(addresses)), np.nan)
     _columns(values, np.array(addresses, dtype=int))(out)
     np.testing.assert_array_equal(out, values[:, addresses])
+
+
+@pytest.mark.parametrize("persistent_rows", [0, 32])
+def test_both_kinds_of_batch_give_the_same_period_and_current_poses(persistent_rows, monkeypatch):
+    """A plant beyond PERSISTENT_ROWS (one MjData per thread) steps every row as a persistent one does, bit for
+    bit, and its poses are current from the first period (bound on demand, filled at once)."""
+    import ftc_mj.engine.plant as plant_module
+
+    model = mujoco.MjModel.from_xml_path(str(PUMA))
+    monkeypatch.setattr(plant_module, "PERSISTENT_ROWS", persistent_rows)
+    plant = MuJoCoPlant(model, 2, substeps=3, nthread=1)
+    assert plant.batch.persistent is (persistent_rows >= 2)
+    plant.reset(Q0, QD0)
+    xpos, xquat = plant.poses()
+    data = mujoco.MjData(model)
+    for row in range(2):
+        data.qpos[:], data.qvel[:] = Q0[row], QD0[row]
+        mujoco.mj_kinematics(model, data)
+        np.testing.assert_array_equal(xpos[row], data.xpos)
+        np.testing.assert_array_equal(xquat[row], data.xquat)
+    plant.ctrl[:] = [[1.0, -2.0, 0.5], [0.0, 3.0, -1.0]]
+    acceleration = np.zeros((2, 3))
+    plant.step(acceleration)
+    for row in range(2):
+        data = mujoco.MjData(model)
+        data.qpos[:], data.qvel[:], data.ctrl[:] = Q0[row], QD0[row], plant.ctrl[row]
+        mujoco.mj_step(model, data)
+        np.testing.assert_array_equal(acceleration[row], data.qacc)
+        for _ in range(2):
+            mujoco.mj_step(model, data)
+        np.testing.assert_array_equal(plant.qpos[row], data.qpos)
+        np.testing.assert_array_equal(plant.qvel[row], data.qvel)
