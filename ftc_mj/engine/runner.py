@@ -32,7 +32,7 @@ from ftc_mj.spec.scenario import Scenario, Variant, series_bytes
 
 #: From this many rows (members x variants) a chunk on two or more threads is run as two interleaved halves
 #: (:func:`_interleaved`); below it the Python of the two halves would contend for the GIL more than their
-#: physics overlaps (``benchmarks/batch_cost.py --members`` measures both sides of it).
+#: physics overlaps (the crossover measured on both sides: the performance page's change 8).
 INTERLEAVED_ROWS = 96
 
 #: Default memory for the series of one chunk of members [bytes].
@@ -112,9 +112,7 @@ def run_batch(
     for start in range(0, members.count, chunk):
         stop = min(members.count, start + chunk)
         if threads < 2 or (stop - start) * len(scenario.variants) < INTERLEAVED_ROWS:
-            run = simulate(scenario, members.select(slice(start, stop)), progress=progress, nthread=nthread)
-            outcomes += member_outcomes(scenario, run, start, on_result)
-            del run
+            outcomes += _chunk_outcomes(scenario, members, start, stop, nthread, progress, on_result)
         else:
             outcomes += _interleaved(scenario, members, start, stop, threads, progress, on_result)
     return outcomes
@@ -136,10 +134,9 @@ def _interleaved(scenario: Scenario, members: Members, start: int, stop: int, th
 
     def half(index: int) -> list[MemberOutcome]:
         first, last = halves[index]
-        run = simulate(scenario, members.select(slice(first, last)), progress=progress if index == 0 else None,
-                       nthread=max(1, threads // 2))
         keep = None if on_result is None else (lambda member, results: kept[index].append((member, results)))
-        return member_outcomes(scenario, run, first, keep)
+        return _chunk_outcomes(scenario, members, first, last, max(1, threads // 2),
+                               progress if index == 0 else None, keep)
 
     with ThreadPoolExecutor(max_workers=2, thread_name_prefix="ftc_mj-batch") as pool:
         futures = [pool.submit(half, index) for index in range(2)]
@@ -148,6 +145,14 @@ def _interleaved(scenario: Scenario, members: Members, start: int, stop: int, th
         for member, results in kept[0] + kept[1]:
             on_result(member, results)
     return outcomes
+
+
+def _chunk_outcomes(scenario: Scenario, members: Members, start: int, stop: int, nthread: int,
+                    progress: ProgressCallback | None,
+                    on_result: Callable[[int, list[VariantResult]], None] | None) -> list[MemberOutcome]:
+    """Members ``start:stop`` as one run; their outcomes (the run's series dropped on return)."""
+    run = simulate(scenario, members.select(slice(start, stop)), progress=progress, nthread=nthread)
+    return member_outcomes(scenario, run, start, on_result)
 
 
 def member_outcomes(scenario: Scenario, run: BatchRun, first: int = 0,
