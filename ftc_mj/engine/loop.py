@@ -47,7 +47,7 @@ from ftc_mj.effects.terms import PlantTerms
 from ftc_mj.engine.rows import Layout
 from ftc_mj.engine.mass import MassAtReadings, mass_at_readings
 from ftc_mj.engine.members import Members
-from ftc_mj.engine.plant import LogPlant, MuJoCoPlant, Plant
+from ftc_mj.engine.plant import LogPlant, Plant, plant_for
 from ftc_mj.engine.series import BatchRun, BlockSeries, Series
 from ftc_mj.engine.truths import Truths
 from ftc_mj.methods.controllers.base import Controller
@@ -475,8 +475,8 @@ def _plant(scenario: Scenario, members: Members, rows: int, per_row: Callable[[n
     if scenario.log is not None:
         return LogPlant(scenario.model, scenario.log, rows)
     spec = scenario.spec
-    return MuJoCoPlant(scenario.model, rows, scenario.substeps, threads, mass_scale=per_row(members.plant_mass_scale),
-                       max_position=spec.divergence.max_position, max_velocity=spec.divergence.max_velocity)
+    return plant_for(scenario.model, rows, scenario.substeps, threads, mass_scale=per_row(members.plant_mass_scale),
+                     max_position=spec.divergence.max_position, max_velocity=spec.divergence.max_velocity)
 
 
 def _readings(scenario: Scenario, members: Members, layout: Layout) -> Readings:

@@ -14,6 +14,7 @@ divergence, never a silent restart). The other rows go on.
 
 from __future__ import annotations
 
+import copy
 from collections.abc import Callable
 from typing import Protocol
 
@@ -107,14 +108,22 @@ class MuJoCoPlant(Plant):
         if mass_scale is not None and np.any(mass_scale != 1.0):
             scale_masses(self.batch.expand, mass_scale)
             self.batch.set_const()
+        bind = self.batch.bind
+        self._bind(model, rows, substeps, max_position, max_velocity, bind)
+        #: The bad-state warning counts of every row (a live view of the batch's warnings).
+        self._reset_counts = self.batch.warning[:, _RESET_WARNINGS, 1]
+
+    def _bind(self, model: mujoco.MjModel, rows: int, substeps: int, max_position: float, max_velocity: float,
+              bind: Callable[[str], np.ndarray]) -> None:
+        """The live ``(rows, ...)`` fields, ``bind(name)`` each, and what is derived from the model."""
         self.substeps = substeps
-        self.qpos, self.qvel = self.batch.bind("qpos"), self.batch.bind("qvel")
-        self.ctrl, self.applied = self.batch.bind("ctrl"), self.batch.bind("qfrc_applied")
-        self.qacc = self.batch.bind("qacc")
-        self.bias = self.batch.bind("qfrc_bias")
-        self._sensordata = self.batch.bind("sensordata")
-        self._sparse_M = self.batch.bind("M")
-        self.factor, self.diagonal_inverse = self.batch.bind("qLD"), self.batch.bind("qLDiagInv")
+        self.qpos, self.qvel = bind("qpos"), bind("qvel")
+        self.ctrl, self.applied = bind("ctrl"), bind("qfrc_applied")
+        self.qacc = bind("qacc")
+        self.bias = bind("qfrc_bias")
+        self._sensordata = bind("sensordata")
+        self._sparse_M = bind("M")
+        self.factor, self.diagonal_inverse = bind("qLD"), bind("qLDiagInv")
         self._dense = DenseMass(model, rows)
         self._position_readings = _columns(self._sensordata, position_sensor_addresses(model))
         self._velocity_readings = _columns(self._sensordata, velocity_sensor_addresses(model))
@@ -124,8 +133,6 @@ class MuJoCoPlant(Plant):
         self._position, self._velocity = np.zeros_like(self.qpos), np.zeros_like(self.qvel)
         self._ids: np.ndarray | None = None  # None: all rows step
         self.running = rows
-        #: The bad-state warning counts of every row (a live view of the batch's warnings).
-        self._reset_counts = self.batch.warning[:, _RESET_WARNINGS, 1]
 
     def reset(self, q0: np.ndarray, qd0: np.ndarray) -> None:
         self.batch.reset(stage=_NO_STAGE)  # MuJoCo's defaults, warnings cleared; the state is written next
@@ -200,6 +207,68 @@ class MuJoCoPlant(Plant):
         self._ids = np.flatnonzero(self.alive)
         self.running = len(self._ids)
         return new
+
+
+class OneRowPlant(MuJoCoPlant):
+    """:class:`MuJoCoPlant` of a single row on one MjData, stepped by MuJoCo's own calls (a single run).
+
+    The same bits as a persistent batch of one row, whose guarantee is a loop over one MjData per simulation:
+    a period is ``mj_step2`` (the first substep, continuing from the stages computed at the sample instant),
+    ``mj_step`` for the others, and ``mj_step1`` (the position and velocity stages at the new state); it saves
+    the batch's two calls a period, each loading and saving the row. MuJoCo's ``mj_step2`` integrates with
+    Euler or an implicit integrator only, so a model on RK4 runs as a batch of one (:func:`plant_for`)."""
+
+    def __init__(self, model: mujoco.MjModel, substeps: int, mass_scale: np.ndarray | None = None,
+                 max_position: float = np.inf, max_velocity: float = np.inf):
+        """``mass_scale``: ``(1,)``, scales masses, inertias and armature of a copy of ``model``."""
+        if model.opt.integrator == mujoco.mjtIntegrator.mjINT_RK4:
+            raise ValueError("mj_step2 does not integrate with RK4: step this model as a batch")
+        if mass_scale is not None and np.any(mass_scale != 1.0):
+            model = copy.deepcopy(model)
+            scale_masses(lambda name: getattr(model, name)[None], mass_scale)
+            mujoco.mj_setConst(model, mujoco.MjData(model))
+        self.model, self.data = model, mujoco.MjData(model)
+        self._bind(model, 1, substeps, max_position, max_velocity, lambda name: getattr(self.data, name)[None])
+        self._warnings = [self.data.warning[w] for w in range(_RESET_WARNINGS.start, _RESET_WARNINGS.stop)]
+        self._row = np.ones(1, dtype=bool)
+
+    def reset(self, q0: np.ndarray, qd0: np.ndarray) -> None:
+        mujoco.mj_resetData(self.model, self.data)  # MuJoCo's defaults, warnings cleared
+        self.alive[:] = True
+        self.running = 1
+        self.qpos[:] = q0
+        self.qvel[:] = qd0
+        mujoco.mj_step1(self.model, self.data)
+
+    def poses(self) -> tuple[np.ndarray, np.ndarray]:
+        """Live views, current after every reset and step (``mj_step1`` computes them)."""
+        return self.data.xpos[None], self.data.xquat[None]
+
+    def step(self, acceleration: np.ndarray) -> np.ndarray | None:
+        """As :meth:`MuJoCoPlant.step`; a MuJoCo error or bad-state warning stops the row."""
+        model, data = self.model, self.data
+        try:
+            mujoco.mj_step2(model, data)
+            acceleration[0] = self.qacc[0]
+            for _ in range(self.substeps - 1):
+                mujoco.mj_step(model, data)
+            mujoco.mj_step1(model, data)
+        except mujoco.FatalError:
+            return self._stop(self._row)
+        warnings = self._warnings
+        if warnings[0].number or warnings[1].number or warnings[2].number:
+            return self._stop(self._row)
+        return None
+
+
+def plant_for(model: mujoco.MjModel, rows: int, substeps: int, nthread: int,
+              mass_scale: np.ndarray | None = None, max_position: float = np.inf,
+              max_velocity: float = np.inf) -> MuJoCoPlant:
+    """The simulated robots of ``rows`` rows: one MjData for a single row (:class:`OneRowPlant`) where MuJoCo's
+    split step integrates the model, else a batch (:class:`MuJoCoPlant`)."""
+    if rows == 1 and model.opt.integrator != mujoco.mjtIntegrator.mjINT_RK4:
+        return OneRowPlant(model, substeps, mass_scale, max_position, max_velocity)
+    return MuJoCoPlant(model, rows, substeps, nthread, mass_scale, max_position, max_velocity)
 
 
 def _columns(values: np.ndarray, addresses: np.ndarray) -> Callable[[np.ndarray], None]:

@@ -282,12 +282,14 @@ def test_the_plants_own_mass_matrix_is_the_nominal_one(tmp_path, monkeypatch):
     scenario = load_scenario(path)
     shortcut = simulate(scenario, replicates(scenario, 2))
 
-    class EvaluatedPlant(loop.MuJoCoPlant):
-        def __init__(self, *args, **kwargs):
-            super().__init__(*args, **kwargs)
-            self.reads_state_exactly = False  # forces the nominal model's own M points
+    plant_for = loop.plant_for
 
-    monkeypatch.setattr(loop, "MuJoCoPlant", EvaluatedPlant)
+    def evaluated_plant(*args, **kwargs):
+        plant = plant_for(*args, **kwargs)
+        plant.reads_state_exactly = False  # forces the nominal model's own M points
+        return plant
+
+    monkeypatch.setattr(loop, "plant_for", evaluated_plant)
     general = simulate(scenario, replicates(scenario, 2))
     for name, values in shortcut.series.items():
         np.testing.assert_array_equal(values, general.series[name], err_msg=name)

@@ -481,18 +481,18 @@ def _reachable(obj, depth: int, seen: set[int]):
 
 def test_plugins_never_receive_the_simulation(tmp_path: Path, spies, monkeypatch: pytest.MonkeyPatch) -> None:
     """Observers and controllers get readings, time, the reference and the nominal model's arrays: never the
-    plant or its batch, any batch, or a view of any array the plant's batch binds (its live state). (The plant
-    has no MjData: an MjData they can reach is a private scratch one of the nominal model's solver.)"""
+    plant, its MjData, any batch, or a view of any array the plant binds (its live state). (An MjData they can
+    reach is a private scratch one of the nominal model's solver.)"""
     from ftc_mj.engine import plant as plant_module
 
     plants: list = []
-    real_plant = plant_module.MuJoCoPlant
+    real_plant = plant_module.plant_for
 
     def tracking_plant(*args, **kwargs):
         plants.append(real_plant(*args, **kwargs))
         return plants[-1]
 
-    monkeypatch.setattr("ftc_mj.engine.loop.MuJoCoPlant", tracking_plant)
+    monkeypatch.setattr("ftc_mj.engine.loop.plant_for", tracking_plant)
     spec = scenario_dict(variants={"spy": {"observer": {"type": "spy_observer", "gains": {"D": 22.0, "gamma": 5.0}},
                                            "controller": {"type": "spy_controller", "gains": NFTSMC_GAINS}}})
     scenario, result = run(tmp_path, spec)
@@ -500,8 +500,9 @@ def test_plugins_never_receive_the_simulation(tmp_path: Path, spies, monkeypatch
     assert (result.observer, result.controller) == ("spy_observer", "spy_controller")
     assert len(plants) == 1
     plant = plants[0]
-    plant_buffers = [plant.qpos, plant.qvel, plant.qacc, plant.ctrl, plant.applied,
-                     plant.batch.bind("sensordata"), plant.batch.bind("M")]
+    assert isinstance(plant, plant_module.OneRowPlant)  # a single run: one MjData
+    plant_buffers = [plant.qpos, plant.qvel, plant.qacc, plant.ctrl, plant.applied, plant._sensordata,
+                     plant._sparse_M, plant.factor]
 
     calls = spies.calls
     kinds = {kind for kind, _ in calls}
@@ -510,7 +511,7 @@ def test_plugins_never_receive_the_simulation(tmp_path: Path, spies, monkeypatch
     assert sum(kind == "controller.compute" for kind, _ in calls) == steps
     for kind, args in calls:
         for obj in _reachable(args, depth=5, seen=set()):
-            assert obj is not plant.batch and obj is not plant, f"{kind} can reach the plant"
+            assert obj is not plant.data and obj is not plant, f"{kind} can reach the plant"
             assert not isinstance(obj, mujoco.batch.Batch), f"{kind} can reach a batch"  # MjData: only scratch ones
             if isinstance(obj, np.ndarray):
                 for buffer in plant_buffers:

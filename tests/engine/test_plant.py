@@ -226,3 +226,71 @@ def test_both_kinds_of_batch_give_the_same_period_and_current_poses(persistent_r
             mujoco.mj_step(model, data)
         np.testing.assert_array_equal(plant.qpos[row], data.qpos)
         np.testing.assert_array_equal(plant.qvel[row], data.qvel)
+
+
+@pytest.mark.parametrize("mass_scale", [1.0, 2.0])
+def test_one_row_on_its_own_mjdata_steps_as_a_batch_of_one(mass_scale):
+    """A single row on one MjData (OneRowPlant) gives a persistent batch of one's bits, period after period,
+    under changing inputs: the first substep's acceleration, the state, the readings, M(q), its factor, the
+    bias forces and the poses; its mass scale scales a copy of the model, not the model."""
+    import ftc_mj.engine.plant as plant_module
+
+    model = _puma()
+    masses = model.body_mass.copy()
+    scale = np.array([mass_scale])
+    one = plant_module.plant_for(model, 1, substeps=3, nthread=1, mass_scale=scale)
+    batch = MuJoCoPlant(model, 1, substeps=3, nthread=1, mass_scale=scale)
+    assert isinstance(one, plant_module.OneRowPlant) and batch.batch.persistent is True
+    np.testing.assert_array_equal(model.body_mass, masses)
+    poses = []
+    for plant in (one, batch):
+        plant.reset(Q0[:1], QD0[:1])
+        poses.append(plant.poses())
+    for period in range(25):
+        outputs = []
+        for plant in (one, batch):
+            plant.ctrl[:] = [[np.sin(period), -2.0, 0.5 * period]]
+            plant.applied[:] = [[0.0, np.cos(period), 0.1]]
+            acceleration, readings = np.zeros((1, 3)), np.zeros((1, 6))
+            assert plant.step(acceleration) is None
+            plant.read_positions(readings[:, :3])
+            plant.read_velocities(readings[:, 3:])
+            outputs.append([acceleration, plant.qpos.copy(), plant.qvel.copy(), readings, plant.mass_matrices().copy(),
+                            plant.factor.copy(), plant.diagonal_inverse.copy(), plant.bias.copy()])
+        for first, second in zip(*outputs):
+            np.testing.assert_array_equal(first, second)
+        for first, second in zip(*poses):
+            np.testing.assert_array_equal(first, second)
+
+
+def test_one_row_stops_on_a_bad_state_warning_and_on_a_mujoco_error(monkeypatch):
+    """A velocity MuJoCo calls huge stops the single row (MuJoCo warned and reset it); after a reset it runs
+    again, and a MuJoCo error in any substep stops it too."""
+    import ftc_mj.engine.plant as plant_module
+
+    plant = plant_module.OneRowPlant(_puma(), substeps=2)
+    plant.reset(Q0[:1], np.array([[0.0, 1e11, 0.0]]))
+    np.testing.assert_array_equal(plant.step(np.zeros((1, 3))), [True])
+    assert plant.running == 0 and not plant.alive[0]
+    plant.reset(Q0[:1], QD0[:1])
+    assert plant.running == 1 and plant.step(np.zeros((1, 3))) is None
+
+    def failing(model, data):
+        raise mujoco.FatalError("stand-in")
+
+    monkeypatch.setattr(plant_module.mujoco, "mj_step", failing)
+    np.testing.assert_array_equal(plant.step(np.zeros((1, 3))), [True])
+    assert plant.running == 0
+
+
+def test_a_batch_steps_several_rows_and_a_model_on_rk4():
+    """plant_for: one MjData for a single row; a batch for more rows, and for a single row of a model on RK4
+    (MuJoCo's split step integrates with Euler or an implicit integrator only)."""
+    import ftc_mj.engine.plant as plant_module
+
+    model = _puma()
+    assert type(plant_module.plant_for(model, 2, substeps=1, nthread=1)) is MuJoCoPlant
+    model.opt.integrator = mujoco.mjtIntegrator.mjINT_RK4
+    assert type(plant_module.plant_for(model, 1, substeps=1, nthread=1)) is MuJoCoPlant
+    with pytest.raises(ValueError, match="RK4"):
+        plant_module.OneRowPlant(model, substeps=1)

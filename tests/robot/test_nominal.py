@@ -472,3 +472,42 @@ def test_compiled_points_cut_over_threads_keep_their_bits(model, kind):
         np.testing.assert_array_equal(getattr(three, name), getattr(one, name))
     np.testing.assert_array_equal(three.mass_matrices(), one.mass_matrices())
     assert np.all(three.factor != 0, axis=1).any() and np.all(three.diagonal_inverse != 1.0, axis=1).all()
+
+
+@pytest.mark.parametrize("n", range(1, 10))
+def test_matvec_gives_einsums_bits_for_any_size_and_layout(n):
+    """M v row by row has np.einsum's bits at every size (the compiled product up to PAIRED_COLUMNS where it
+    reproduces einsum here, einsum beyond), on contiguous rows, a strided slice and one vector broadcast to
+    every row; NaN stays NaN."""
+    from numpy._core.multiarray import c_einsum
+
+    from ftc_mj.robot.nominal import PAIRED_COLUMNS, matvec, sums_in_pairs
+
+    generator = np.random.default_rng(100 + n)
+    matrices, vectors = generator.standard_normal((40, n, n)), generator.standard_normal((40, n))
+    vectors[3, 0] = np.nan
+    cases = [(matrices, vectors), (matrices[::3], vectors[::3]),
+             (matrices[:5], np.broadcast_to(vectors[7], (5, n)))]
+    for m, v in cases:
+        expected, out = np.empty((len(m), n)), np.full((len(m), n), -1.0)
+        c_einsum("rij,rj->ri", m, v, out=expected)
+        assert matvec(m, v, out) is out
+        np.testing.assert_array_equal(out, expected)
+    if n > PAIRED_COLUMNS:
+        assert not sums_in_pairs(n)
+
+
+def test_the_compiled_product_sums_even_and_odd_products_apart():
+    """The order _matvec_in_pairs sums three products in, (a0 b0 + a2 b2) + a1 b1: 0 for 1, -1 and 1e-20,
+    where the left-to-right sum gives 1e-20; einsum sums so on this machine when the product stands in for it."""
+    from numpy._core.multiarray import c_einsum
+
+    from ftc_mj.robot.nominal import _matvec_in_pairs, sums_in_pairs
+
+    matrix, vector = np.array([[[1.0, -1.0, 1e-20]]]), np.ones((1, 3))
+    out, einsum = np.full((1, 1), np.nan), np.empty((1, 1))
+    _matvec_in_pairs(matrix, vector, out)
+    assert out[0, 0] == 0.0 and (1.0 + -1.0) + 1e-20 == 1e-20
+    c_einsum("rij,rj->ri", matrix, vector, out=einsum)
+    if sums_in_pairs(3):
+        assert einsum[0, 0] == 0.0
