@@ -21,6 +21,7 @@ from functools import cached_property
 from collections.abc import Sequence
 from typing import Literal
 
+import numba
 import numpy as np
 import sympy as sp
 
@@ -167,14 +168,16 @@ class PlantTerms:
         self._mapped = np.zeros(shape)
         self._parameters = np.asarray(parameters, dtype=float).reshape(rows, -1)
         names = list(parameter_names)
-        #: Per term with a rate parameter: each row's rate ``(rows, 1)`` (the same for every joint) and the buffer
-        #: its weight 1 - exp(-rate (t - onset)) is written into each period.
+        #: Per term with a rate parameter, each row's weight 1 - exp(-rate (t - onset)) of the period (the same
+        #: for every joint), written each period into its row of ``_weights`` ``(terms, rows)``.
+        self._weights = np.zeros((len(terms), rows))
+        #: Per term with a rate parameter: each row's rate ``(rows, 1)`` and its weight's view ``(rows, 1)``.
         self._rates = {index: (self._parameters[:, names.index(term.rate_parameter)][:, None].copy(),
-                               np.empty((rows, 1))) for index, term in enumerate(terms) if term.rate_parameter}
+                               self._weights[index][:, None]) for index, term in enumerate(terms)
+                       if term.rate_parameter}
         #: :func:`terms_function` of ``terms`` (the scenario's, compiled when it loaded), or compiled here.
         self._function = function or terms_function(terms, n_joints, parameter_names)
         self._values = np.zeros((rows, len(terms) * n_joints))
-        self._blocks = [self._values[:, i * n_joints:(i + 1) * n_joints] for i in range(len(terms))]
         self.needs_mass = any(term.space == "acceleration" for term in terms)
 
         # sign x weight of every term at every sample (Profile.evaluate: what Profile.weight gives at each of
@@ -182,8 +185,8 @@ class PlantTerms:
         times = np.asarray(times, dtype=float)
         profiles = [term.time_profile for term in terms]
         always = np.ones((len(times), n_joints))
-        self._factors = [term.sign * (always if profile is None else profile.evaluate(times, n_joints))
-                         for term, profile in zip(terms, profiles)]
+        self._factors = np.array([term.sign * (always if profile is None else profile.evaluate(times, n_joints))
+                                  for term, profile in zip(terms, profiles)]).reshape(len(terms), len(times), n_joints)
         on = np.array([np.ones(len(times), dtype=bool) if profile is None else profile.active(times)
                        for profile in profiles], dtype=bool).reshape(len(terms), len(times))
         active_sets, self._plan_of_sample = np.unique(on.T, axis=0, return_inverse=True)
@@ -193,21 +196,26 @@ class PlantTerms:
         self.fault_on = np.array([self._plans[plan].fault_active for plan in self._plan_of_sample], dtype=bool)
 
     def _plan(self, active: np.ndarray) -> "_Plan":
-        """What a period with the terms ``active`` (indices, file order) does: each term's block, its factors
-        per sample, the sums it goes to, and its per-row rate (rates, weight buffer, onset, sign), if any."""
-        steps = []
-        for index in active.tolist():
+        """What a period with the terms ``active`` (indices, file order) does: each term, the sums it goes to
+        (a row of :data:`_SUMS` flags), and its per-row rate (rates, weight buffer, onset, sign), if any."""
+        targets = np.zeros((len(active), len(_SUMS)), dtype=np.bool_)
+        rates = []
+        for step, index in enumerate(active.tolist()):
             term = self.terms[index]
             acceleration = term.space == "acceleration"
-            targets = [self.acceleration if acceleration else self.torque]
+            targets[step, _SUMS.index("acceleration" if acceleration else "torque")] = True
             if term.kind == "fault":
-                targets += [self.fault, self._fault_acceleration if acceleration else self.fault_force]
-            rate = None if index not in self._rates else (*self._rates[index], term.onset, term.sign)
-            steps.append((self._blocks[index], self._factors[index], targets, rate))
+                targets[step, _SUMS.index("fault")] = True
+                targets[step, _SUMS.index("fault_acceleration" if acceleration else "fault_force")] = True
+            if index in self._rates:
+                rates.append((*self._rates[index], term.onset, term.sign))
         acceleration_terms = [i for i in active.tolist() if self.terms[i].space == "acceleration"]
         acceleration_faults = [i for i in acceleration_terms if self.terms[i].kind == "fault"]
         return _Plan(
-            steps=steps,
+            terms=active.astype(np.int64),
+            rated=np.array([index in self._rates for index in active.tolist()], dtype=np.bool_),
+            targets=targets,
+            rates=rates,
             fault_active=any(self.terms[i].kind == "fault" for i in active.tolist()),
             maps_acceleration=bool(acceleration_terms),
             maps_fault_acceleration=bool(acceleration_faults),
@@ -224,25 +232,17 @@ class PlantTerms:
         of 0.25 ms it is 9.99999999999937), which would start a fault due at 10 s one period late. ``mass``
         is the true M(q) of each row at the sample instant, needed with acceleration-space terms."""
         plan = self._plans[self._plan_of_sample[k]]
-        self._sums[:] = 0.0
-        if plan.steps:
+        if len(plan.terms):
             self._function.evaluate(t, qpos, qvel, self._parameters, self._values)
-        # Term by term in the file's order, each sum from zero: the same operations whatever the batch size.
-        for value, factors, targets, rate in plan.steps:
-            if rate is None:
-                factor = factors[k]
-            else:  # each row's incipient profile, as Profile.weight computes it
-                rates, factor, onset, sign = rate
-                np.multiply(rates, -(t - onset), out=factor)  # (-rate) * elapsed == rate * (-elapsed), bit for bit
-                np.exp(factor, out=factor)
-                # sign (1 - e): e - 1 for sign -1, the same bits (rounding is symmetric under negation).
-                if sign > 0:
-                    np.subtract(1.0, factor, out=factor)
-                else:
-                    np.subtract(factor, 1.0, out=factor)
-            value *= factor
-            for target in targets:
-                target += value
+        for rates, weight, onset, sign in plan.rates:  # each row's incipient profile, as Profile.weight computes it
+            np.multiply(rates, -(t - onset), out=weight)  # (-rate) * elapsed == rate * (-elapsed), bit for bit
+            np.exp(weight, out=weight)
+            # sign (1 - e): e - 1 for sign -1, the same bits (rounding is symmetric under negation).
+            if sign > 0:
+                np.subtract(1.0, weight, out=weight)
+            else:
+                np.subtract(weight, 1.0, out=weight)
+        _sum_terms(self._values, plan.terms, plan.rated, plan.targets, self._factors, k, self._weights, self._sums)
         if not plan.maps_acceleration:
             np.copyto(out, self.torque)
             return
@@ -254,14 +254,42 @@ class PlantTerms:
             self.fault_force += mapped
 
 
+#: The sums of :class:`PlantTerms`, in the order of its ``_sums`` buffer.
+_SUMS = ("torque", "acceleration", "fault", "fault_force", "fault_acceleration")
+
+
 @dataclass
 class _Plan:
     """A period's work for one set of active terms (:meth:`PlantTerms._plan`)."""
 
-    #: (its block of values, its factors per sample, the sums it is added to, its per-row rate or None), in the
-    #: file's order.
-    steps: list[tuple[np.ndarray, np.ndarray, list[np.ndarray], tuple | None]]
+    #: The active terms (indices, the file's order); whether each has a per-row rate; the sums each is added
+    #: to, ``(terms, sums)`` flags in the order of :data:`_SUMS`.
+    terms: np.ndarray
+    rated: np.ndarray
+    targets: np.ndarray
+    #: Per active term with a rate parameter: (rates, weight buffer, onset, sign).
+    rates: list[tuple[np.ndarray, np.ndarray, float | None, float]]
     fault_active: bool
     maps_acceleration: bool
     maps_fault_acceleration: bool
     same_acceleration_sums: bool
+
+
+@numba.njit(cache=True, nogil=True)
+def _sum_terms(values: np.ndarray, terms: np.ndarray, rated: np.ndarray, targets: np.ndarray, factors: np.ndarray,
+               k: int, weights: np.ndarray, sums: np.ndarray) -> None:
+    """Every sum from zero, then term by term in the file's order: its values ``(rows, terms x n)`` times its
+    sign x weight of sample k (``factors`` ``(terms, samples, n)``, or each row's weight of a rate parameter,
+    ``weights`` ``(terms, rows)``), added to each of its sums ``(sums, rows, n)``: one product and one sum
+    per element, as NumPy's ``value *= factor; target += value`` (the same bits), in one pass."""
+    sums[:] = 0.0
+    rows, n = sums.shape[1], sums.shape[2]
+    for step in range(len(terms)):
+        term = terms[step]
+        for r in range(rows):
+            for j in range(n):
+                factor = weights[term, r] if rated[step] else factors[term, k, j]
+                value = values[r, term * n + j] * factor
+                for target in range(sums.shape[0]):
+                    if targets[step, target]:
+                        sums[target, r, j] += value

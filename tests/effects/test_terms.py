@@ -291,3 +291,28 @@ def test_closed_loop_parameter_rate_equals_the_numeric_rate(tmp_path: Path) -> N
     np.testing.assert_allclose(by_name.fault, phi_538 * weight, rtol=1e-12, atol=1e-12,
                                err_msg="the fault is not +Phi (1 - exp(-zeta (t - Tf)))")
     assert by_name.fault[-1, 0] > 1.0  # well into the fault: Phi_1 is about 9 here
+
+
+def test_the_compiled_sums_are_numpys_products_and_sums_bit_for_bit() -> None:
+    """_sum_terms against NumPy's ``value *= factor; target += value`` term by term: 5 rows, 3 joints, four terms
+    (one with a per-row weight, one not active) going to different sums, random values and factors."""
+    from ftc_mj.effects.terms import _SUMS, _sum_terms
+
+    generator = np.random.default_rng(7)
+    rows, n, samples, k = 5, 3, 4, 2
+    values = generator.standard_normal((rows, 4 * n)) * 1e3
+    factors = generator.standard_normal((4, samples, n))
+    weights = generator.standard_normal((4, rows))
+    active, rated = np.array([0, 2, 3]), np.array([False, True, False])
+    targets = np.zeros((3, len(_SUMS)), dtype=bool)
+    targets[0, [0, 2, 3]] = targets[1, [1, 2, 4]] = targets[2, 0] = True
+    expected = np.full((len(_SUMS), rows, n), 0.0)
+    for step, term in enumerate(active):
+        value = values[:, term * n:(term + 1) * n].copy()
+        value *= weights[term][:, None] if rated[step] else factors[term, k]
+        for target in np.flatnonzero(targets[step]):
+            expected[target] += value
+    sums = np.full((len(_SUMS), rows, n), np.nan)
+    _sum_terms(values, active, rated, targets, factors, k, weights, sums)
+    np.testing.assert_array_equal(sums, expected)
+    assert np.all(expected[0] != 0.0)
