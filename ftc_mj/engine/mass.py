@@ -70,7 +70,7 @@ class NominalMass(MassAtReadings):
 
     def prepare(self, q_meas: np.ndarray, stopped: np.ndarray | None) -> None:
         batch = self._batch
-        np.copyto(batch.qpos, q_meas)
+        batch.qpos[...] = q_meas
         if stopped is not None:  # they may hold NaN or inf
             at_rest(batch, stopped)
 

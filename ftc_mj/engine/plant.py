@@ -182,7 +182,7 @@ class MuJoCoPlant(Plant):
         next period."""
         rest = self.substeps - 1
         failed = self._call(1, 0 if rest else _POSITION_VELOCITY_STAGE, None)
-        np.copyto(acceleration, self.qacc)
+        acceleration[...] = self.qacc
         if rest:
             failed = self._call(rest, _POSITION_VELOCITY_STAGE, failed)
         if np.count_nonzero(self._reset_counts):  # counts since the start: a warned row stops
@@ -249,7 +249,7 @@ class OneRowPlant(MuJoCoPlant):
         model, data = self.model, self.data
         try:
             mujoco.mj_step2(model, data)
-            acceleration[0] = self.qacc[0]
+            acceleration[...] = self.qacc
             for _ in range(self.substeps - 1):
                 mujoco.mj_step(model, data)
             mujoco.mj_step1(model, data)
@@ -276,7 +276,11 @@ def _columns(values: np.ndarray, addresses: np.ndarray) -> Callable[[np.ndarray]
     are consecutive (the usual sensor layout), else ``take``."""
     if len(addresses) and np.array_equal(addresses, np.arange(addresses[0], addresses[0] + len(addresses))):
         view = values[:, addresses[0]:addresses[0] + len(addresses)]
-        return lambda out: np.copyto(out, view)
+
+        def copy(out: np.ndarray) -> None:
+            out[...] = view  # a plain copy: np.copyto's call costs more on a row
+
+        return copy
     return lambda out: values.take(addresses, axis=1, out=out)
 
 
