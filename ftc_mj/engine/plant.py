@@ -224,7 +224,7 @@ class OneRowPlant(MuJoCoPlant):
         if model.opt.integrator == mujoco.mjtIntegrator.mjINT_RK4:
             raise ValueError("mj_step2 does not integrate with RK4: step this model as a batch")
         if mass_scale is not None and np.any(mass_scale != 1.0):
-            model = copy.deepcopy(model)
+            model = copy.copy(model)  # MjModel's copy is whole (mj_copyModel)
             scale_masses(lambda name: getattr(model, name)[None], mass_scale)
             mujoco.mj_setConst(model, mujoco.MjData(model))
         self.model, self.data = model, mujoco.MjData(model)

@@ -292,5 +292,37 @@ def test_a_batch_steps_several_rows_and_a_model_on_rk4():
     assert type(plant_module.plant_for(model, 2, substeps=1, nthread=1)) is MuJoCoPlant
     model.opt.integrator = mujoco.mjtIntegrator.mjINT_RK4
     assert type(plant_module.plant_for(model, 1, substeps=1, nthread=1)) is MuJoCoPlant
-    with pytest.raises(ValueError, match="RK4"):
+    with pytest.raises(ValueError, match=r"^mj_step2 does not integrate with RK4: step this model as a batch$"):
         plant_module.OneRowPlant(model, substeps=1)
+
+
+@pytest.mark.parametrize("rows", [1, 2])
+def test_plant_for_passes_the_limits_and_the_mass_scale(rows):
+    """Either kind of plant gets the divergence limits and the mass scale: |q| <= 1 and |qd| <= 5 within, the
+    limits themselves too, just past either one stopped; M(q) twice the model's at a mass scale of 2."""
+    import ftc_mj.engine.plant as plant_module
+
+    model = _puma()
+    plain = MuJoCoPlant(model, 1, substeps=1, nthread=1)
+    plain.reset(Q0[:1], QD0[:1])
+    for quantity in ("qpos", "qvel"):
+        plant = plant_module.plant_for(model, rows, substeps=1, nthread=1, mass_scale=np.full(rows, 2.0),
+                                       max_position=1.0, max_velocity=5.0)
+        plant.reset(np.tile(Q0[0], (rows, 1)), np.tile(QD0[0], (rows, 1)))
+        np.testing.assert_array_equal(plant.mass_matrices()[0], 2.0 * plain.mass_matrices()[0])
+        plant.qpos[:, 0], plant.qvel[:, 0] = 1.0, -5.0
+        assert plant.check() is None
+        getattr(plant, quantity)[0, 1] = {"qpos": 1.0 + 1e-9, "qvel": 5.0 + 1e-9}[quantity]
+        np.testing.assert_array_equal(plant.check(), [True] + [False] * (rows - 1))
+
+
+@pytest.mark.parametrize("warning", ["mjWARN_BADQPOS", "mjWARN_BADQVEL", "mjWARN_BADQACC"])
+def test_one_row_stops_on_each_of_mujocos_reset_warnings(warning):
+    """Each of the three warnings after which MuJoCo resets a simulation stops the single row."""
+    import ftc_mj.engine.plant as plant_module
+
+    plant = plant_module.OneRowPlant(_puma(), substeps=1)
+    plant.reset(Q0[:1], QD0[:1])
+    assert plant.step(np.zeros((1, 3))) is None
+    plant.data.warning[int(getattr(mujoco.mjtWarning, warning))].number = 1
+    np.testing.assert_array_equal(plant.step(np.zeros((1, 3))), [True])
