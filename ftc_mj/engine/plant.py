@@ -108,8 +108,7 @@ class MuJoCoPlant(Plant):
         if mass_scale is not None and np.any(mass_scale != 1.0):
             scale_masses(self.batch.expand, mass_scale)
             self.batch.set_const()
-        bind = self.batch.bind
-        self._bind(model, rows, substeps, max_position, max_velocity, bind)
+        self._bind(model, rows, substeps, max_position, max_velocity, self.batch.bind)
         #: The bad-state warning counts of every row (a live view of the batch's warnings).
         self._reset_counts = self.batch.warning[:, _RESET_WARNINGS, 1]
 
@@ -221,7 +220,7 @@ class OneRowPlant(MuJoCoPlant):
     def __init__(self, model: mujoco.MjModel, substeps: int, mass_scale: np.ndarray | None = None,
                  max_position: float = np.inf, max_velocity: float = np.inf):
         """``mass_scale``: ``(1,)``, scales masses, inertias and armature of a copy of ``model``."""
-        if model.opt.integrator == mujoco.mjtIntegrator.mjINT_RK4:
+        if not splits_steps(model):
             raise ValueError("mj_step2 does not integrate with RK4: step this model as a batch")
         if mass_scale is not None and np.any(mass_scale != 1.0):
             model = copy.copy(model)  # MjModel's copy is whole (mj_copyModel)
@@ -261,12 +260,18 @@ class OneRowPlant(MuJoCoPlant):
         return None
 
 
+def splits_steps(model: mujoco.MjModel) -> bool:
+    """Whether MuJoCo's ``mj_step1`` + ``mj_step2`` step ``model`` as ``mj_step`` does (Euler or an implicit
+    integrator: ``mj_step2`` does not run RK4)."""
+    return model.opt.integrator != mujoco.mjtIntegrator.mjINT_RK4
+
+
 def plant_for(model: mujoco.MjModel, rows: int, substeps: int, nthread: int,
               mass_scale: np.ndarray | None = None, max_position: float = np.inf,
               max_velocity: float = np.inf) -> MuJoCoPlant:
     """The simulated robots of ``rows`` rows: one MjData for a single row (:class:`OneRowPlant`) where MuJoCo's
     split step integrates the model, else a batch (:class:`MuJoCoPlant`)."""
-    if rows == 1 and model.opt.integrator != mujoco.mjtIntegrator.mjINT_RK4:
+    if rows == 1 and splits_steps(model):
         return OneRowPlant(model, substeps, mass_scale, max_position, max_velocity)
     return MuJoCoPlant(model, rows, substeps, nthread, mass_scale, max_position, max_velocity)
 

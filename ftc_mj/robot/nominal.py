@@ -41,7 +41,7 @@ PAIRED_COLUMNS = 7
 def matvec(matrices: np.ndarray, vectors: np.ndarray, out: np.ndarray) -> np.ndarray:
     """Row by row, ``out[r] = matrices[r] @ vectors[r]`` (``(rows, n, n)`` by ``(rows, n)``), as ``np.einsum``
     computes it (the same bits whatever the number of rows): by :func:`_matvec_in_pairs` where it gives
-    einsum's bits on this machine (:func:`sums_in_pairs`), a call that costs a quarter of einsum's on a few rows,
+    einsum's bits on the CPU it runs on (:func:`sums_in_pairs`), a call that costs a quarter of einsum's on a few rows,
     else by einsum itself."""
     if sums_in_pairs(matrices.shape[-1]):
         _matvec_in_pairs(matrices, vectors, out)
@@ -52,7 +52,7 @@ def matvec(matrices: np.ndarray, vectors: np.ndarray, out: np.ndarray) -> np.nda
 @lru_cache(maxsize=None)
 def sums_in_pairs(n: int) -> bool:
     """Whether :func:`_matvec_in_pairs` gives ``np.einsum``'s bits for n columns here, checked once on random
-    numbers (einsum's order is NumPy's choice, made for this machine's SIMD width)."""
+    numbers (einsum's order is NumPy's choice, made for the CPU's SIMD width)."""
     if not 1 <= n <= PAIRED_COLUMNS:
         return False
     generator = np.random.default_rng(n)

@@ -499,7 +499,7 @@ def test_matvec_gives_einsums_bits_for_any_size_and_layout(n):
 
 def test_the_compiled_product_sums_even_and_odd_products_apart():
     """The order _matvec_in_pairs sums three products in, (a0 b0 + a2 b2) + a1 b1: 0 for 1, -1 and 1e-20,
-    where the left-to-right sum gives 1e-20; einsum sums so on this machine when the product stands in for it."""
+    where the left-to-right sum gives 1e-20; einsum sums so wherever the product stands in for it."""
     from numpy._core.multiarray import c_einsum
 
     from ftc_mj.robot.nominal import _matvec_in_pairs, sums_in_pairs
