@@ -12,6 +12,7 @@ into a SymPy expression; nothing from the file is ever evaluated as Python. SymP
 from __future__ import annotations
 
 import ast
+import inspect
 import math
 import re
 from collections.abc import Callable, Mapping, Sequence
@@ -20,6 +21,8 @@ import numpy as np
 import sympy as sp
 from sympy.printing.numpy import NumPyPrinter
 from sympy.printing.precedence import precedence
+
+from ftc_mj.config.programs import Program
 
 MAX_SOURCE_LENGTH = 2000
 MAX_DEPTH = 60
@@ -237,7 +240,9 @@ def _sqrt(x: float) -> float:
 
 
 def _sign(x: float) -> float:
-    return math.copysign(1.0, x) if x != 0.0 and x == x else x  # 0 stays 0 (its sign too), NaN stays NaN
+    if x == 0.0:
+        return 0.0  # NumPy's sign of either zero is +0
+    return math.copysign(1.0, x) if x == x else x  # NaN stays NaN
 
 
 class _ScalarNumPy:
@@ -269,10 +274,12 @@ class StateFunction:
     """A vector of expressions of ``(t, q1..qn, qd1..qn, parameters...)`` compiled once, evaluated for every row
     of a batch (a row: one variant of one member).
 
-    Two compiled forms of the same code (common subexpressions shared, the same NumPy functions): on whole
-    columns of ``(rows,)`` arrays, and row by row on Python floats (up to :data:`SCALAR_ROWS` rows, where
-    NumPy's per-call cost would dominate). Both give the same bits, so a member's terms are the same whatever
-    the batch size.
+    The columns' code as one compiled program (:class:`~ftc_mj.config.programs.Program`) where its operations
+    allow (arithmetic, sin, cos, sqrt, abs, sign: every shipped scenario's terms), one call per period for
+    all rows. Otherwise two compiled forms of the same code (common subexpressions shared, the same NumPy
+    functions): on whole columns of ``(rows,)`` arrays, and row by row on Python floats (up to
+    :data:`SCALAR_ROWS` rows, where NumPy's per-call cost would dominate). All three give the same bits, so a
+    member's terms are the same whatever the batch size and the form.
     """
 
     def __init__(self, exprs: Sequence[sp.Expr], n_joints: int, parameters: Sequence[str] = ()):
@@ -281,6 +288,9 @@ class StateFunction:
         self._columns = sp.lambdify(symbols, self.exprs, modules="numpy", cse=True)
         self._row = sp.lambdify(symbols, self.exprs, modules=[{"numpy": _SCALAR_NUMPY, "_pow": _pow}],
                                 printer=_ScalarPrinter, cse=True)
+        #: The columns' code as one compiled program (:mod:`ftc_mj.config.programs`), or None where it uses an
+        #: operation compiled code does not compute as NumPy does (then the two NumPy forms run).
+        self._program = Program.from_source(inspect.getsource(self._columns), n_joints, len(parameters))
 
     def __call__(self, t: float | np.ndarray, q: Sequence, qd: Sequence, parameters: Sequence = ()) -> list:
         """Values at ``t`` and the state ``q``, ``qd`` (one number or ``(rows,)`` array per joint, e.g. the
@@ -290,6 +300,9 @@ class StateFunction:
     def evaluate(self, t: float, q: np.ndarray, qd: np.ndarray, parameters: np.ndarray, out: np.ndarray) -> None:
         """Every row at once into ``out`` ``(rows, expressions)``, from ``q``, ``qd`` ``(rows, n)`` and
         ``parameters`` ``(rows, p)``."""
+        if self._program is not None:
+            self._program.evaluate(t, q, qd, parameters, out)
+            return
         rows = len(out)
         if rows <= SCALAR_ROWS:
             t = float(t)

@@ -178,7 +178,6 @@ class PlantTerms:
         #: :func:`terms_function` of ``terms`` (the scenario's, compiled when it loaded), or compiled here.
         self._function = function or terms_function(terms, n_joints, parameter_names)
         self._values = np.zeros((rows, len(terms) * n_joints))
-        self.needs_mass = any(term.space == "acceleration" for term in terms)
 
         # sign x weight of every term at every sample (Profile.evaluate: what Profile.weight gives at each of
         # them), which terms are on, and the plan of each set of active terms.
@@ -223,6 +222,11 @@ class PlantTerms:
             same_acceleration_sums=acceleration_terms == acceleration_faults,
         )
 
+    def maps_acceleration(self, k: int) -> bool:
+        """Whether :meth:`apply` at sample ``k`` maps acceleration-space terms through M(q), i.e. needs
+        ``mass``."""
+        return self._plans[self._plan_of_sample[k]].maps_acceleration
+
     def apply(self, k: int, t: float, qpos: np.ndarray, qvel: np.ndarray, mass: np.ndarray | None,
               out: np.ndarray) -> None:
         """Write the sum of all terms at sample ``k`` (time ``t``) and the true states into ``out``
@@ -230,7 +234,8 @@ class PlantTerms:
 
         ``t`` is the loop's k * control_dt: MuJoCo's ``data.time`` accumulates rounding (after 40000 steps
         of 0.25 ms it is 9.99999999999937), which would start a fault due at 10 s one period late. ``mass``
-        is the true M(q) of each row at the sample instant, needed with acceleration-space terms."""
+        is the true M(q) of each row at the sample instant, needed where :meth:`maps_acceleration` (else it may be
+        None)."""
         plan = self._plans[self._plan_of_sample[k]]
         if len(plan.terms):
             self._function.evaluate(t, qpos, qvel, self._parameters, self._values)
@@ -244,7 +249,7 @@ class PlantTerms:
                 np.subtract(weight, 1.0, out=weight)
         _sum_terms(self._values, plan.terms, plan.rated, plan.targets, self._factors, k, self._weights, self._sums)
         if not plan.maps_acceleration:
-            np.copyto(out, self.torque)
+            out[...] = self.torque  # an assignment costs half np.copyto's call on a few rows
             return
         mapped = matvec(mass, self.acceleration, self._mapped)
         np.add(self.torque, mapped, out=out)

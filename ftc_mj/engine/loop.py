@@ -319,7 +319,8 @@ class _Run:
                                                  if monitor.signals})
                                     for b in blocks],
             np.asarray(inputs.fault_on, dtype=bool), scenario.measures_velocity,
-            scenario.diagnoser is not None and scenario.diagnoser.space == "torque", poses)
+            scenario.diagnoser is not None and scenario.diagnoser.space == "torque", poses,
+            delivered_is_command=inputs.actuators is None)
         truths = None
         if plant.has_truth:
             truths = Truths.allocate(solver, plant,
@@ -405,7 +406,8 @@ class _Run:
         """4. Terms on the true state and what the actuators deliver go to ``applied``; the fault truth."""
         plant, inputs, series, tau = self.plant, self.inputs, self.series.rows, self.tau
         terms = inputs.terms
-        true_mass = self.mass.true_mass() if terms.needs_mass else None
+        # The dense M(q) only in the periods whose terms map accelerations (e.g. from a fault's onset on).
+        true_mass = self.mass.true_mass() if terms.maps_acceleration(k) else None
         truths = self.truths
         if truths is not None:  # M(q)^-1 (tau / c - C qd - G) at the sample instant
             truths.record(plant, tau, series["luaf_true"][k])
@@ -458,8 +460,6 @@ class _Run:
     def result(self) -> BatchRun:
         """The series, cut where each row stopped."""
         recorded, done = self.series, self.stops.done
-        if self.inputs.actuators is None:  # the actuators delivered the command
-            np.copyto(recorded.rows["tau_delivered"], recorded.rows["tau"])
         recorded.cut(done)
         return BatchRun(times=self.times, members=self.layout.members, variants=[b.name for b in self.blocks],
                         series=recorded.rows, reference=self.reference, monitor_series=recorded.monitors,

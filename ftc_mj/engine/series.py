@@ -76,12 +76,16 @@ class Series:
     @classmethod
     def allocate(cls, steps: int, rows: int, n: int, members: int, blocks: Sequence[BlockSeries],
                  fault_on: np.ndarray, measures_velocity: bool, torque_space: bool,
-                 poses: tuple[np.ndarray, np.ndarray] | None) -> Series:
+                 poses: tuple[np.ndarray, np.ndarray] | None, delivered_is_command: bool = False) -> Series:
         """Buffers for ``steps`` samples. ``fault_on`` ``(steps,)``: whether a fault is on (the same for
         every row); ``torque_space``: the diagnoser's residuals are torques (each estimate times M);
-        ``poses``: the plant's body positions and quaternions to record, or None."""
+        ``poses``: the plant's body positions and quaternions to record, or None; ``delivered_is_command``:
+        no actuator fault acts, so ``tau_delivered`` is ``tau`` itself (one buffer, not a copy: a campaign
+        batch's series are gigabytes, each first written page by page)."""
         series = {name: np.zeros((steps, rows, n)) if name in _FAULT_SERIES else np.empty((steps, rows, n))
-                  for name in SERIES}
+                  for name in SERIES if not (delivered_is_command and name == "tau_delivered")}
+        if delivered_is_command:
+            series["tau_delivered"] = series["tau"]
         monitors = {block.name: {name: {key: np.empty((steps, members, n)) for key in ("qd_hat", "luaf_hat")}
                                  | ({"luaf_torque": np.empty((steps, members, n))} if torque_space else {})
                                  for name in block.monitors}
@@ -98,9 +102,9 @@ class Series:
 
     def cut(self, done: np.ndarray) -> None:
         """NaN in every series from each row's stop on (``done``: its samples recorded)."""
-        for rows_series in (*self.rows.values(), self.qd_measured, self.luaf_torque):
-            if rows_series is not None:
-                _cut(rows_series, done)
+        for rows_series in {id(values): values for values in (*self.rows.values(), self.qd_measured,
+                                                               self.luaf_torque) if values is not None}.values():
+            _cut(rows_series, done)  # each buffer once (tau_delivered may be tau)
         for block in self.blocks:
             block_done = done[block.rows]
             for name_series in (*self.monitors[block.name].values(), self.extras[block.name],

@@ -80,7 +80,7 @@ def apply_terms(specs: list[TermSpec], scale: np.ndarray, zeta: np.ndarray) -> t
     series = {name: np.empty((len(TIMES), rows, NJ)) for name in ("applied", "fault", "fault_force")}
     out = np.empty((rows, NJ))
     for k, t in enumerate(TIMES.tolist()):
-        plant.apply(k, t, q[k], qd[k], mass[k] if plant.needs_mass else None, out)
+        plant.apply(k, t, q[k], qd[k], mass[k] if plant.maps_acceleration(k) else None, out)
         series["applied"][k], series["fault"][k], series["fault_force"][k] = out, plant.fault, plant.fault_force
     return series, plant
 
@@ -192,6 +192,20 @@ def test_torque_and_acceleration_faults_add_in_the_fault_force() -> None:
     np.testing.assert_allclose(series["fault_force"], torque + expected["fault_force"], rtol=1e-12, atol=1e-12)
     np.testing.assert_allclose(series["fault"], torque + expected["fault"], rtol=1e-12, atol=1e-12)
     np.testing.assert_allclose(series["applied"], torque + expected["applied"], rtol=1e-12, atol=1e-12)
+
+
+def test_only_periods_with_acceleration_terms_need_the_mass() -> None:
+    """The loop computes the true M(q) only where :meth:`PlantTerms.maps_acceleration` says so: from an
+    acceleration-space fault's onset on, never with torque-space terms alone (``apply_terms`` passes None
+    elsewhere, so a period that used M anyway would fail)."""
+    rows = 2
+    torque_fault = TermSpec(kind="fault", space="torque", sign=1, value=VALUE, onset=ONSET)
+    acceleration_fault = TermSpec(kind="fault", space="acceleration", sign=1, value=VALUE, onset=ONSET)
+    for specs, expected in (([torque_fault], np.zeros(len(TIMES), dtype=bool)),
+                            ([torque_fault, acceleration_fault], TIMES >= ONSET)):
+        terms = PlantTerms(compile_terms(specs, "test.yaml", NJ, PARAMETERS), TIMES, rows, NJ,
+                           np.ones((rows, 2)), PARAMETERS)
+        np.testing.assert_array_equal([terms.maps_acceleration(k) for k in range(len(TIMES))], expected)
 
 
 def test_an_onset_without_a_rate_is_a_step() -> None:
