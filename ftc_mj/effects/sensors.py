@@ -21,6 +21,7 @@ from dataclasses import dataclass
 from typing import Annotated
 
 import mujoco
+import numba
 import numpy as np
 from pydantic import Field, StrictInt, model_validator
 
@@ -140,7 +141,8 @@ class Measurement:
         rows = blocks * members
         self._history = np.zeros((self.delay + 1, rows, n))
         self._last = np.zeros((rows, n))
-        self._scratch = np.zeros((rows, n))
+        self._no_offsets = np.zeros((1, n))
+        self._never_stuck = np.zeros(n, dtype=bool)
 
     def _draw(self, k: int) -> None:
         """The offsets of samples k .. k + NOISE_CHUNK: bias, drift and each member's noise."""
@@ -158,21 +160,39 @@ class Measurement:
                 self._history[:] = true
             self._history[k % (self.delay + 1)] = true
             source = self._history[(k + 1) % (self.delay + 1)]  # written delay samples ago
+        offsets = self._no_offsets
         if self._offset:
             index = k % len(self._offsets)
             if index == 0:
                 self._draw(k)
-            np.add(source.reshape(self._shape), self._offsets[index], out=out.reshape(self._shape))
-        else:
-            np.copyto(out, source)
-        if self._quantise:
-            np.multiply(out, self.inverse_step, out=self._scratch)
-            np.round(self._scratch, out=self._scratch)
-            np.multiply(self._scratch, self.step, out=self._scratch)
-            np.copyto(out, self._scratch, where=self.quantised)
-        if self.stuck_at[k] and k:  # stuck from the first sample: it holds the first reading
-            np.copyto(out, self._last, where=self.stuck[k])
-        np.copyto(self._last, out)
+            offsets = self._offsets[index]
+        stuck = self.stuck[k] if self.stuck_at[k] and k else self._never_stuck  # from the first sample: held
+        if out.ndim == 1:  # one row, as (n,): views with the rows' axis
+            out = out[None]
+        if source.ndim == 1:
+            source = source[None]
+        _measure(source, offsets, self._offset, self._quantise, self.inverse_step, self.step, self.quantised,
+                 stuck, self._last, out)
+
+
+@numba.njit(cache=True, nogil=True)
+def _measure(source: np.ndarray, offsets: np.ndarray, offset: bool, quantise: bool, inverse_step: np.ndarray,
+             step: np.ndarray, quantised: np.ndarray, stuck: np.ndarray, last: np.ndarray, out: np.ndarray) -> None:
+    """Steps 2-4 of the module docstring for every row (blocks of the same members, variant-major: row r is
+    member r % members) in one pass, with NumPy's operations per element: the offset added, then
+    ``rint(x * (1 / resolution)) * resolution`` where quantised, the last reading where stuck; ``last`` keeps
+    the measurement."""
+    members = offsets.shape[0]
+    for r in range(out.shape[0]):
+        member = r % members
+        for j in range(out.shape[1]):
+            value = source[r, j] + offsets[member, j] if offset else source[r, j]
+            if quantise and quantised[j]:
+                value = np.rint(value * inverse_step[j]) * step[j]
+            if stuck[j]:
+                value = last[r, j]
+            out[r, j] = value
+            last[r, j] = value
 
 
 def compile_channel(spec: ChannelSpec | None, file: str, field: str, model: mujoco.MjModel) -> Channel | None:

@@ -2,12 +2,13 @@
 
 Every sample of every series is written before the run ends, or lies past its row's stop, where
 :meth:`Series.cut` writes NaN: no fill beforehand (a pass over gigabytes in a campaign's batch). The fault
-series are written only while a fault may be on, so they start at zero.
+series are written only while a fault may be on, so they start at zero: every buffer does (:func:`buffer`).
 """
 
 from __future__ import annotations
 
 from collections.abc import Mapping, Sequence
+import mmap
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -82,23 +83,23 @@ class Series:
         ``poses``: the plant's body positions and quaternions to record, or None; ``delivered_is_command``:
         no actuator fault acts, so ``tau_delivered`` is ``tau`` itself (one buffer, not a copy: a campaign
         batch's series are gigabytes, each first written page by page)."""
-        series = {name: np.zeros((steps, rows, n)) if name in _FAULT_SERIES else np.empty((steps, rows, n))
-                  for name in SERIES if not (delivered_is_command and name == "tau_delivered")}
+        series = {name: buffer((steps, rows, n)) for name in SERIES
+                  if not (delivered_is_command and name == "tau_delivered")}
         if delivered_is_command:
             series["tau_delivered"] = series["tau"]
-        monitors = {block.name: {name: {key: np.empty((steps, members, n)) for key in ("qd_hat", "luaf_hat")}
-                                 | ({"luaf_torque": np.empty((steps, members, n))} if torque_space else {})
+        monitors = {block.name: {name: {key: buffer((steps, members, n)) for key in ("qd_hat", "luaf_hat")}
+                                 | ({"luaf_torque": buffer((steps, members, n))} if torque_space else {})
                                  for name in block.monitors}
                     for block in blocks}
-        extras = {block.name: {name: np.empty((steps, members, n)) for name in block.signals} for block in blocks}
-        monitor_extras = {block.name: {monitor: {name: np.empty((steps, members, n)) for name in names}
+        extras = {block.name: {name: buffer((steps, members, n)) for name in block.signals} for block in blocks}
+        monitor_extras = {block.name: {monitor: {name: buffer((steps, members, n)) for name in names}
                                        for monitor, names in block.monitor_signals.items()}
                           for block in blocks}
-        return cls(blocks, series, np.empty((steps, rows, n)) if measures_velocity else None,
-                   np.empty((steps, rows, n)) if torque_space else None, monitors, extras,
+        return cls(blocks, series, buffer((steps, rows, n)) if measures_velocity else None,
+                   buffer((steps, rows, n)) if torque_space else None, monitors, extras,
                    np.repeat(fault_on[:, None], rows, axis=1),
-                   None if poses is None else np.zeros((steps,) + poses[0].shape),
-                   None if poses is None else np.zeros((steps,) + poses[1].shape), monitor_extras)
+                   None if poses is None else buffer((steps,) + poses[0].shape),
+                   None if poses is None else buffer((steps,) + poses[1].shape), monitor_extras)
 
     def cut(self, done: np.ndarray) -> None:
         """NaN in every series from each row's stop on (``done``: its samples recorded)."""
@@ -111,6 +112,25 @@ class Series:
                                 *self.monitor_extras[block.name].values()):
                 for values in name_series.values():
                     _cut(values, block_done)
+
+
+#: From this many bytes a buffer is mapped memory of its own (:func:`buffer`).
+MAPPED_BYTES = 1 << 20
+
+
+def buffer(shape: tuple[int, ...]) -> np.ndarray:
+    """A float64 buffer of ``shape``, zero: from :data:`MAPPED_BYTES` on, anonymous memory mapped in ordinary
+    pages (zero until written, backed page by page as the loop first writes it).
+
+    Not NumPy's own allocation: NumPy advises the kernel to back an array of 4 MiB or more with huge pages,
+    and where the kernel compacts memory to find them when a page is first touched (``defrag`` set to
+    ``madvise``, a common default), a batch that writes gigabytes of series waits on it, several times longer
+    than in ordinary pages, with no gain in reading them (``benchmarks/series_memory.py`` measures both)."""
+    size = int(np.prod(shape)) * 8
+    if size < MAPPED_BYTES or not hasattr(mmap, "MAP_ANONYMOUS"):
+        return np.zeros(shape)
+    memory = mmap.mmap(-1, size, flags=mmap.MAP_PRIVATE | mmap.MAP_ANONYMOUS)
+    return np.frombuffer(memory, dtype=np.float64).reshape(shape)
 
 
 def _cut(values: np.ndarray, done: np.ndarray) -> None:

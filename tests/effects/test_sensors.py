@@ -289,3 +289,40 @@ def test_members_draw_their_own_noise_and_every_variant_reads_it() -> None:
     np.testing.assert_array_equal(out[:members], out[members:])
     for m, seed in enumerate((1, 2, 3)):
         np.testing.assert_array_equal(out[m], np.random.default_rng(seed).standard_normal((N, NJ))[0] * 1e-3)
+
+
+def test_the_compiled_pass_is_numpys_sequence_bit_for_bit() -> None:
+    """Offsets, quantisation (part of the joints), stuck (part of the joints) over variant blocks of several
+    members, NaN and a tie of the rounding included: each sample is what NumPy's operations give in the
+    module's order (add the member's offset, ``round(x * (1 / step)) * step`` where quantised, the last
+    reading where stuck)."""
+    members, blocks = 4, 3
+    step = np.array([1e-3, 0.0, 2.5e-4])
+    ch = channel(resolution=step, noise_std=[1e-3, 2e-3, 0.0], bias=[0.01, 0.0, -0.2], drift_rate=[0.02, 0.0, 0.0],
+                 stuck_onset=0.5, stuck_end=0.9, stuck_joints=np.array([False, True, True]))
+    measurement = Measurement(ch, T, [np.random.default_rng(s) for s in range(members)], blocks)
+    mirror = Measurement(ch, T, [np.random.default_rng(s) for s in range(members)], blocks)  # draws the same noise
+    rng = np.random.default_rng(5)
+    rows = blocks * members
+    last = np.zeros((rows, NJ))
+    quantised = step > 0
+    inverse = np.divide(1.0, step, out=np.zeros(NJ), where=quantised)
+    for k in range(N):
+        true = np.repeat(TRUE[k][None], rows, axis=0) + rng.normal(0, 1e-3, (rows, NJ))
+        if k == 7:
+            true[2, 0], true[5, 2] = np.nan, 0.5 * 2.5e-4 - 0.0  # NaN, and x / step = 0.5 (a tie)
+        got = np.empty((rows, NJ))
+        measurement.read(k, true, got)
+        index = k % len(mirror._offsets)
+        if index == 0:
+            mirror._draw(k)
+        expected = np.empty((rows, NJ))
+        np.add(true.reshape(blocks, members, NJ), mirror._offsets[index], out=expected.reshape(blocks, members, NJ))
+        scratch = expected * inverse
+        np.round(scratch, out=scratch)
+        np.multiply(scratch, step, out=scratch)
+        np.copyto(expected, scratch, where=quantised)
+        if ch.stuck(T[k:k + 1]).any() and k:
+            np.copyto(expected, last, where=ch.stuck(T[k:k + 1])[0])
+        last = expected.copy()
+        assert np.array_equal(got.view(np.int64), expected.view(np.int64)), k
