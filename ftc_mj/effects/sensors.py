@@ -124,7 +124,6 @@ class Measurement:
     def __init__(self, channel: Channel, times: np.ndarray, generators: list[np.random.Generator], blocks: int = 1):
         n = len(channel.bias)
         members = len(generators)
-        self._shape = (blocks, members, n)
         self.offset = channel.bias + channel.drift_rate * times[:, None]  # (N, n), shared by every member
         self._generators = generators
         self._noise_std = channel.noise_std
