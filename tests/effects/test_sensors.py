@@ -326,3 +326,15 @@ def test_the_compiled_pass_is_numpys_sequence_bit_for_bit() -> None:
             np.copyto(expected, last, where=ch.stuck(T[k:k + 1])[0])
         last = expected.copy()
         assert np.array_equal(got.view(np.int64), expected.view(np.int64)), k
+
+
+def test_one_block_by_default_rows_are_the_members() -> None:
+    """Without ``blocks`` the rows are the members themselves (one variant): three members' readings, delayed
+    by a sample, each from its own row."""
+    measurement = Measurement(channel(delay_samples=1), T, [np.random.default_rng(s) for s in range(3)])
+    first, second = TRUE[:3], TRUE[3:6]
+    out = np.empty((3, NJ))
+    measurement.read(0, first, out)
+    np.testing.assert_array_equal(out, first)
+    measurement.read(1, second, out)
+    np.testing.assert_array_equal(out, first)  # a sample ago
