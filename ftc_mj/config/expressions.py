@@ -290,7 +290,7 @@ class StateFunction:
                                 printer=_ScalarPrinter, cse=True)
         #: The columns' code as one compiled program (:mod:`ftc_mj.config.programs`), or None where it uses an
         #: operation compiled code does not compute as NumPy does (then the two NumPy forms run).
-        self._program = Program.from_source(inspect.getsource(self._columns), n_joints, len(parameters))
+        self._program = _program(self._columns, n_joints, len(parameters))
 
     def __call__(self, t: float | np.ndarray, q: Sequence, qd: Sequence, parameters: Sequence = ()) -> list:
         """Values at ``t`` and the state ``q``, ``qd`` (one number or ``(rows,)`` array per joint, e.g. the
@@ -315,6 +315,15 @@ class StateFunction:
         else:
             for column, values in enumerate(self._columns(t, *q.T, *qd.T, *parameters.T)):
                 out[:, column] = values
+
+
+def _program(columns: Callable[..., list], n_joints: int, parameters: int) -> Program | None:
+    """The compiled program of lambdified ``columns``, or None (its source not at hand, or not compilable)."""
+    try:
+        source = inspect.getsource(columns)  # lambdify keeps the code it generated in linecache
+    except (OSError, TypeError):
+        return None
+    return Program.from_source(source, n_joints, parameters)
 
 
 def is_free_name(name: str) -> bool:

@@ -163,3 +163,19 @@ def test_division_by_zero_and_domain_errors_follow_numpy() -> None:
         columns, _ = numpy_forms(function, 0.0, q, qd, np.zeros((2, 2)))
     assert same_bits(got, columns)
     assert got[0, 0] == np.inf and got[1, 0] == -np.inf and np.isnan(got[0, 1]) and np.isnan(got[0, 2])
+
+
+def test_without_the_generated_source_the_numpy_forms_run(monkeypatch: pytest.MonkeyPatch) -> None:
+    """Where the lambdified code's source cannot be read back, no program: the NumPy forms, the same values."""
+    import inspect
+
+    def unavailable(_: object) -> str:
+        raise OSError("could not get source code")
+
+    monkeypatch.setattr(inspect, "getsource", unavailable)
+    function = StateFunction([parse("sin(q1) + qd2", NAMES)], N, PARAMETERS)
+    assert function._program is None
+    got = np.empty((2, 1))
+    q, qd, p = states(np.random.default_rng(0), 2, False)
+    function.evaluate(0.5, q, qd, p, got)
+    np.testing.assert_array_equal(got[:, 0], np.sin(q[:, 0]) + qd[:, 1])
