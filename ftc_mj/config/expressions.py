@@ -292,6 +292,11 @@ class StateFunction:
         #: operation compiled code does not compute as NumPy does (then the two NumPy forms run).
         self._program = _program(self._columns, n_joints, len(parameters))
 
+    @property
+    def compiled(self) -> bool:
+        """Whether :meth:`evaluate` runs the compiled program."""
+        return self._program is not None
+
     def __call__(self, t: float | np.ndarray, q: Sequence, qd: Sequence, parameters: Sequence = ()) -> list:
         """Values at ``t`` and the state ``q``, ``qd`` (one number or ``(rows,)`` array per joint, e.g. the
         columns ``qpos.T``) and the parameters: one per expression (a plain number where constant)."""

@@ -295,3 +295,7 @@ def _run(code: np.ndarray, constants: np.ndarray, temporaries: int, depth: int, 
                         x[r] = 0.0
                     elif x[r] == x[r]:
                         x[r] = math.copysign(1.0, x[r])
+
+
+#: The interpreter every program runs on (compiled at its first call in a process, or loaded from Numba's cache).
+INTERPRETER = _run

@@ -16,6 +16,7 @@ objects; :class:`PlantTerms` evaluates them on the true state in the loop.
 
 from __future__ import annotations
 
+import sys
 from dataclasses import dataclass
 from functools import cached_property
 from collections.abc import Sequence
@@ -27,7 +28,8 @@ import sympy as sp
 
 from ftc_mj.effects.profiles import Profile, ProfileSpec, compile_profile
 from ftc_mj.robot.nominal import matvec
-from ftc_mj.config import expressions
+from ftc_mj.robot.rigid import cache_is_cold
+from ftc_mj.config import expressions, programs
 from ftc_mj.config.errors import InputError
 from ftc_mj.config.types import (ExpressionText, NonNegativeFloat, ParameterName, PositiveFloat, Strict,
                                 parse_expression, per_joint)
@@ -177,6 +179,8 @@ class PlantTerms:
                        if term.rate_parameter}
         #: :func:`terms_function` of ``terms`` (the scenario's, compiled when it loaded), or compiled here.
         self._function = function or terms_function(terms, n_joints, parameter_names)
+        if self._function.compiled:
+            announce_compilation()
         self._values = np.zeros((rows, len(terms) * n_joints))
 
         # sign x weight of every term at every sample (Profile.evaluate: what Profile.weight gives at each of
@@ -257,6 +261,22 @@ class PlantTerms:
             if not plan.same_acceleration_sums:
                 mapped = matvec(mass, self._fault_acceleration, self._mapped)
             self.fault_force += mapped
+
+
+_announced = False
+
+
+def announce_compilation() -> None:
+    """One line on stderr, once per process, when the terms' interpreter (:mod:`ftc_mj.config.programs`) will
+    compile: the first run on a machine, or after an update."""
+    global _announced
+    if _announced:
+        return
+    _announced = True
+    if cache_is_cold(programs.INTERPRETER, programs.__file__):
+        where = getattr(programs.INTERPRETER._cache, "_cache_path", "Numba's cache")
+        print(f"compiling the plant terms' interpreter (first run on this machine, a few seconds; cached in {where})",
+              file=sys.stderr, flush=True)
 
 
 #: The sums of :class:`PlantTerms`, in the order of its ``_sums`` buffer.

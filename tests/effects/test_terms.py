@@ -330,3 +330,21 @@ def test_the_compiled_sums_are_numpys_products_and_sums_bit_for_bit() -> None:
     _sum_terms(values, active, rated, targets, factors, k, weights, sums)
     np.testing.assert_array_equal(sums, expected)
     assert np.all(expected[0] != 0.0)
+
+
+def test_the_interpreters_first_compilation_is_announced_once(monkeypatch, capsys) -> None:
+    """Terms that run as a compiled program say, once per process, that the interpreter compiles when Numba's
+    cache holds none of it; a warm cache says nothing (whether it is cold: ``rigid.cache_is_cold``, tested
+    with a fresh cache in ``tests/robot/test_rigid.py``)."""
+    from ftc_mj.effects import terms as module
+
+    specs = [TermSpec(kind="fault", space="torque", sign=1, value=VALUE, onset=ONSET)]
+    compiled = compile_terms(specs, "test.yaml", NJ, PARAMETERS)
+    for cold, lines in ((False, 0), (True, 1)):
+        monkeypatch.setattr(module, "_announced", False)
+        monkeypatch.setattr(module, "cache_is_cold", lambda dispatcher, source, cold=cold: cold)
+        for _ in range(2):
+            PlantTerms(compiled, TIMES, 2, NJ, np.ones((2, 2)), PARAMETERS)
+        err = capsys.readouterr().err.splitlines()
+        assert len(err) == lines
+        assert all(line.startswith("compiling the plant terms' interpreter (first run on this machine") for line in err)
