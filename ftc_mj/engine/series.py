@@ -7,8 +7,8 @@ series are written only while a fault may be on, so they start at zero: every bu
 
 from __future__ import annotations
 
-from collections.abc import Mapping, Sequence
 import mmap
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
 
 import numpy as np
