@@ -20,13 +20,17 @@ NaN follow NumPy (``error_model="numpy"``: inf or NaN, never an exception).
 
 from __future__ import annotations
 
-import ast
-import math
-import operator
-from dataclasses import dataclass
+import os
 
-import numba
-import numpy as np
+os.environ.setdefault("NUMBA_DISABLE_INTEL_SVML", "1")  # before Numba is imported: ftc_mj.robot.rigid says why
+
+import ast  # noqa: E402
+import math  # noqa: E402
+import operator  # noqa: E402
+from dataclasses import dataclass  # noqa: E402
+
+import numba  # noqa: E402
+import numpy as np  # noqa: E402
 
 # Opcodes. A load pushes one number; an operation pops its operands and pushes its result; a store pops one.
 LOAD_CONSTANT, LOAD_TIME, LOAD_POSITION, LOAD_VELOCITY, LOAD_PARAMETER, LOAD_TEMPORARY = range(6)

@@ -85,6 +85,9 @@ class VariantBlock:
     reading_points: tuple[np.ndarray, np.ndarray] | None
     #: The plugins' signals recorded each period: name -> ``(members, n)``.
     signals: dict[str, np.ndarray]
+    #: The block's rows of the series ``qd_hat``, ``luaf_hat`` and ``sliding``, ``(steps, members, n)`` views:
+    #: a period's write indexes them by k alone.
+    recorded: tuple[np.ndarray, np.ndarray, np.ndarray] = ()
 
     @cached_property
     def estimators(self) -> list[Observer]:
@@ -230,9 +233,10 @@ class _Run:
     mass: MassAtReadings
     solver: SparseSolver
     #: The commanded torque of every row, ``(rows, n)``, and M(x1)^-1 of it, solved at once before the
-    #: observers advance.
+    #: observers advance (:attr:`solve_commands`).
     tau: np.ndarray
     command_acceleration: np.ndarray
+    solve_commands: Callable[[], None]
     blocks: list[VariantBlock]
     inputs: PlantInputs
     #: q_d and its derivatives: ``(steps, n)``, or ``(steps, members, n)`` where the reference uses parameters.
@@ -321,12 +325,15 @@ class _Run:
             np.asarray(inputs.fault_on, dtype=bool), scenario.measures_velocity,
             scenario.diagnoser is not None and scenario.diagnoser.space == "torque", poses,
             delivered_is_command=inputs.actuators is None)
+        for block in blocks:
+            block.recorded = tuple(series.rows[name][:, block.rows] for name in ("qd_hat", "luaf_hat", "sliding"))
         truths = None
         if plant.has_truth:
             truths = Truths.allocate(solver, plant,
                                      per_row(members.nominal_mass_scale) / per_row(members.plant_mass_scale))
-        return cls(times, layout, plant, readings, nominal, mass, solver, tau, command_acceleration, blocks, inputs,
-                   reference, series, poses, truths, Stops(np.full(rows, steps), np.full(rows, np.nan)))
+        solve_commands = solver.bound(mass.factor, mass.diagonal_inverse, tau, command_acceleration)
+        return cls(times, layout, plant, readings, nominal, mass, solver, tau, command_acceleration, solve_commands,
+                   blocks, inputs, reference, series, poses, truths, Stops(np.full(rows, steps), np.full(rows, np.nan)))
 
     def stop(self, stopped: np.ndarray | None, k: int) -> None:
         """Rows stopped at sample k (a mask, or None): their recording ends before it."""
@@ -382,9 +389,10 @@ class _Run:
                     for signal_name, signal in observer.signals.items():
                         monitor_extras[signal_name][k] = signal
             block.tau[...] = block.controller.compute(t, q_ref, qd_ref, qdd_ref, q_b, block.observer, block.model)
-            series["qd_hat"][k, rows_b] = block.observer.qd_hat
-            series["luaf_hat"][k, rows_b] = block.observer.luaf_hat
-            series["sliding"][k, rows_b] = block.controller.sliding
+            qd_hat, luaf_hat, sliding = block.recorded
+            qd_hat[k] = block.observer.qd_hat
+            luaf_hat[k] = block.observer.luaf_hat
+            sliding[k] = block.controller.sliding
             if luaf_torque is not None:
                 block.model.apply_M(block.observer.luaf_hat, out=luaf_torque[k, rows_b])
             if block.signals:
@@ -437,8 +445,7 @@ class _Run:
     def integrate_observers(self) -> None:
         """M(x1)^-1 tau of every row's command in one solve; every observer integrates over the period, with this
         period's model (before the plant's M moves on)."""
-        mass = self.mass
-        self.solver.solve(mass.factor, mass.diagonal_inverse, self.tau, self.command_acceleration)
+        self.solve_commands()
         for block in self.blocks:
             tau_b = block.tau
             block.observer.advance(tau_b, block.model)

@@ -23,6 +23,7 @@ import numba
 import numpy as np
 from mujoco.batch import Batch, SimulationError
 
+from ftc_mj.config.kernels import bound
 from ftc_mj.logs.trajectory import Log
 from ftc_mj.robot.model import position_sensor_addresses, velocity_sensor_addresses
 from ftc_mj.robot.nominal import DenseMass, scale_masses
@@ -132,6 +133,7 @@ class MuJoCoPlant(Plant):
         self._position, self._velocity = np.zeros_like(self.qpos), np.zeros_like(self.qvel)
         self._ids: np.ndarray | None = None  # None: all rows step
         self.running = rows
+        self._within = bound(_within, self.qpos, self.qvel, float(max_position), float(max_velocity))
 
     def reset(self, q0: np.ndarray, qd0: np.ndarray) -> None:
         self.batch.reset(stage=_NO_STAGE)  # MuJoCo's defaults, warnings cleared; the state is written next
@@ -165,7 +167,7 @@ class MuJoCoPlant(Plant):
 
     def check(self) -> np.ndarray | None:
         # NaN fails every comparison, so it stops its row too (the engine runs under np.errstate(all="ignore")).
-        if _within(self.qpos, self.qvel, self.max_position, self.max_velocity):
+        if self._within():
             return None  # every row within: one compiled pass, the usual case
         np.abs(self.qpos, out=self._position)
         np.abs(self.qvel, out=self._velocity)

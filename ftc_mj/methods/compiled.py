@@ -42,6 +42,7 @@ import numba  # noqa: E402
 import numpy as np  # noqa: E402
 from numba.extending import overload  # noqa: E402
 
+from ftc_mj.config.kernels import direct  # noqa: E402
 from ftc_mj.methods.plugin import Method  # noqa: E402
 from ftc_mj.robot.rigid import cache_is_cold  # noqa: E402
 
@@ -79,6 +80,19 @@ def kernel(function: Callable) -> numba.core.registry.CPUDispatcher:
     dispatcher = numba.njit(cache=True, nogil=True, fastmath=False, error_model="numpy")(function)
     _KERNELS.setdefault(function.__module__, []).append(dispatcher)
     return dispatcher
+
+
+def call_site(owner: Method, attribute: str, dispatcher: numba.core.registry.CPUDispatcher) -> Callable:
+    """What ``owner.<attribute>`` calls ``dispatcher`` through: the first call runs the dispatcher and puts in
+    the attribute's place the compiled function for that call's argument types
+    (:func:`~ftc_mj.config.kernels.direct`), which the later calls run without the dispatcher's resolution of
+    the types. A fused law's arguments have the same types every period (its own buffers; the engine's readings,
+    reference rows and model views, each made the same way every period), the condition of that function."""
+    def first(*arguments: object) -> object:
+        setattr(owner, attribute, direct(dispatcher, *arguments))
+        return dispatcher(*arguments)
+
+    return first
 
 
 def announce_compilation(module: str) -> None:

@@ -22,8 +22,9 @@ import numba
 import numpy as np
 from mujoco.batch import Batch
 
-from ftc_mj.robot.rigid import RigidTree, evaluate, solve_factored
+from ftc_mj.config.kernels import bound
 from ftc_mj.config.types import PositiveFloat, Strict
+from ftc_mj.robot.rigid import RigidTree, evaluation, solve_factored
 
 
 # np.einsum (optimize=False) calls this same C function, so the same bits, after a Python dispatch that costs
@@ -291,6 +292,12 @@ class SparseSolver:
         solve_factored(factor, diagonal_inverse, vector, out, *self._structure)
         return out
 
+    def bound(self, factor: np.ndarray, diagonal_inverse: np.ndarray, vector: np.ndarray,
+              out: np.ndarray) -> Callable[[], None]:
+        """:meth:`solve` of these buffers (``vector`` ``(rows, n)``), as a call without arguments past Numba's
+        dispatcher (:func:`~ftc_mj.config.kernels.bound`): for a loop that solves the same buffers every period."""
+        return bound(solve_factored, factor, diagonal_inverse, vector, out, *self._structure)
+
 
 class NominalBatch(Protocol):
     """The controller side's model of many evaluation points at once (eq. (5.2)).
@@ -399,9 +406,9 @@ class CompiledNominal(NominalBatch):
         # More: each an equal share of the points with velocity terms and one of the M-only points (cheaper
         # per point), so that no thread waits for another.
         if threads == 1:
-            self._tasks = [[self._arguments(slice(0, points), velocity_points)]]
+            self._tasks = [[evaluation(self._arguments(slice(0, points), velocity_points))]]
         else:
-            self._tasks = [[self._arguments(part, velocity_points)
+            self._tasks = [[evaluation(self._arguments(part, velocity_points))
                             for part in (_share(0, len(mass_scale), t, threads), _share(len(mass_scale), points, t,
                                                                                         threads))
                             if part.stop > part.start]
@@ -449,10 +456,10 @@ def _share(start: int, stop: int, part: int, parts: int) -> slice:
     return slice(int(bounds[part]), int(bounds[part + 1]))
 
 
-def _run(task: list[tuple]) -> None:
+def _run(task: list[Callable[[], None]]) -> None:
     """One thread's kernel calls."""
-    for arguments in task:
-        evaluate(arguments)
+    for call in task:
+        call()
 
 
 class MassPoints:

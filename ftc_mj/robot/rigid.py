@@ -60,11 +60,14 @@ import os
 os.environ.setdefault("NUMBA_DISABLE_INTEL_SVML", "1")  # before Numba is imported: see the module docstring
 
 import sys  # noqa: E402
+from collections.abc import Callable  # noqa: E402
 from dataclasses import dataclass  # noqa: E402
 
 import mujoco  # noqa: E402
 import numba  # noqa: E402
 import numpy as np  # noqa: E402
+
+from ftc_mj.config.kernels import bound  # noqa: E402
 
 _HINGE, _SLIDE = int(mujoco.mjtJoint.mjJNT_HINGE), int(mujoco.mjtJoint.mjJNT_SLIDE)
 #: No point asks for the momentum terms: the kernel's arguments when none are wanted (types fixed for Numba).
@@ -205,6 +208,14 @@ def evaluate(arguments: tuple) -> None:
     if not _evaluate.overloads:  # its ``signatures`` builds a list of types per call: dearer than the kernel
         announce_compilation()
     _evaluate(*arguments)
+
+
+def evaluation(arguments: tuple) -> Callable[[], None]:
+    """:func:`evaluate` on ``arguments`` (the same buffers every call) as a call without arguments, past Numba's
+    dispatcher (:func:`~ftc_mj.config.kernels.bound`); it may compile the kernel now (said once)."""
+    if not _evaluate.overloads:
+        announce_compilation()
+    return bound(_evaluate, *arguments)
 
 
 def cache_is_cold(dispatcher: numba.core.registry.CPUDispatcher | None = None, source: str = __file__) -> bool:

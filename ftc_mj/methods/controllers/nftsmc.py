@@ -78,14 +78,17 @@ class NFTSMC(SlidingModeController):
         super().__init__(config, n_joints, dt, members)
         self._integral = np.zeros(self.shape)
         c = self.config
-        #: The fused law (:mod:`ftc_mj.methods.compiled`) and its buffers: e, e_dot, |e| and |e_dot| (then
-        #: raised), e^3 and -u.
+        #: The fused law (:mod:`ftc_mj.methods.compiled`) and its buffers: e_dot, the bases |e|, |e_dot| and e
+        #: (stacked), their powers |e|^g1, |e_dot|^g2 and e^3 (stacked), and -u.
         self._fused = compiled.fused(self, (NFTSMC,), c.beta1, c.beta2, c.beta3, c.beta4, c.gamma1, c.gamma2,
                                      self._gain)
-        self._error, self._error_rate = np.zeros(self.shape), np.zeros(self.shape)
-        self._magnitude, self._magnitude_rate = np.zeros(self.shape), np.zeros(self.shape)
-        self._power, self._power_rate, self._cube = np.zeros(self.shape), np.zeros(self.shape), np.zeros(self.shape)
-        self._negative_u = np.zeros(self.shape)
+        self._error_rate, self._negative_u = np.zeros(self.shape), np.zeros(self.shape)
+        self._bases, self._powers = np.zeros((3, *self.shape)), np.zeros((3, *self.shape))
+        self._magnitude, self._magnitude_rate, self._error = self._bases
+        self._power, self._power_rate, self._cube = self._powers
+        self._exponents = np.stack([np.broadcast_to(g, self.shape) for g in (c.gamma1, c.gamma2, 3.0)])
+        self._find_errors = compiled.call_site(self, "_find_errors", _errors)
+        self._find_negative_control = compiled.call_site(self, "_find_negative_control", _negative_control)
         self._period = float(dt)
 
     def reset(self) -> None:
@@ -96,18 +99,16 @@ class NFTSMC(SlidingModeController):
         if not self._fused:
             return super().compute(t, q_ref, qd_ref, qdd_ref, q_meas, observer, model)
         c, e, e_dot = self.config, self._error, self._error_rate
-        _errors(q_meas, q_ref, model.control_velocity(observer.qd_hat), qd_ref, e, e_dot, self._magnitude,
-                self._magnitude_rate)
-        # The powers by NumPy, as signed_power and e**3 raise them: per element (gains of the state's shape),
-        # into other arrays than the bases.
-        np.power(self._magnitude, c.gamma1, self._power)
-        np.power(self._magnitude_rate, c.gamma2, self._power_rate)
-        np.power(e, 3, self._cube)
+        self._find_errors(q_meas, q_ref, model.control_velocity(observer.qd_hat), qd_ref, e, e_dot, self._magnitude,
+                          self._magnitude_rate)
+        # The powers by NumPy, as signed_power and e**3 raise them, in one call: NumPy's pow per element (gains
+        # of the state's shape), the same bits stacked as apart (tested), into other arrays than the bases.
+        np.power(self._bases, self._exponents, self._powers)
         compensation = self.observer_compensation(observer)
-        _negative_control(e, e_dot, self._power, self._power_rate, self._cube, c.beta1, c.beta2, c.beta3, c.beta4,
-                          self._period, self._integral, self.sliding, qdd_ref, model.psi_control,
-                          e if compensation is None else compensation, compensation is not None, self._gain,
-                          self._negative_u)
+        self._find_negative_control(e, e_dot, self._power, self._power_rate, self._cube, c.beta1, c.beta2, c.beta3,
+                                    c.beta4, self._period, self._integral, self.sliding, qdd_ref, model.psi_control,
+                                    e if compensation is None else compensation, compensation is not None,
+                                    self._gain, self._negative_u)
         return model.apply_M(self._negative_u, out=self.tau)
 
     def surface(self, t: float, e: np.ndarray, e_dot: np.ndarray) -> np.ndarray:

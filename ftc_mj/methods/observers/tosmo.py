@@ -26,10 +26,8 @@ from ftc_mj.methods import compiled
 from ftc_mj.methods.compiled import kernel
 from ftc_mj.methods.gains import GainConfig, NonNegativeFloat, PositiveJoints
 from ftc_mj.methods.observers.base import Observer
-from ftc_mj.methods.primitives import scalar, signed_power
+from ftc_mj.methods.primitives import signed_power
 from ftc_mj.robot.nominal import StepModel
-
-_TWO_THIRDS, _ONE_THIRD = scalar(2 / 3), scalar(1 / 3)
 
 
 class TOSMOConfig(GainConfig):
@@ -74,25 +72,29 @@ class TOSMO(Observer):
         self.k1, self.k2, self.k3 = config.gains()
         self._luaf_step = self.dt * self.k3  # dt k3: the LUaF estimate's change per period, times sign(x1~)
         self._error = np.zeros(self.shape)
-        self._power = np.zeros(self.shape)  # |x1~|^p sign(x1~), for each fractional power in turn
+        #: |x1~| raised to 2/3 and to 1/3, stacked for one call of NumPy's pow (the same bits as two calls with
+        #: the numbers, tested); the unfused law takes |x1~|^p sign(x1~) into the first, for each power in turn.
+        self._powers = np.zeros((2, *self.shape))
+        self._power, self._power_third = self._powers
+        self._exponents = np.stack([np.full(self.shape, 2 / 3), np.full(self.shape, 1 / 3)])
         self._sign = np.zeros(self.shape)
         self._q_hat_rate = np.zeros(self.shape)
         self._qdd_hat = np.zeros(self.shape)
-        #: The fused law (:mod:`ftc_mj.methods.compiled`): |x1~| raised to 1/3 apart from the 2/3 in ``_power``.
-        self._power_third = np.zeros(self.shape)
         self._gamma = getattr(config, "gamma", self.k1)  # Gamma of (5.6); unused (any array) in the TOSMO
         self._fused = compiled.fused(self, (TOSMO, HighSpeedTOSMO), self.k1, self.k2, self._luaf_step, self._gamma)
         self._linear_terms, self._period = type(self) is HighSpeedTOSMO, float(dt)
+        self._find_errors = compiled.call_site(self, "_find_errors", _errors)
+        self._find_injection = compiled.call_site(self, "_find_injection", _injection)
+        self._integrate = compiled.call_site(self, "_integrate", _advance)
 
     def update(self, t: float, q_meas: np.ndarray, model: StepModel) -> None:
         if self._fused:
             magnitude, magnitude_third = self._power, self._power_third
-            _errors(q_meas, self.q_hat, self._error, self._sign, magnitude, magnitude_third)
-            # The powers by NumPy, in place with a number, as signed_power raises them.
-            np.power(magnitude, _TWO_THIRDS, magnitude)
-            np.power(magnitude_third, _ONE_THIRD, magnitude_third)
-            _injection(self._error, magnitude, magnitude_third, self.k1, self.k2, self._gamma,
-                       self._linear_terms, self.qd_hat, self.luaf_hat, self._q_hat_rate, self.injection)
+            self._find_errors(q_meas, self.q_hat, self._error, self._sign, magnitude, magnitude_third)
+            # The powers by NumPy, in place, as signed_power raises them.
+            np.power(self._powers, self._exponents, self._powers)
+            self._find_injection(self._error, magnitude, magnitude_third, self.k1, self.k2, self._gamma,
+                                 self._linear_terms, self.qd_hat, self.luaf_hat, self._q_hat_rate, self.injection)
             return
         error = np.subtract(q_meas, self.q_hat, out=self._error)
         np.sign(error, out=self._sign)
@@ -110,8 +112,8 @@ class TOSMO(Observer):
 
     def advance(self, tau: np.ndarray, model: StepModel) -> None:
         if self._fused:
-            _advance(model.psi_hat, model.command_acceleration(tau), self.injection, self._q_hat_rate, self._period,
-                     self._luaf_step, self._sign, self.q_hat, self.qd_hat, self.luaf_hat)
+            self._integrate(model.psi_hat, model.command_acceleration(tau), self.injection, self._q_hat_rate,
+                            self._period, self._luaf_step, self._sign, self.q_hat, self.qd_hat, self.luaf_hat)
             return
         qdd_hat = np.add(model.psi_hat, model.command_acceleration(tau), out=self._qdd_hat)
         qdd_hat += self.injection

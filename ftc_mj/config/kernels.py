@@ -1,0 +1,39 @@
+"""A compiled kernel called straight, past its dispatcher, where a call site's arguments never change type.
+
+A Numba dispatcher resolves the types of its arguments on every call (an array's dtype, dimensions, layout
+and flags, each scalar's type) to choose the compiled function: some 0.1 us a call plus 0.02 us an argument,
+which on a single run's few rows is often more than the kernel's own work. A call site whose arguments are
+the same buffers, or buffers of the same types, period after period can take the compiled function once
+(:func:`direct`) and call it without that resolution: the same machine code, the same bits.
+
+The function so taken trusts its arguments' types: an array of another layout or dtype would be read as if
+it were of the compiled one. So only call sites that make their arguments' types (allocated once, or views
+of those made the same way each call) take it; a plugin in plain NumPy, or a caller of a public function,
+never sees it.
+"""
+
+from __future__ import annotations
+
+import os
+
+os.environ.setdefault("NUMBA_DISABLE_INTEL_SVML", "1")  # before Numba is imported: ftc_mj.robot.rigid says why
+
+from collections.abc import Callable  # noqa: E402
+from functools import partial  # noqa: E402
+
+from numba.core.dispatcher import Dispatcher  # noqa: E402
+
+
+def direct(dispatcher: Dispatcher | Callable, *arguments: object) -> Callable:
+    """``dispatcher``'s compiled function for the types of ``arguments`` (compiled now, or loaded from Numba's
+    cache): the one a call of ``dispatcher`` on them runs, called without the dispatcher's resolution. Only
+    for calls whose arguments have exactly these types. A plain function (Numba's JIT disabled) is itself."""
+    if not isinstance(dispatcher, Dispatcher):
+        return dispatcher
+    return dispatcher.compile(tuple(dispatcher.typeof_pyval(argument) for argument in arguments))
+
+
+def bound(dispatcher: Dispatcher | Callable, *arguments: object) -> Callable[[], object]:
+    """``dispatcher`` on ``arguments`` (the same objects every call: buffers read and written in place), as a
+    call without arguments, past the dispatcher (:func:`direct`)."""
+    return partial(direct(dispatcher, *arguments), *arguments)
