@@ -302,6 +302,14 @@ class StateFunction:
         columns ``qpos.T``) and the parameters: one per expression (a plain number where constant)."""
         return self._columns(t, *q, *qd, *parameters)
 
+    def evaluation(self, q: np.ndarray, qd: np.ndarray, parameters: np.ndarray,
+                   out: np.ndarray) -> Callable[[float], None]:
+        """:meth:`evaluate` of these buffers (the same objects every call, read and written in place) as a
+        function of time alone: the compiled program's cheaper call where there is one."""
+        if self._program is not None:
+            return self._program.evaluation(q, qd, parameters, out)
+        return lambda t: self.evaluate(t, q, qd, parameters, out)
+
     def evaluate(self, t: float, q: np.ndarray, qd: np.ndarray, parameters: np.ndarray, out: np.ndarray) -> None:
         """Every row at once into ``out`` ``(rows, expressions)``, from ``q``, ``qd`` ``(rows, n)`` and
         ``parameters`` ``(rows, p)``."""

@@ -27,10 +27,13 @@ os.environ.setdefault("NUMBA_DISABLE_INTEL_SVML", "1")  # before Numba is import
 import ast  # noqa: E402
 import math  # noqa: E402
 import operator  # noqa: E402
+from collections.abc import Callable  # noqa: E402
 from dataclasses import dataclass  # noqa: E402
 
 import numba  # noqa: E402
 import numpy as np  # noqa: E402
+
+from ftc_mj.config.kernels import direct  # noqa: E402
 
 # Opcodes. A load pushes one number; an operation pops its operands and pushes its result; a store pops one.
 LOAD_CONSTANT, LOAD_TIME, LOAD_POSITION, LOAD_VELOCITY, LOAD_PARAMETER, LOAD_TEMPORARY = range(6)
@@ -76,6 +79,14 @@ class Program:
         """Every row of ``q``, ``qd`` ``(rows, n)`` and ``parameters`` ``(rows, p)`` into ``out``
         ``(rows, outputs)``."""
         _run(self.code, self.constants, self.temporaries, self.stack, float(t), q, qd, parameters, out)
+
+    def evaluation(self, q: np.ndarray, qd: np.ndarray, parameters: np.ndarray,
+                   out: np.ndarray) -> Callable[[float], None]:
+        """:meth:`evaluate` of these buffers (the same objects every call) as a function of time alone, the
+        kernel called past Numba's dispatcher (:func:`~ftc_mj.config.kernels.direct`)."""
+        code, constants, temporaries, stack = self.code, self.constants, self.temporaries, self.stack
+        run = direct(_run, code, constants, temporaries, stack, 0.0, q, qd, parameters, out)
+        return lambda t: run(code, constants, temporaries, stack, float(t), q, qd, parameters, out)
 
 
 class _Compiler:

@@ -19,7 +19,7 @@ from __future__ import annotations
 import sys
 from dataclasses import dataclass
 from functools import cached_property
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from typing import Literal
 
 import numba
@@ -31,6 +31,7 @@ from ftc_mj.robot.nominal import matvec
 from ftc_mj.robot.rigid import cache_is_cold
 from ftc_mj.config import expressions, programs
 from ftc_mj.config.errors import InputError
+from ftc_mj.config.kernels import direct
 from ftc_mj.config.types import (ExpressionText, NonNegativeFloat, ParameterName, PositiveFloat, Strict,
                                 parse_expression, per_joint)
 
@@ -182,6 +183,8 @@ class PlantTerms:
         if self._function.compiled:
             announce_compilation()
         self._values = np.zeros((rows, len(terms) * n_joints))
+        #: The true positions and velocities :meth:`apply` last read, and the terms' evaluation of them in time.
+        self._state: tuple = (None, None, None)
 
         # sign x weight of every term at every sample (Profile.evaluate: what Profile.weight gives at each of
         # them), which terms are on, and the plan of each set of active terms.
@@ -214,7 +217,7 @@ class PlantTerms:
                 rates.append((*self._rates[index], term.onset, term.sign))
         acceleration_terms = [i for i in active.tolist() if self.terms[i].space == "acceleration"]
         acceleration_faults = [i for i in acceleration_terms if self.terms[i].kind == "fault"]
-        return _Plan(
+        plan = _Plan(
             terms=active.astype(np.int64),
             rated=np.array([index in self._rates for index in active.tolist()], dtype=np.bool_),
             targets=targets,
@@ -225,6 +228,9 @@ class PlantTerms:
             # The same terms in the same order: the two sums are the same numbers, and so are their M(q) images.
             same_acceleration_sums=acceleration_terms == acceleration_faults,
         )
+        plan.sum_terms = direct(_sum_terms, self._values, plan.terms, plan.rated, plan.targets, self._factors, 0,
+                                self._weights, self._sums)
+        return plan
 
     def maps_acceleration(self, k: int) -> bool:
         """Whether :meth:`apply` at sample ``k`` maps acceleration-space terms through M(q), i.e. needs
@@ -242,7 +248,9 @@ class PlantTerms:
         None)."""
         plan = self._plans[self._plan_of_sample[k]]
         if len(plan.terms):
-            self._function.evaluate(t, qpos, qvel, self._parameters, self._values)
+            if qpos is not self._state[0] or qvel is not self._state[1]:  # new buffers: their own evaluation
+                self._state = (qpos, qvel, self._function.evaluation(qpos, qvel, self._parameters, self._values))
+            self._state[2](t)
         for rates, weight, onset, sign in plan.rates:  # each row's incipient profile, as Profile.weight computes it
             np.multiply(rates, -(t - onset), out=weight)  # (-rate) * elapsed == rate * (-elapsed), bit for bit
             np.exp(weight, out=weight)
@@ -251,7 +259,7 @@ class PlantTerms:
                 np.subtract(1.0, weight, out=weight)
             else:
                 np.subtract(weight, 1.0, out=weight)
-        _sum_terms(self._values, plan.terms, plan.rated, plan.targets, self._factors, k, self._weights, self._sums)
+        plan.sum_terms(self._values, plan.terms, plan.rated, plan.targets, self._factors, k, self._weights, self._sums)
         if not plan.maps_acceleration:
             out[...] = self.torque  # an assignment costs half np.copyto's call on a few rows
             return
@@ -298,6 +306,8 @@ class _Plan:
     maps_acceleration: bool
     maps_fault_acceleration: bool
     same_acceleration_sums: bool
+    #: :func:`_sum_terms` compiled for this plan's argument types, called past Numba's dispatcher.
+    sum_terms: Callable[..., None] | None = None
 
 
 @numba.njit(cache=True, nogil=True)

@@ -63,6 +63,10 @@ def assert_program_matches(function: StateFunction, rng: np.random.Generator, ro
                 function.evaluate(t, q, qd, p, got)
                 columns, by_row = numpy_forms(function, t, q, qd, p)
                 assert same_bits(got, columns), (function.exprs, rows, special)
+                # The loop's form: the same buffers as a function of time, past Numba's dispatcher.
+                again = np.full_like(got, 7.0)
+                function.evaluation(q, qd, p, again)(t)
+                assert same_bits(again, got), (function.exprs, rows, special)
                 # Row by row on floats, NaN is Python's (its sign bit may differ from NumPy's): equal values.
                 assert np.array_equal(got, by_row, equal_nan=True), (function.exprs, rows, special)
                 finite = ~np.isnan(got)
@@ -179,3 +183,6 @@ def test_without_the_generated_source_the_numpy_forms_run(monkeypatch: pytest.Mo
     q, qd, p = states(np.random.default_rng(0), 2, False)
     function.evaluate(0.5, q, qd, p, got)
     np.testing.assert_array_equal(got[:, 0], np.sin(q[:, 0]) + qd[:, 1])
+    again = np.empty((2, 1))
+    function.evaluation(q, qd, p, again)(0.5)
+    np.testing.assert_array_equal(again, got)

@@ -1,0 +1,73 @@
+"""A compiled kernel taken past its dispatcher (ftc_mj.config.kernels): the same function, the same bits."""
+
+from __future__ import annotations
+
+import numba
+import numpy as np
+
+from ftc_mj.config.kernels import bound, direct
+from ftc_mj.methods import compiled
+
+
+@numba.njit(cache=False)
+def scaled_sum(a: np.ndarray, b: np.ndarray, factor: float, out: np.ndarray) -> None:
+    for i in range(a.shape[0]):
+        for j in range(a.shape[1]):
+            out[i, j] = a[i, j] * factor + b[i, j]
+
+
+def arrays(rows: int, n: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    rng = np.random.default_rng(rows * 10 + n)
+    return rng.normal(size=(rows, n)), rng.normal(size=(rows, n)), np.zeros((rows, n))
+
+
+def test_direct_is_the_dispatchers_compiled_function_for_those_types() -> None:
+    a, b, out = arrays(4, 3)
+    function = direct(scaled_sum, a, b, 0.3, out)
+    assert function is not scaled_sum and callable(function)
+    expected = np.zeros_like(out)
+    scaled_sum(a, b, 0.3, expected)
+    function(a, b, 0.3, out)
+    assert np.array_equal(out, expected)
+    # Other buffers of the same types: the same function serves them.
+    a2, b2, out2 = arrays(7, 2)
+    function(a2, b2, -1.5, out2)
+    assert np.array_equal(out2, a2 * -1.5 + b2)
+    # Types the dispatcher had not seen (Fortran order) compile their own function.
+    c, d, out3 = np.asfortranarray(a2), np.asfortranarray(b2), np.zeros((7, 2), order="F")
+    other = direct(scaled_sum, c, d, 2.0, out3)
+    other(c, d, 2.0, out3)
+    assert np.array_equal(out3, a2 * 2.0 + b2) and len(scaled_sum.overloads) == 2
+
+
+def test_bound_calls_the_same_buffers_without_arguments() -> None:
+    a, b, out = arrays(2, 5)
+    call = bound(scaled_sum, a, b, 2.0, out)
+    call()
+    assert np.array_equal(out, a * 2.0 + b)
+    a += 1.0  # in place: the bound call reads the buffers as they are now
+    call()
+    assert np.array_equal(out, a * 2.0 + b)
+
+
+def test_a_plain_function_is_itself() -> None:
+    def plain(x: np.ndarray) -> np.ndarray:
+        return x + 1
+
+    assert direct(plain, np.zeros(3)) is plain
+
+
+def test_a_call_site_runs_the_dispatcher_once_then_the_compiled_function() -> None:
+    class Owner:
+        pass
+
+    owner = Owner()
+    owner.kernel = compiled.call_site(owner, "kernel", scaled_sum)
+    first = owner.kernel
+    a, b, out = arrays(3, 4)
+    owner.kernel(a, b, 0.5, out)
+    assert np.array_equal(out, a * 0.5 + b)
+    assert owner.kernel is not first and type(owner.kernel).__name__ == "builtin_function_or_method"
+    a2, b2, out2 = arrays(3, 4)
+    owner.kernel(a2 * 3, b2, 0.25, out2)
+    assert np.array_equal(out2, (a2 * 3) * 0.25 + b2)
