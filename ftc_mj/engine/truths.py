@@ -15,6 +15,7 @@ before: the factorisation of every sample and row).
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass
 
 import numpy as np
@@ -32,11 +33,15 @@ class Truths:
     force: np.ndarray
     #: c per row, ``(rows, 1)``, or None where c = 1 for every row.
     scale: np.ndarray | None
+    #: M(q)^-1 ``force`` of the plant into a sample of a series (:meth:`SparseSolver.into`).
+    solve_force: Callable[[np.ndarray], None]
 
     @classmethod
     def allocate(cls, solver: SparseSolver, plant: Plant, scale: np.ndarray) -> Truths:
         """For ``plant``'s rows; ``scale``: c of each row, ``(rows,)``."""
-        return cls(solver, np.zeros(plant.qpos.shape), None if np.all(scale == 1.0) else scale[:, None])
+        force = np.zeros(plant.qpos.shape)
+        return cls(solver, force, None if np.all(scale == 1.0) else scale[:, None],
+                   solver.into(plant.factor, plant.diagonal_inverse, force, np.zeros_like(force)))
 
     def record(self, plant: Plant, tau: np.ndarray, out: np.ndarray) -> None:
         """At the sample instant: M(q)^-1 (tau / c - C qd - G) of the plant for the command ``tau`` into
@@ -46,7 +51,7 @@ class Truths:
         else:
             force = np.divide(tau, self.scale, out=self.force)
             force -= plant.bias
-        self.solver.solve(plant.factor, plant.diagonal_inverse, force, out)
+        self.solve_force(out)
 
     def fault(self, plant: Plant, fault_torque: np.ndarray, out: np.ndarray) -> None:
         """At the sample instant: the fault's acceleration M(q)^-1 ``fault_torque`` into ``out``."""

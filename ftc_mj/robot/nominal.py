@@ -22,7 +22,7 @@ import numba
 import numpy as np
 from mujoco.batch import Batch
 
-from ftc_mj.config.kernels import bound
+from ftc_mj.config.kernels import bound, direct
 from ftc_mj.config.types import PositiveFloat, Strict
 from ftc_mj.robot.rigid import RigidTree, evaluation, solve_factored
 
@@ -252,14 +252,27 @@ class DenseMass:
         self._padded = np.zeros((rows, model.nM + 1)) if np.any(self._index == model.nM) else None
         self.out = np.zeros((rows, n, n))
         self._flat = self.out.reshape(rows, n * n)
+        #: The sparse values last filled from, and the compiled gather bound to them (:func:`_gather`).
+        self._source: np.ndarray | None = None
+        self._gather: Callable[[], None] = lambda: None
 
     def update(self, sparse: np.ndarray) -> np.ndarray:
         """Fill from the sparse values ``(rows, nM)`` and return the dense matrices."""
+        if sparse is not self._source:  # callers fill from the same live buffer every period: bound once
+            self._source = sparse
+            self._gather = bound(_gather, sparse if self._padded is None else self._padded, self._index, self._flat)
         if self._padded is not None:  # a tree: gather from the values with a zero appended
             self._padded[:, :-1] = sparse
-            sparse = self._padded
-        sparse.take(self._index, axis=1, out=self._flat)  # the method: np.take's wrapper costs a microsecond
+        self._gather()
         return self.out
+
+
+@numba.njit(cache=True, nogil=True)
+def _gather(values: np.ndarray, index: np.ndarray, out: np.ndarray) -> None:
+    """``out[r, e] = values[r, index[e]]``: ``values.take(index, axis=1, out=out)`` in one compiled pass."""
+    for r in range(out.shape[0]):
+        for e in range(out.shape[1]):
+            out[r, e] = values[r, index[e]]
 
 
 class SparseSolver:
@@ -291,6 +304,15 @@ class SparseSolver:
             vector = np.broadcast_to(vector, (len(out), self._n))
         solve_factored(factor, diagonal_inverse, vector, out, *self._structure)
         return out
+
+    def into(self, factor: np.ndarray, diagonal_inverse: np.ndarray, vector: np.ndarray,
+             out: np.ndarray) -> Callable[[np.ndarray], None]:
+        """:meth:`solve` of these buffers (``vector`` ``(rows, n)``) into any array of ``out``'s type (a sample of
+        a series, say), past Numba's dispatcher (:func:`~ftc_mj.config.kernels.direct`)."""
+        structure = self._structure
+        solve = direct(solve_factored, factor, diagonal_inverse, vector, out, *structure)
+        rows, starts, addresses, columns = structure
+        return lambda into: solve(factor, diagonal_inverse, vector, into, rows, starts, addresses, columns)
 
     def bound(self, factor: np.ndarray, diagonal_inverse: np.ndarray, vector: np.ndarray,
               out: np.ndarray) -> Callable[[], None]:

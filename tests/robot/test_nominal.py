@@ -233,7 +233,13 @@ def test_dense_mass_fills_every_entry_from_the_sparse_values():
             sparse.append(data.M.copy())
             expected.append(full)
         dense = DenseMass(model, 3)
-        np.testing.assert_array_equal(dense.update(np.array(sparse)), np.array(expected))
+        live = np.array(sparse)
+        np.testing.assert_array_equal(dense.update(live), np.array(expected))
+        # The same buffer refilled in place (a plant's, every period), then another buffer.
+        live[:] = live[::-1]
+        np.testing.assert_array_equal(dense.update(live), np.array(expected[::-1]))
+        np.testing.assert_array_equal(dense.update(np.array(sparse[1:] + sparse[:1])),
+                                      np.array(expected[1:] + expected[:1]))
 
 
 def test_step_model_on_measured_velocity_evaluates_the_controllers_psi_at_the_readings(model):
