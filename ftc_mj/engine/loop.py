@@ -79,8 +79,9 @@ class VariantBlock:
     q_meas: np.ndarray
     qd_meas: np.ndarray | None
     tau: np.ndarray
-    #: Where each estimator's (observer, monitors) estimate goes in the nominal batch: (observer, qpos, qvel).
-    points: list[tuple[Observer, np.ndarray, np.ndarray]]
+    #: Where each estimator's (observer, monitors) estimate goes in the nominal batch: (observer, its
+    #: ``measure``, or None where it keeps the base class's, which reads nothing; qpos, qvel).
+    points: list[tuple[Observer, Callable[[np.ndarray, np.ndarray | None], None] | None, np.ndarray, np.ndarray]]
     #: The nominal points at the readings (a controller on measured velocity), or None.
     reading_points: tuple[np.ndarray, np.ndarray] | None
     #: The plugins' signals recorded each period: name -> ``(members, n)``.
@@ -307,7 +308,7 @@ class _Run:
                 step_model(block.observer, block.readings, needs[v][0]), monitors,
                 config.q_hat0, config.qd_hat0, q_meas=readings.q_meas[block.rows],
                 qd_meas=None if qd_meas is None else qd_meas[block.rows], tau=tau[block.rows],
-                points=[(estimator, nominal.qpos[points], nominal.qvel[points])
+                points=[(estimator, _measure(estimator), nominal.qpos[points], nominal.qvel[points])
                         for estimator, points in zip(estimators, block.estimators)],
                 reading_points=None if block.readings is None else (nominal.qpos[block.readings],
                                                                     nominal.qvel[block.readings]),
@@ -353,8 +354,9 @@ class _Run:
                 q_hat0 = q_b if block.q_hat0 is None else block.q_hat0
                 for observer in block.estimators:
                     observer.reset(q_hat0, block.qd_hat0)
-            for observer, qpos, qvel in block.points:
-                observer.measure(q_b, qd_b)
+            for observer, measure, qpos, qvel in block.points:
+                if measure is not None:
+                    measure(q_b, qd_b)
                 qpos[...] = observer.q_hat
                 qvel[...] = observer.qd_hat
             if block.reading_points is not None:  # the controller's Psi at the readings
@@ -513,6 +515,13 @@ def _inputs(scenario: Scenario, members: Members, layout: Layout) -> PlantInputs
 def _generators(members: Members, stream: int) -> list[np.random.Generator]:
     """Each member's generator of one random stream (:mod:`ftc_mj.effects.randomness`)."""
     return [randomness.generator(int(seed), stream) for seed in members.seeds]
+
+
+def _measure(observer: Observer) -> Callable[[np.ndarray, np.ndarray | None], None] | None:
+    """The observer's ``measure``, or None where it is :class:`Observer`'s own, which reads nothing."""
+    if type(observer).measure is Observer.measure and "measure" not in vars(observer):
+        return None
+    return observer.measure
 
 
 def _needs(observer_type: type[Observer]) -> frozenset[str]:
