@@ -348,3 +348,43 @@ def test_the_interpreters_first_compilation_is_announced_once(monkeypatch, capsy
         err = capsys.readouterr().err.splitlines()
         assert len(err) == lines
         assert all(line.startswith("compiling the plant terms' interpreter (first run on this machine") for line in err)
+    # What is asked (the interpreter, against its module's source) and the cache the line names.
+    from ftc_mj.config import programs
+
+    asked = []
+    monkeypatch.setattr(module, "_announced", False)
+    monkeypatch.setattr(module, "cache_is_cold", lambda dispatcher, source: asked.append((dispatcher, source)) or True)
+    PlantTerms(compiled, TIMES, 2, NJ, np.ones((2, 2)), PARAMETERS)
+    assert asked == [(programs.INTERPRETER, programs.__file__)]
+    assert capsys.readouterr().err.endswith(f"cached in {programs.INTERPRETER._cache._cache_path})\n")
+    monkeypatch.setattr(module, "_announced", False)
+    monkeypatch.setattr(programs.INTERPRETER, "_cache", object())  # a cache without a path of its own
+    PlantTerms(compiled, TIMES, 2, NJ, np.ones((2, 2)), PARAMETERS)
+    assert capsys.readouterr().err.endswith("cached in Numba's cache)\n")
+
+
+def test_the_terms_are_evaluated_on_the_buffers_given_bound_once_per_pair() -> None:
+    """The loop passes the plant's live state buffers every period: the terms' evaluation is bound to them once,
+    reads them as they are now, and is bound again when another buffer comes (either of the two)."""
+    friction = TermSpec(kind="friction", space="torque", sign=1, value=["qd1", "2*q2 + qd3", "q1*qd2"])
+    terms = PlantTerms(compile_terms([friction], "test.yaml", NJ, PARAMETERS), TIMES, 2, NJ, np.ones((2, 2)),
+                       PARAMETERS)
+    rng = np.random.default_rng(9)
+    q, qd, out = rng.normal(size=(2, NJ)), rng.normal(size=(2, NJ)), np.empty((2, NJ))
+
+    def expected(q: np.ndarray, qd: np.ndarray) -> np.ndarray:
+        return np.stack([qd[:, 0], 2 * q[:, 1] + qd[:, 2], q[:, 0] * qd[:, 1]], axis=1)
+
+    terms.apply(0, 0.0, q, qd, None, out)
+    np.testing.assert_array_equal(out, expected(q, qd))
+    binding = terms._state[2]
+    q[...], qd[...] = rng.normal(size=(2, NJ)), rng.normal(size=(2, NJ))  # in place, as the plant steps
+    terms.apply(1, DT, q, qd, None, out)
+    np.testing.assert_array_equal(out, expected(q, qd))
+    assert terms._state[2] is binding
+    for q_next, qd_next in ((q, rng.normal(size=(2, NJ))), (rng.normal(size=(2, NJ)), qd)):
+        terms.apply(2, 2 * DT, q_next, qd_next, None, out)
+        np.testing.assert_array_equal(out, expected(q_next, qd_next))
+        assert terms._state[2] is not binding
+        binding = terms._state[2]
+        q, qd = q_next, qd_next

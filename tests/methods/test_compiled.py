@@ -9,6 +9,7 @@ take the reference; and the engine's series of a shipped scenario are the same e
 
 from __future__ import annotations
 
+import uuid
 from pathlib import Path
 from types import SimpleNamespace
 
@@ -82,7 +83,8 @@ def test_fused_observer_equals_its_reference(cls, option):
     for k in range(PERIODS):
         q += random_rows(rng, k)
         model = SimpleNamespace(psi_hat=rng.normal(size=(MEMBERS, N)), command=rng.normal(size=(MEMBERS, N)))
-        model.command_acceleration = lambda tau, model=model: model.command
+        # M^-1 tau of this period's command: a function of tau, as a model without the engine's solve has it.
+        model.command_acceleration = lambda tau, model=model: model.command + 0.5 * tau
         tau = rng.normal(size=(MEMBERS, N))
         for observer in (fused, reference):
             observer.update(k * DT, q, model)
@@ -186,3 +188,82 @@ def test_the_first_compilation_is_announced_once_per_law_and_cached(tmp_path):
     assert len(first) == 1 and first[0].startswith("compiling the fused tosmo law (first run on this machine")
     assert str(tmp_path) in first[0]
     assert stderr() == []
+
+
+def test_fused_laws_call_their_kernels_past_the_dispatcher_after_the_first_period():
+    """Each call site of a fused law runs the dispatcher once, then the compiled function it left in its place."""
+    observer = build(HighSpeedTOSMO, member_gains(OBSERVERS[HighSpeedTOSMO][0]), False)
+    controller = build(NFTSMC, member_gains(NFTSMC_GAINS[0]), False)
+    sites = {observer: ("_find_errors", "_find_injection", "_integrate"),
+             controller: ("_find_errors", "_find_negative_control")}
+    for method, names in sites.items():
+        assert all(type(getattr(method, name)).__name__ == "function" for name in names)
+    rng = np.random.default_rng(3)
+    observer.reset(np.zeros((MEMBERS, N)), np.zeros((MEMBERS, N)))
+    controller.reset()
+    M = np.broadcast_to(np.eye(N), (MEMBERS, N, N)).copy()
+    model = SimpleNamespace(psi_hat=np.zeros((MEMBERS, N)), psi_control=np.zeros((MEMBERS, N)), M=M,
+                            control_velocity=lambda qd_hat: qd_hat, apply_M=lambda v, out: matvec(M, v, out),
+                            command_acceleration=lambda tau: tau)
+    for k in range(2):
+        q = rng.normal(size=(MEMBERS, N))
+        observer.update(k * DT, q, model)
+        controller.compute(k * DT, np.zeros(N), np.zeros(N), np.zeros(N), q, observer, model)
+        observer.advance(rng.normal(size=(MEMBERS, N)), model)
+        for method, names in sites.items():
+            assert all(type(getattr(method, name)).__name__ == "builtin_function_or_method" for name in names), k
+
+
+def test_the_kernel_decorator_compiles_without_fast_math_and_registers_the_kernel():
+    def divide_by_zero(x):  # noqa: ANN001, ANN202
+        return x / 0.0
+
+    probe = f"ftc_mj_probe_{uuid.uuid4().hex}"
+    divide_by_zero.__module__ = probe  # a module of no kernel yet: its list starts with this one
+    try:
+        dispatcher = compiled.kernel(divide_by_zero)
+        kernels = compiled._KERNELS.get(probe)
+    finally:
+        compiled._KERNELS.pop(probe, None)
+    assert kernels == [dispatcher]
+    assert dispatcher.targetoptions == {"nogil": True, "fastmath": False, "error_model": "numpy", "nopython": True,
+                                        "boundscheck": None}
+    assert type(dispatcher._cache).__name__ == "FunctionCache"  # cached on disk (else a NullCache)
+    with np.errstate(divide="ignore"):
+        assert dispatcher(1.0) == np.inf  # NumPy's division: inf, not ZeroDivisionError
+
+
+def test_the_announcement_names_the_law_and_the_cold_kernels_cache(monkeypatch, capsys):
+    """In process (the fresh-cache run above is a subprocess): which kernels are asked about, what is said, once
+    per module and only when a kernel's cache is cold."""
+    from ftc_mj.methods.observers import tosmo
+
+    asked = []
+    kernels = compiled._KERNELS[tosmo.__name__]
+
+    def cold(dispatcher, source):  # noqa: ANN001, ANN202
+        asked.append((dispatcher, source))
+        return dispatcher is kernels[1]
+
+    monkeypatch.setattr(compiled, "cache_is_cold", cold)
+    monkeypatch.setattr(compiled, "_announced", set())
+    gains = member_gains(OBSERVERS[TOSMO][0])
+    build(TOSMO, gains, False)
+    build(TOSMO, gains, False)
+    assert asked == [(kernel, tosmo.__file__) for kernel in kernels]
+    err = capsys.readouterr().err
+    assert err == (f"compiling the fused tosmo law (first run on this machine, a second; cached in "
+                   f"{kernels[1]._cache._cache_path})\n")
+    assert compiled._announced == {tosmo.__name__}
+    build(TOSMO, gains, True)  # the reference law compiles nothing and says nothing
+    monkeypatch.setattr(compiled, "_announced", set())
+    build(TOSMO, gains, True)
+    assert compiled._announced == set() and capsys.readouterr().err == ""
+    # A cache without a path of its own is named as Numba's cache.
+    monkeypatch.setattr(kernels[1], "_cache", SimpleNamespace())
+    build(TOSMO, gains, False)
+    assert capsys.readouterr().err.endswith("cached in Numba's cache)\n")
+    monkeypatch.setattr(compiled, "cache_is_cold", lambda dispatcher, source: False)
+    monkeypatch.setattr(compiled, "_announced", set())
+    build(TOSMO, gains, False)
+    assert capsys.readouterr().err == "" and compiled._announced == {tosmo.__name__}
