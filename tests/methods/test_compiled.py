@@ -9,7 +9,6 @@ take the reference; and the engine's series of a shipped scenario are the same e
 
 from __future__ import annotations
 
-import uuid
 from pathlib import Path
 from types import SimpleNamespace
 
@@ -218,13 +217,12 @@ def test_the_kernel_decorator_compiles_without_fast_math_and_registers_the_kerne
     def divide_by_zero(x):  # noqa: ANN001, ANN202
         return x / 0.0
 
-    probe = f"ftc_mj_probe_{uuid.uuid4().hex}"
-    divide_by_zero.__module__ = probe  # a module of no kernel yet: its list starts with this one
+    compiled._KERNELS.pop(__name__, None)  # this module has no kernel of its own: its list starts with this one
     try:
         dispatcher = compiled.kernel(divide_by_zero)
-        kernels = compiled._KERNELS.get(probe)
+        kernels = compiled._KERNELS.get(__name__)
     finally:
-        compiled._KERNELS.pop(probe, None)
+        compiled._KERNELS.pop(__name__, None)
     assert kernels == [dispatcher]
     assert dispatcher.targetoptions == {"nogil": True, "fastmath": False, "error_model": "numpy", "nopython": True,
                                         "boundscheck": None}
