@@ -312,7 +312,7 @@ class SparseSolver:
         structure = self._structure
         solve = direct(solve_factored, factor, diagonal_inverse, vector, out, *structure)
         rows, starts, addresses, columns = structure
-        return lambda into: solve(factor, diagonal_inverse, vector, into, rows, starts, addresses, columns)
+        return lambda target: solve(factor, diagonal_inverse, vector, target, rows, starts, addresses, columns)
 
     def bound(self, factor: np.ndarray, diagonal_inverse: np.ndarray, vector: np.ndarray,
               out: np.ndarray) -> Callable[[], None]:
