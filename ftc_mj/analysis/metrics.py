@@ -265,31 +265,53 @@ def compute_metrics(
     it every joint counts as faulty from the first onset. ``torque_limits``: per joint the |torque| at which
     the plant clips the command (inf: none; :attr:`~ftc_mj.spec.scenario.Scenario.torque_limits`).
     """
-    t = result.t
+    n = result.q_true.shape[1]
+    joint_onsets = onsets_per_joint(joint_onsets, fault_onsets, n)
+    # Each error series once (the result's properties compute them anew at every access).
+    metrics = series_metrics(result.t, result.tracking_error, result.velocity_error, result.luaf_error, result.tau,
+                             result.sliding, spec, fault_onsets, joint_onsets, torque_limits)
+    return {**metrics, **diagnosis_metrics(result.diagnosis, joint_onsets, min(fault_onsets, default=np.inf), n)}
+
+
+def onsets_per_joint(joint_onsets: np.ndarray | None, fault_onsets: Sequence[float], n: int) -> np.ndarray:
+    """``joint_onsets``, or without it the first of ``fault_onsets`` for all ``n`` joints (NaN without faults)."""
+    if joint_onsets is not None:
+        return joint_onsets
+    first_fault = min(fault_onsets, default=np.inf)
+    return np.full(n, first_fault if np.isfinite(first_fault) else np.nan)
+
+
+def series_metrics(
+    t: np.ndarray, error: np.ndarray, velocity_error: np.ndarray, luaf_error: np.ndarray, tau: np.ndarray,
+    sliding: np.ndarray, spec: MetricsSpec, fault_onsets: Sequence[float], joint_onsets: np.ndarray,
+    torque_limits: np.ndarray | None = None,
+) -> dict[str, np.ndarray]:
+    """The metrics of :func:`compute_metrics` but the diagnosis', from the series themselves, ``(T, columns)``.
+
+    Every metric is per column and every reduction runs over the samples alone (sums in time order), so the
+    columns may be one result's joints or the joints of many results side by side (``joint_onsets`` and
+    ``torque_limits`` then repeated per result): each column's value has the same bits either way. With a
+    single column the sums over time become NumPy's pairwise ones, so one column is one result's (n = 1) only.
+    """
     everything = np.ones(t.shape, dtype=bool)
     estimation = evaluation_mask(t, spec.estimation_window_start, fault_onsets, spec.fault_settle)
     first_fault = min(fault_onsets, default=np.inf)
-    error = result.tracking_error
     n = error.shape[1]
     convergence = settling_time(t, error, spec.tracking_tolerance, first_fault)
     # Per joint, from max(window_start, its first entry into the tolerance + fault_settle): steady states only.
     entry = first_entry_time(t, error, spec.tracking_tolerance, first_fault)
     window = converged_mask(t, spec.window_start, fault_onsets, spec.fault_settle, entry)
-    if joint_onsets is None:
-        joint_onsets = np.full(n, first_fault if np.isfinite(first_fault) else np.nan)
     fault_peak, recovery = fault_response(t, error, joint_onsets, fault_onsets, spec.tracking_tolerance,
                                           spec.fault_window)
 
     # Total variation inside the window: only differences between two consecutive samples that are both in it.
     pairs = window[1:] & window[:-1]
     window_seconds = pairs.sum(axis=0) * (t[1] - t[0]) if t.size > 1 else np.zeros(n)
-    variation = np.where(pairs, np.abs(np.diff(result.tau, axis=0)), 0.0).sum(axis=0)
+    variation = np.where(pairs, np.abs(np.diff(tau, axis=0)), 0.0).sum(axis=0)
     with np.errstate(invalid="ignore", divide="ignore"):
         chattering = np.where(window_seconds > 0, variation / np.where(window_seconds > 0, window_seconds, 1.0),
                               np.nan)
     transient = t < spec.estimation_window_start
-    # Each error series once (the result's properties compute them anew at every access).
-    velocity_error, luaf_error = result.velocity_error, result.luaf_error
 
     return {
         "rms_error": _rms(error, everything),
@@ -304,14 +326,13 @@ def compute_metrics(
         "peak_luaf_error_transient": _max_abs(luaf_error, transient),
         "luaf_overshoot": overshoot(luaf_error, transient),
         "rms_luaf_error_fault": _rms(luaf_error, estimation & (t >= first_fault)),
-        "first_reaching_time": first_entry_time(t, result.sliding, spec.sliding_tolerance, first_fault),
-        "reaching_time": settling_time(t, result.sliding, spec.sliding_tolerance, first_fault),
+        "first_reaching_time": first_entry_time(t, sliding, spec.sliding_tolerance, first_fault),
+        "reaching_time": settling_time(t, sliding, spec.sliding_tolerance, first_fault),
         "fault_peak_error": fault_peak,
         "recovery_time": recovery,
-        "rms_torque": _rms(result.tau, everything),
+        "rms_torque": _rms(tau, everything),
         "chattering": chattering,
-        "saturation_time": saturation_share(result.tau, torque_limits),
-        **diagnosis_metrics(result.diagnosis, joint_onsets, first_fault, n),
+        "saturation_time": saturation_share(tau, torque_limits),
     }
 
 

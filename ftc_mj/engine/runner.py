@@ -23,8 +23,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ftc_mj.analysis.diagnosis import diagnose_result
-from ftc_mj.analysis.metrics import compute_metrics
+from ftc_mj.analysis.diagnosis import diagnose_result, diagnosis_metrics
+from ftc_mj.analysis.metrics import compute_metrics, onsets_per_joint, series_metrics
 from ftc_mj.engine.loop import BatchRun, ChunkCallback, ProgressCallback, simulate
 from ftc_mj.engine.members import Members, single
 from ftc_mj.results import VariantResult
@@ -34,6 +34,10 @@ from ftc_mj.spec.scenario import Scenario, Variant, series_bytes
 #: (:func:`_interleaved`); below it the Python of the two halves would contend for the GIL more than their
 #: physics overlaps (the crossover measured on both sides: the performance page's change 8).
 INTERLEAVED_ROWS = 96
+
+#: Rows whose metrics are computed together (:func:`_finished_metrics`): their joints side by side as the columns
+#: of one pass per metric, few enough that the pass's temporaries stay a small share of the chunk's series.
+METRICS_ROWS = 64
 
 #: Default memory for the series of one chunk of members [bytes].
 DEFAULT_MEMORY_BUDGET = 2 * 1024**3
@@ -158,18 +162,62 @@ def _chunk_outcomes(scenario: Scenario, members: Members, start: int, stop: int,
 def member_outcomes(scenario: Scenario, run: BatchRun, first: int = 0,
                     on_result: Callable[[int, list[VariantResult]], None] | None = None) -> list[MemberOutcome]:
     """The metrics of every member of a batch run (member order, then variant order), numbered from ``first``;
-    ``on_result(member, results)`` sees each member's whole results first."""
+    ``on_result(member, results)`` sees each member's whole results first.
+
+    The rows that ran to the end get their series' metrics from :func:`_finished_metrics` (the same bits as
+    :func:`compute_metrics` on each, at a fraction of the per-call cost); the others, the monitors and every
+    diagnosis are evaluated result by result."""
     outcomes, limits = [], scenario.torque_limits
+    n, fault_onsets = scenario.n_joints, scenario.fault_onsets
+    joint_onsets = onsets_per_joint(scenario.joint_fault_onsets, fault_onsets, n)
+    first_fault = min(fault_onsets, default=np.inf)
+    finished = _finished_metrics(scenario, run, joint_onsets)
     for m in range(run.members):
         results = [variant_result(scenario, run, v, m) for v in range(len(scenario.variants))]
         if on_result is not None:
             on_result(first + m, results)
-        for result in results:
+        for v, result in enumerate(results):
             for one in (result, *result.monitors):
-                metrics = compute_metrics(one, scenario.spec.metrics, scenario.fault_onsets,
-                                          scenario.joint_fault_onsets, limits)
+                series = finished.get(v * run.members + m) if one is result else None
+                if series is None:
+                    metrics = compute_metrics(one, scenario.spec.metrics, fault_onsets, joint_onsets, limits)
+                else:
+                    metrics = {**series, **diagnosis_metrics(one.diagnosis, joint_onsets, first_fault, n)}
                 outcomes.append(MemberOutcome(first + m, one.name, one.status, one.diverged_at, metrics))
     return outcomes
+
+
+def _finished_metrics(scenario: Scenario, run: BatchRun, joint_onsets: np.ndarray) -> dict[int, dict[str, np.ndarray]]:
+    """Per row that ran to the end, its own result's series metrics (:func:`series_metrics`, no diagnosis).
+
+    :data:`METRICS_ROWS` rows at a time are one call: their joints are the columns of each series, so every
+    metric is one NumPy pass over them instead of one per row (a row's series are strided views of the run's, a
+    cache line per sample). Empty for one joint: a single column's sums would be pairwise, not a row's."""
+    n, steps = scenario.n_joints, len(run.times)
+    if n < 2:
+        return {}
+    rows = np.flatnonzero(run.done == steps)
+    series, q_ref = run.series, run.reference[0]
+    limits = scenario.torque_limits
+    out: dict[int, dict[str, np.ndarray]] = {}
+    for start in range(0, rows.size, METRICS_ROWS):
+        group = rows[start : start + METRICS_ROWS]
+
+        def columns(values: np.ndarray) -> np.ndarray:
+            return values[:steps, group].reshape(steps, group.size * n)
+
+        reference = q_ref[:steps, None] if q_ref.ndim == 2 else q_ref[:steps, group % run.members]
+        metrics = series_metrics(
+            run.times[:steps],
+            (series["q_true"][:steps, group] - reference).reshape(steps, group.size * n),
+            columns(series["qd_true"]) - columns(series["qd_hat"]),
+            columns(series["luaf_true"]) - columns(series["luaf_hat"]),
+            columns(series["tau"]), columns(series["sliding"]), scenario.spec.metrics, scenario.fault_onsets,
+            np.tile(joint_onsets, group.size), None if limits is None else np.tile(limits, group.size))
+        by_row = {name: values.reshape(group.size, n) for name, values in metrics.items()}
+        for index, row in enumerate(group):
+            out[int(row)] = {name: values[index].copy() for name, values in by_row.items()}
+    return out
 
 
 def variant_result(scenario: Scenario, run: BatchRun, v: int, m: int, poses: bool = False) -> VariantResult:

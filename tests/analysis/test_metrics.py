@@ -9,7 +9,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from ftc_mj.analysis.metrics import METRICS, compute_metrics, evaluation_mask, settling_time
+from ftc_mj.analysis.metrics import METRICS, compute_metrics, evaluation_mask, series_metrics, settling_time
 from ftc_mj.analysis.metrics import MetricsSpec
 from ftc_mj.results import VariantResult
 
@@ -409,3 +409,34 @@ def test_saturation_time_is_the_share_beyond_the_limit() -> None:
     lower = compute_metrics(make_result(tau=tau), metrics_spec(), [], torque_limits=np.array([np.inf, 1.0]))
     np.testing.assert_allclose(lower["saturation_time"], [0.0, (N // 2) / N])  # inf: never clipped
     assert not compute_metrics(make_result(tau=tau), metrics_spec(), [])["saturation_time"].any()  # no limits
+
+
+# ------------------------------------------------------------------------------------------ columns side by side
+
+
+def test_series_metrics_of_results_side_by_side_are_each_results_own() -> None:
+    """Five results' joints as the columns of one call (joint onsets and torque limits repeated per result) give
+    each result's metrics bit for bit: every metric is per column, every sum over time in time order."""
+    rng = np.random.default_rng(4)
+    spec = metrics_spec(sliding_tolerance=0.05, luaf_tolerance=0.5)
+    onsets, joint_onsets, limits = [1.0, 1.5], np.array([1.0, np.nan]), np.array([0.8, np.inf])
+    results = []
+    for r in range(5):
+        decay = np.exp(-T * (2.0 + r))[:, None]
+        series = {name: decay * rng.normal(size=(N, NJ)) + 1e-3 * rng.normal(size=(N, NJ))
+                  for name in ("error", "qd_true", "qd_hat", "luaf_true", "luaf_hat", "tau", "sliding")}
+        series["tau"][T > 1.0] += rng.choice([-1.0, 1.0], size=(int((T > 1.0).sum()), NJ))  # crosses the limit
+        if r == 2:
+            series["luaf_hat"][700:710, 1] = np.nan  # a NaN estimate counts as outside the tolerance
+        results.append(make_result(**series))
+    side_by_side = series_metrics(
+        T, *(np.concatenate([getattr(r, name) for r in results], axis=1)
+             for name in ("tracking_error", "velocity_error", "luaf_error", "tau", "sliding")),
+        spec, onsets, np.tile(joint_onsets, 5), np.tile(limits, 5))
+    for r, result in enumerate(results):
+        alone = compute_metrics(result, spec, onsets, joint_onsets, limits)
+        assert list(alone)[: len(side_by_side)] == list(side_by_side)
+        for metric, values in side_by_side.items():
+            np.testing.assert_array_equal(values[r * NJ : (r + 1) * NJ], alone[metric], err_msg=f"{r} {metric}")
+    assert np.isfinite(side_by_side["recovery_time"][0::2]).any() and np.isnan(side_by_side["recovery_time"][1::2]).all()
+    assert (side_by_side["saturation_time"][0::2] > 0).all() and (side_by_side["saturation_time"][1::2] == 0).all()

@@ -11,6 +11,7 @@ import numpy as np
 import pytest
 import yaml
 
+from ftc_mj.analysis.metrics import compute_metrics
 from ftc_mj.engine import runner
 from ftc_mj.engine.loop import quiet_warnings, simulate
 from ftc_mj.engine.members import Members, members_from_overrides, replicates
@@ -197,6 +198,30 @@ def test_chunks_give_the_metrics_of_one_batch(scenario):
         assert a.status == b.status
         for metric, values in a.metrics.items():
             np.testing.assert_allclose(values, b.metrics[metric], rtol=1e-12, atol=0, err_msg=metric)  # sums in another order
+
+
+@pytest.mark.parametrize("group", [4, runner.METRICS_ROWS])
+def test_member_outcomes_are_each_results_own_metrics(scenario, batch_run, monkeypatch, group):
+    """The finished rows' metrics computed together (in groups of 4 rows: across members and variants, 5 members
+    of 3 joints) are bit for bit what :func:`compute_metrics` gives each result alone; the diverged member and
+    the monitors, evaluated one by one, too."""
+    monkeypatch.setattr(runner, "METRICS_ROWS", group)
+    outcomes = iter(runner.member_outcomes(scenario, batch_run))
+    finished = runner._finished_metrics(scenario, batch_run, scenario.joint_fault_onsets)
+    assert sorted(finished) == [v * batch_run.members + m for v in range(len(scenario.variants))
+                                for m in range(batch_run.members) if m != 3]
+    for m in range(batch_run.members):
+        for v in range(len(scenario.variants)):
+            result = variant_result(scenario, batch_run, v, m)
+            for one in (result, *result.monitors):
+                outcome = next(outcomes)
+                alone = compute_metrics(one, scenario.spec.metrics, scenario.fault_onsets,
+                                        scenario.joint_fault_onsets, scenario.torque_limits)
+                assert (outcome.member, outcome.variant, outcome.status) == (m, one.name, one.status)
+                assert list(outcome.metrics) == list(alone)
+                for metric, values in alone.items():
+                    np.testing.assert_array_equal(outcome.metrics[metric], values, err_msg=f"{one.name} {metric}")
+    assert next(outcomes, None) is None
 
 
 def test_interleaved_halves_give_the_outcomes_of_one_run(scenario, monkeypatch):
