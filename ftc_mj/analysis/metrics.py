@@ -265,10 +265,11 @@ def compute_metrics(
     it every joint counts as faulty from the first onset. ``torque_limits``: per joint the |torque| at which
     the plant clips the command (inf: none; :attr:`~ftc_mj.spec.scenario.Scenario.torque_limits`).
     """
-    n = result.q_true.shape[1]
-    joint_onsets = onsets_per_joint(joint_onsets, fault_onsets, n)
     # Each error series once (the result's properties compute them anew at every access).
-    metrics = series_metrics(result.t, result.tracking_error, result.velocity_error, result.luaf_error, result.tau,
+    error = result.tracking_error
+    n = error.shape[1]
+    joint_onsets = onsets_per_joint(joint_onsets, fault_onsets, n)
+    metrics = series_metrics(result.t, error, result.velocity_error, result.luaf_error, result.tau,
                              result.sliding, spec, fault_onsets, joint_onsets, torque_limits)
     return {**metrics, **diagnosis_metrics(result.diagnosis, joint_onsets, min(fault_onsets, default=np.inf), n)}
 
