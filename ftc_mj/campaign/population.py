@@ -22,7 +22,6 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
-from scipy.stats import qmc
 
 from ftc_mj.campaign.spec import CampaignSpec, CaseSpec
 from ftc_mj.engine.batching import batchable
@@ -81,6 +80,10 @@ def unit_points(spec: CampaignSpec) -> np.ndarray:
     if samples.method == "random":
         return np.array([np.random.default_rng(np.random.SeedSequence(samples.seed, spawn_key=(s,))).random(d)
                          for s in range(samples.runs)])
+    # Imported here: scipy.stats costs a second to import, and a campaign's workers, which import this module
+    # with the campaign's, never draw points.
+    from scipy.stats import qmc
+
     engine = qmc.Sobol(d, scramble=True, seed=samples.seed) if samples.method == "sobol" else \
         qmc.Halton(d, scramble=True, seed=samples.seed)
     if samples.method == "sobol":

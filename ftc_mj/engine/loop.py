@@ -141,10 +141,13 @@ class PlantInputs:
 
 @dataclass
 class Stops:
-    """Per row: the number of samples recorded (``steps`` unless it stopped) and the time it stopped."""
+    """Per row: the number of samples recorded (``steps`` unless it stopped) and the time it stopped; the stopped
+    rows and their nominal model's Psi points, as indices kept from stop to stop (each period puts them at rest)."""
 
     done: np.ndarray
     diverged_at: np.ndarray
+    rows: np.ndarray | None = None
+    points: np.ndarray | None = None
 
 
 def simulate(
@@ -339,8 +342,11 @@ class _Run:
     def stop(self, stopped: np.ndarray | None, k: int) -> None:
         """Rows stopped at sample k (a mask, or None): their recording ends before it."""
         if stopped is not None:
-            self.stops.done[stopped] = k
-            self.stops.diverged_at[stopped] = self.times[k]
+            stops = self.stops
+            stops.done[stopped] = k
+            stops.diverged_at[stopped] = self.times[k]
+            rows = ~self.plant.alive
+            stops.rows, stops.points = np.flatnonzero(rows), np.flatnonzero(rows[self.layout.point_rows])
 
     def sense(self, k: int) -> None:
         """1. The readings of sample k, corrupted by the sensor effects."""
@@ -363,11 +369,10 @@ class _Run:
                 qpos, qvel = block.reading_points
                 qpos[...] = q_b
                 qvel[...] = qd_b
-        plant, nominal, stopped = self.plant, self.nominal, None
-        if plant.running < self.layout.rows:  # stopped rows may hold NaN or inf: evaluate them at rest instead
-            stopped = ~plant.alive
-            at_rest(nominal, np.flatnonzero(stopped[self.layout.point_rows]))  # indices: the Psi points alone
-        self.mass.prepare(self.readings.q_meas, stopped)
+        stops, nominal = self.stops, self.nominal
+        if stops.rows is not None:  # stopped rows may hold NaN or inf: evaluate them at rest instead
+            at_rest(nominal, stops.points)  # the Psi points alone
+        self.mass.prepare(self.readings.q_meas, stops.rows)
         nominal.evaluate()
         self.mass.evaluate()
 

@@ -33,8 +33,8 @@ class MassAtReadings(Protocol):
     diagonal_inverse: np.ndarray
 
     def prepare(self, q_meas: np.ndarray, stopped: np.ndarray | None) -> None:
-        """Take the readings ``q_meas`` ``(rows, n)``; ``stopped`` (a mask, or None) rows at rest instead. Before
-        the nominal model is evaluated."""
+        """Take the readings ``q_meas`` ``(rows, n)``; the ``stopped`` rows (indices or a mask, or None) at rest
+        instead. Before the nominal model is evaluated."""
 
     def evaluate(self) -> None:
         """M at the readings taken: after the nominal model is evaluated."""

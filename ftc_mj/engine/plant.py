@@ -133,7 +133,7 @@ class MuJoCoPlant(Plant):
         self._position, self._velocity = np.zeros_like(self.qpos), np.zeros_like(self.qvel)
         self._ids: np.ndarray | None = None  # None: all rows step
         self.running = rows
-        self._within = bound(_within, self.qpos, self.qvel, float(max_position), float(max_velocity))
+        self._within = bound(_within, self.qpos, self.qvel, self.alive, float(max_position), float(max_velocity))
 
     def reset(self, q0: np.ndarray, qd0: np.ndarray) -> None:
         self.batch.reset(stage=_NO_STAGE)  # MuJoCo's defaults, warnings cleared; the state is written next
@@ -168,7 +168,7 @@ class MuJoCoPlant(Plant):
     def check(self) -> np.ndarray | None:
         # NaN fails every comparison, so it stops its row too (the engine runs under np.errstate(all="ignore")).
         if self._within():
-            return None  # every row within: one compiled pass, the usual case
+            return None  # every running row within: one compiled pass, the usual case (also once rows stopped)
         np.abs(self.qpos, out=self._position)
         np.abs(self.qvel, out=self._velocity)
         within = (self._position <= self.max_position).all(axis=1) & (self._velocity <= self.max_velocity).all(axis=1)
@@ -371,9 +371,13 @@ def _kinematics(model: mujoco.MjModel, positions: np.ndarray) -> tuple[np.ndarra
 
 
 @numba.njit(cache=True, nogil=True)
-def _within(qpos: np.ndarray, qvel: np.ndarray, max_position: float, max_velocity: float) -> bool:
-    """Whether every |qpos| <= max_position and every |qvel| <= max_velocity (NaN is not)."""
+def _within(qpos: np.ndarray, qvel: np.ndarray, alive: np.ndarray, max_position: float, max_velocity: float) -> bool:
+    """Whether every |qpos| <= max_position and every |qvel| <= max_velocity (NaN is not) in the rows still
+    ``alive``: a stopped row keeps the state it stopped in, which would otherwise send every later period to
+    the row-by-row comparison."""
     for r in range(qpos.shape[0]):
+        if not alive[r]:
+            continue
         for j in range(qpos.shape[1]):
             if not abs(qpos[r, j]) <= max_position:
                 return False

@@ -331,6 +331,38 @@ def test_batch_series_are_nan_from_each_rows_stop_on(tmp_path: Path) -> None:
         assert np.all(np.isfinite(values[:, stable])), name
 
 
+def test_a_stopped_rows_nominal_points_are_at_rest_in_every_period_after_its_stop(tmp_path: Path, monkeypatch):
+    """From the period a row stops in on, the nominal model evaluates that row's reading's M and the same Psi
+    points at rest (q = qd = 0) every period, and before it nothing at rest."""
+    import ftc_mj.engine.loop as loop_module
+
+    def indices(points: np.ndarray | None) -> list[int]:  # a mask or indices, as either is passed
+        points = np.zeros(0, int) if points is None else np.asarray(points)
+        return [int(i) for i in (np.flatnonzero(points) if points.dtype == bool else points)]
+
+    scenario = load_scenario(write_scenario(tmp_path, _diverging_spec()))
+    rested: list[list[int]] = []
+    prepared: list[list[int]] = []
+    real_at_rest, real_set_up = loop_module.at_rest, loop_module._Run.set_up
+    monkeypatch.setattr(loop_module, "at_rest",
+                        lambda batch, points: rested.append(indices(points)) or real_at_rest(batch, points))
+
+    def set_up(*args, **kwargs):
+        run = real_set_up(*args, **kwargs)
+        prepare = run.mass.prepare
+        run.mass.prepare = lambda q_meas, stopped: prepared.append(indices(stopped)) or prepare(q_meas, stopped)
+        return run
+
+    monkeypatch.setattr(loop_module._Run, "set_up", set_up)
+    run = simulate(scenario, single(scenario))
+    wild, periods = 1, len(run.times)
+    done = int(run.done[wild])
+    assert 10 < done < periods
+    assert prepared == [[]] * done + [[wild]] * (periods - done)
+    points = rested[0]
+    assert points and rested == [points] * (periods - done)
+
+
 def test_diverging_plant_term_does_not_raise(tmp_path: Path) -> None:
     """A positive velocity feedback 1e6 qd1 on the torque: caught by the state bounds."""
     term = {"kind": "disturbance", "space": "torque", "sign": 1, "value": ["1e6*qd1", "0", "0"]}

@@ -110,6 +110,23 @@ def test_the_limits_are_inclusive_and_stop_only_their_rows():
     assert plant.running == 0 and not plant.alive.any()
 
 
+def test_a_stopped_rows_state_past_the_limits_keeps_the_check_on_its_compiled_pass(monkeypatch):
+    """Once a row stopped past a limit, the running rows within it are checked by the compiled pass alone (the
+    row-by-row comparison is not reached), and a running row past a limit still stops."""
+    plant = MuJoCoPlant(_puma(), 3, substeps=1, nthread=1, max_position=1.0, max_velocity=5.0)
+    plant.reset(np.zeros((3, 3)), np.zeros((3, 3)))
+    plant.qpos[0, 0] = np.nan  # row 0 stops, its state stays as it stopped
+    np.testing.assert_array_equal(plant.check(), [True, False, False])
+    compared = []
+    real_abs = np.abs
+    monkeypatch.setattr(np, "abs", lambda *args, **kwargs: compared.append(1) or real_abs(*args, **kwargs))
+    assert plant.check() is None and plant.check() is None
+    assert not compared
+    plant.qvel[2, 1] = 5.5
+    np.testing.assert_array_equal(plant.check(), [False, False, True])
+    assert compared and plant.running == 1
+
+
 def test_a_bad_state_warning_stops_its_row_and_a_stopped_row_stays_put():
     """A velocity MuJoCo calls huge (it warns and resets that simulation): that row stops, the other runs on;
     the stopped row is not stepped again."""
