@@ -202,14 +202,22 @@ def _finished_metrics(scenario: Scenario, run: BatchRun, joint_onsets: np.ndarra
     out: dict[int, dict[str, np.ndarray]] = {}
     for start in range(0, rows.size, METRICS_ROWS):
         group = rows[start : start + METRICS_ROWS]
+        # Consecutive rows (no row of the group stopped) as a slice: each series' columns are then a view of the
+        # run's; else one gather by ``take``, whose copy is laid out as the columns are read (fancy indexing's is
+        # not, and reshaping it copied it again). The same numbers either way.
+        first, stop = int(group[0]), int(group[-1]) + 1
+        consecutive = stop - first == group.size
+
+        def picked(values: np.ndarray) -> np.ndarray:
+            return values[:steps, first:stop] if consecutive else np.take(values[:steps], group, axis=1)
 
         def columns(values: np.ndarray) -> np.ndarray:
-            return values[:steps, group].reshape(steps, group.size * n)
+            return picked(values).reshape(steps, group.size * n)
 
         reference = q_ref[:steps, None] if q_ref.ndim == 2 else q_ref[:steps, group % run.members]
         metrics = series_metrics(
             run.times[:steps],
-            (series["q_true"][:steps, group] - reference).reshape(steps, group.size * n),
+            (picked(series["q_true"]) - reference).reshape(steps, group.size * n),
             columns(series["qd_true"]) - columns(series["qd_hat"]),
             columns(series["luaf_true"]) - columns(series["luaf_hat"]),
             columns(series["tau"]), columns(series["sliding"]), scenario.spec.metrics, scenario.fault_onsets,
