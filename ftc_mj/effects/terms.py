@@ -171,13 +171,18 @@ class PlantTerms:
         self._mapped = np.zeros(shape)
         self._parameters = np.asarray(parameters, dtype=float).reshape(rows, -1)
         names = list(parameter_names)
-        #: Per term with a rate parameter, each row's weight 1 - exp(-rate (t - onset)) of the period (the same
-        #: for every joint), written each period into its row of ``_weights`` ``(terms, rows)``.
-        self._weights = np.zeros((len(terms), rows))
-        #: Per term with a rate parameter: each row's rate ``(rows, 1)`` and its weight's view ``(rows, 1)``.
-        self._rates = {index: (self._parameters[:, names.index(term.rate_parameter)][:, None].copy(),
-                               self._weights[index][:, None]) for index, term in enumerate(terms)
-                       if term.rate_parameter}
+        #: Per term with a rate parameter (a slot each, in file order): each row's rate ``(1, rows)``, the
+        #: term's onset and sign; their weights 1 - exp(-rate (t - onset)) (the same for every joint) are
+        #: tabulated for :data:`WEIGHT_BLOCK` samples at a time into ``_weights`` ``(slots, block, rows)``,
+        #: from the sample ``_block_start`` on: three NumPy calls per block instead of per period.
+        rated = [index for index, term in enumerate(terms) if term.rate_parameter]
+        self._slots = np.full(len(terms), -1, dtype=np.int64)
+        self._slots[rated] = np.arange(len(rated))
+        self._rates = [(self._parameters[:, names.index(terms[index].rate_parameter)][None, :].copy(),
+                        terms[index].onset, terms[index].sign) for index in rated]
+        self._times = np.asarray(times, dtype=float)
+        self._weights = np.zeros((max(len(rated), 1), min(WEIGHT_BLOCK, max(len(times), 1)), rows))
+        self._block_start = -len(times) - WEIGHT_BLOCK  # no block tabulated yet
         #: :func:`terms_function` of ``terms`` (the scenario's, compiled when it loaded), or compiled here.
         self._function = function or terms_function(terms, n_joints, parameter_names)
         if self._function.compiled:
@@ -203,9 +208,8 @@ class PlantTerms:
 
     def _plan(self, active: np.ndarray) -> "_Plan":
         """What a period with the terms ``active`` (indices, file order) does: each term, the sums it goes to
-        (a row of :data:`_SUMS` flags), and its per-row rate (rates, weight buffer, onset, sign), if any."""
+        (a row of :data:`_SUMS` flags), and its slot of per-row weights (-1: none)."""
         targets = np.zeros((len(active), len(_SUMS)), dtype=np.bool_)
-        rates = []
         for step, index in enumerate(active.tolist()):
             term = self.terms[index]
             acceleration = term.space == "acceleration"
@@ -213,24 +217,39 @@ class PlantTerms:
             if term.kind == "fault":
                 targets[step, _SUMS.index("fault")] = True
                 targets[step, _SUMS.index("fault_acceleration" if acceleration else "fault_force")] = True
-            if index in self._rates:
-                rates.append((*self._rates[index], term.onset, term.sign))
         acceleration_terms = [i for i in active.tolist() if self.terms[i].space == "acceleration"]
         acceleration_faults = [i for i in acceleration_terms if self.terms[i].kind == "fault"]
         plan = _Plan(
             terms=active.astype(np.int64),
-            rated=np.array([index in self._rates for index in active.tolist()], dtype=np.bool_),
+            slots=self._slots[active],
             targets=targets,
-            rates=rates,
+            rated=bool(np.any(self._slots[active] >= 0)),
             fault_active=any(self.terms[i].kind == "fault" for i in active.tolist()),
             maps_acceleration=bool(acceleration_terms),
             maps_fault_acceleration=bool(acceleration_faults),
             # The same terms in the same order: the two sums are the same numbers, and so are their M(q) images.
             same_acceleration_sums=acceleration_terms == acceleration_faults,
         )
-        plan.sum_terms = direct(_sum_terms, self._values, plan.terms, plan.rated, plan.targets, self._factors, 0,
-                                self._weights, self._sums)
+        plan.sum_terms = direct(_sum_terms, self._values, plan.terms, plan.slots, plan.targets, self._factors, 0,
+                                self._weights, 0, self._sums)
         return plan
+
+    def _tabulate_weights(self, k: int) -> None:
+        """Each rated term's weights of the samples k, k + 1, ... (a block): each row's incipient profile as
+        Profile.weight computes it, element by element (the samples before a term's onset are not read)."""
+        elapsed = self._times[k:k + self._weights.shape[1]]
+        self._block_start = k
+        with np.errstate(all="ignore"):  # before the onset the exponent may overflow: never read
+            for slot, (rates, onset, sign) in enumerate(self._rates):
+                weight = self._weights[slot, :len(elapsed)]
+                # (-rate) * elapsed == rate * (-elapsed), bit for bit; -(t - onset) as the time's own float.
+                np.multiply(rates, -(elapsed - onset)[:, None], out=weight)
+                np.exp(weight, out=weight)
+                # sign (1 - e): e - 1 for sign -1, the same bits (rounding is symmetric under negation).
+                if sign > 0:
+                    np.subtract(1.0, weight, out=weight)
+                else:
+                    np.subtract(weight, 1.0, out=weight)
 
     def maps_acceleration(self, k: int) -> bool:
         """Whether :meth:`apply` at sample ``k`` maps acceleration-space terms through M(q), i.e. needs
@@ -251,15 +270,12 @@ class PlantTerms:
             if qpos is not self._state[0] or qvel is not self._state[1]:  # new buffers: their own evaluation
                 self._state = (qpos, qvel, self._function.evaluation(qpos, qvel, self._parameters, self._values))
             self._state[2](t)
-        for rates, weight, onset, sign in plan.rates:  # each row's incipient profile, as Profile.weight computes it
-            np.multiply(rates, -(t - onset), out=weight)  # (-rate) * elapsed == rate * (-elapsed), bit for bit
-            np.exp(weight, out=weight)
-            # sign (1 - e): e - 1 for sign -1, the same bits (rounding is symmetric under negation).
-            if sign > 0:
-                np.subtract(1.0, weight, out=weight)
-            else:
-                np.subtract(weight, 1.0, out=weight)
-        plan.sum_terms(self._values, plan.terms, plan.rated, plan.targets, self._factors, k, self._weights, self._sums)
+        block = k - self._block_start
+        if plan.rated and not 0 <= block < self._weights.shape[1]:
+            self._tabulate_weights(k)
+            block = 0
+        plan.sum_terms(self._values, plan.terms, plan.slots, plan.targets, self._factors, k, self._weights, block,
+                       self._sums)
         if not plan.maps_acceleration:
             out[...] = self.torque  # an assignment costs half np.copyto's call on a few rows
             return
@@ -287,6 +303,10 @@ def announce_compilation() -> None:
               file=sys.stderr, flush=True)
 
 
+#: Samples of the rate parameters' weights tabulated at once (:meth:`PlantTerms._tabulate_weights`): a block
+#: of ``(WEIGHT_BLOCK, rows)`` per rated term.
+WEIGHT_BLOCK = 256
+
 #: The sums of :class:`PlantTerms`, in the order of its ``_sums`` buffer.
 _SUMS = ("torque", "acceleration", "fault", "fault_force", "fault_acceleration")
 
@@ -295,13 +315,13 @@ _SUMS = ("torque", "acceleration", "fault", "fault_force", "fault_acceleration")
 class _Plan:
     """A period's work for one set of active terms (:meth:`PlantTerms._plan`)."""
 
-    #: The active terms (indices, the file's order); whether each has a per-row rate; the sums each is added
-    #: to, ``(terms, sums)`` flags in the order of :data:`_SUMS`.
+    #: The active terms (indices, the file's order); each one's slot of per-row weights (-1: its weight is
+    #: the sample's factor); the sums each is added to, ``(terms, sums)`` flags in the order of :data:`_SUMS`;
+    #: whether any has per-row weights.
     terms: np.ndarray
-    rated: np.ndarray
+    slots: np.ndarray
     targets: np.ndarray
-    #: Per active term with a rate parameter: (rates, weight buffer, onset, sign).
-    rates: list[tuple[np.ndarray, np.ndarray, float | None, float]]
+    rated: bool
     fault_active: bool
     maps_acceleration: bool
     maps_fault_acceleration: bool
@@ -311,19 +331,20 @@ class _Plan:
 
 
 @numba.njit(cache=True, nogil=True)
-def _sum_terms(values: np.ndarray, terms: np.ndarray, rated: np.ndarray, targets: np.ndarray, factors: np.ndarray,
-               k: int, weights: np.ndarray, sums: np.ndarray) -> None:
+def _sum_terms(values: np.ndarray, terms: np.ndarray, slots: np.ndarray, targets: np.ndarray, factors: np.ndarray,
+               k: int, weights: np.ndarray, block: int, sums: np.ndarray) -> None:
     """Every sum from zero, then term by term in the file's order: its values ``(rows, terms x n)`` times its
     sign x weight of sample k (``factors`` ``(terms, samples, n)``, or each row's weight of a rate parameter,
-    ``weights`` ``(terms, rows)``), added to each of its sums ``(sums, rows, n)``: one product and one sum
-    per element, as NumPy's ``value *= factor; target += value`` (the same bits), in one pass."""
+    the sample's ``block`` of its slot in ``weights`` ``(slots, block, rows)``), added to each of its sums
+    ``(sums, rows, n)``: one product and one sum per element, as NumPy's ``value *= factor; target += value``
+    (the same bits), in one pass."""
     sums[:] = 0.0
     rows, n = sums.shape[1], sums.shape[2]
     for step in range(len(terms)):
-        term = terms[step]
+        term, slot = terms[step], slots[step]
         for r in range(rows):
             for j in range(n):
-                factor = weights[term, r] if rated[step] else factors[term, k, j]
+                factor = weights[slot, block, r] if slot >= 0 else factors[term, k, j]
                 value = values[r, term * n + j] * factor
                 for target in range(sums.shape[0]):
                     if targets[step, target]:

@@ -309,27 +309,57 @@ def test_closed_loop_parameter_rate_equals_the_numeric_rate(tmp_path: Path) -> N
 
 def test_the_compiled_sums_are_numpys_products_and_sums_bit_for_bit() -> None:
     """_sum_terms against NumPy's ``value *= factor; target += value`` term by term: 5 rows, 3 joints, four terms
-    (one with a per-row weight, one not active) going to different sums, random values and factors."""
+    (one with a per-row weight read from its slot's block, one not active) going to different sums, random
+    values and factors."""
     from ftc_mj.effects.terms import _SUMS, _sum_terms
 
     generator = np.random.default_rng(7)
-    rows, n, samples, k = 5, 3, 4, 2
+    rows, n, samples, k, block = 5, 3, 4, 2, 1
     values = generator.standard_normal((rows, 4 * n)) * 1e3
     factors = generator.standard_normal((4, samples, n))
-    weights = generator.standard_normal((4, rows))
-    active, rated = np.array([0, 2, 3]), np.array([False, True, False])
+    weights = generator.standard_normal((2, 3, rows))  # (slots, block, rows): term 2 has slot 1
+    active, slots = np.array([0, 2, 3]), np.array([-1, 1, -1])
     targets = np.zeros((3, len(_SUMS)), dtype=bool)
     targets[0, [0, 2, 3]] = targets[1, [1, 2, 4]] = targets[2, 0] = True
     expected = np.full((len(_SUMS), rows, n), 0.0)
     for step, term in enumerate(active):
         value = values[:, term * n:(term + 1) * n].copy()
-        value *= weights[term][:, None] if rated[step] else factors[term, k]
+        value *= weights[slots[step], block][:, None] if slots[step] >= 0 else factors[term, k]
         for target in np.flatnonzero(targets[step]):
             expected[target] += value
     sums = np.full((len(_SUMS), rows, n), np.nan)
-    _sum_terms(values, active, rated, targets, factors, k, weights, sums)
+    _sum_terms(values, active, slots, targets, factors, k, weights, block, sums)
     np.testing.assert_array_equal(sums, expected)
     assert np.all(expected[0] != 0.0)
+
+
+@pytest.mark.parametrize("sign", [1, -1])
+def test_the_tabulated_weights_are_each_periods_numpy_sequence_bit_for_bit(sign: int) -> None:
+    """The rate parameters' weights, tabulated a block of samples at a time, against NumPy's sequence on
+    one period's ``(rows, 1)`` column, sample by sample: ``rate * -(t - onset)``, exp, ``1 - e`` (or
+    ``e - 1``), over more samples than one block and 7 rows of rates from slow to fast. The samples are
+    taken out of order too, as a run that restarts its blocks would."""
+    from ftc_mj.effects import terms as module
+
+    rows = 7
+    times = np.arange(2 * module.WEIGHT_BLOCK + 37) * 1e-3 + ONSET - 0.05
+    rates = np.geomspace(0.1, 60.0, rows)
+    spec = TermSpec(kind="fault", space="torque", sign=sign, value=VALUE, onset=ONSET, rate="zeta")
+    plant = PlantTerms(compile_terms([spec], "test.yaml", NJ, PARAMETERS), times, rows, NJ,
+                       np.column_stack([np.ones(rows), rates]), PARAMETERS)
+    column = rates[:, None].copy()
+    for k in [*range(len(times)), 3 * module.WEIGHT_BLOCK // 2, 5]:
+        t = float(times[k])
+        if t < ONSET:
+            continue
+        expected = np.multiply(column, -(t - ONSET))
+        np.exp(expected, out=expected)
+        expected = 1.0 - expected if sign > 0 else expected - 1.0
+        block = k - plant._block_start
+        if not 0 <= block < plant._weights.shape[1]:
+            plant._tabulate_weights(k)
+            block = 0
+        np.testing.assert_array_equal(plant._weights[0, block], expected[:, 0])
 
 
 def test_the_interpreters_first_compilation_is_announced_once(monkeypatch, capsys) -> None:
