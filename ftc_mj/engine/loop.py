@@ -441,7 +441,7 @@ class _Run:
         if actuators is not None or fault_terms_on:
             series["fault_torque"][k] = terms.fault_force
             if truths is not None and inputs.fault_on[k]:  # the fault's acceleration M(q)^-1 f
-                truths.fault(plant, series["fault_torque"][k], series["fault_acceleration"][k])
+                truths.fault(series["fault_torque"][k], series["fault_acceleration"][k])
 
     def advance(self, k: int) -> None:
         """5. The observers integrate over the period (:meth:`integrate_observers`); the plant steps

@@ -26,22 +26,24 @@ from ftc_mj.robot.nominal import SparseSolver
 
 @dataclass
 class Truths:
-    """The solver and the buffers of the per-period solves of a run's rows."""
+    """The buffers and solves of the per-period truths of a run's rows."""
 
-    solver: SparseSolver
     #: tau / c - C qd - G of the plant at the last sample, ``(rows, n)``.
     force: np.ndarray
     #: c per row, ``(rows, 1)``, or None where c = 1 for every row.
     scale: np.ndarray | None
     #: M(q)^-1 ``force`` of the plant into a sample of a series (:meth:`SparseSolver.into`).
     solve_force: Callable[[np.ndarray], None]
+    #: M(q)^-1 of one sample of a series into another (:meth:`SparseSolver.between`).
+    solve_sample: Callable[[np.ndarray, np.ndarray], None]
 
     @classmethod
     def allocate(cls, solver: SparseSolver, plant: Plant, scale: np.ndarray) -> Truths:
         """For ``plant``'s rows; ``scale``: c of each row, ``(rows,)``."""
         force = np.zeros(plant.qpos.shape)
-        return cls(solver, force, None if np.all(scale == 1.0) else scale[:, None],
-                   solver.into(plant.factor, plant.diagonal_inverse, force, np.zeros_like(force)))
+        return cls(force, None if np.all(scale == 1.0) else scale[:, None],
+                   solver.into(plant.factor, plant.diagonal_inverse, force, np.zeros_like(force)),
+                   solver.between(plant.factor, plant.diagonal_inverse, force))
 
     def record(self, plant: Plant, tau: np.ndarray, out: np.ndarray) -> None:
         """At the sample instant: M(q)^-1 (tau / c - C qd - G) of the plant for the command ``tau`` into
@@ -53,9 +55,10 @@ class Truths:
             force -= plant.bias
         self.solve_force(out)
 
-    def fault(self, plant: Plant, fault_torque: np.ndarray, out: np.ndarray) -> None:
-        """At the sample instant: the fault's acceleration M(q)^-1 ``fault_torque`` into ``out``."""
-        self.solver.solve(plant.factor, plant.diagonal_inverse, fault_torque, out)
+    def fault(self, fault_torque: np.ndarray, out: np.ndarray) -> None:
+        """At the sample instant: the fault's acceleration M(q)^-1 ``fault_torque`` into ``out``, two samples of
+        series (C-ordered ``(rows, n)`` float arrays: the solve is called past Numba's dispatcher)."""
+        self.solve_sample(fault_torque, out)
 
     @staticmethod
     def finish(qdd_true: np.ndarray, luaf_true: np.ndarray) -> None:

@@ -314,6 +314,16 @@ class SparseSolver:
         rows, starts, addresses, columns = structure
         return lambda target: solve(factor, diagonal_inverse, vector, target, rows, starts, addresses, columns)
 
+    def between(self, factor: np.ndarray, diagonal_inverse: np.ndarray,
+                like: np.ndarray) -> Callable[[np.ndarray, np.ndarray], None]:
+        """:meth:`solve` of these factors from any ``(rows, n)`` array of ``like``'s type into another (two
+        samples of series, say), past Numba's dispatcher (:func:`~ftc_mj.config.kernels.direct`)."""
+        structure = self._structure
+        solve = direct(solve_factored, factor, diagonal_inverse, like, like, *structure)
+        rows, starts, addresses, columns = structure
+        return lambda vector, target: solve(factor, diagonal_inverse, vector, target, rows, starts, addresses,
+                                            columns)
+
     def bound(self, factor: np.ndarray, diagonal_inverse: np.ndarray, vector: np.ndarray,
               out: np.ndarray) -> Callable[[], None]:
         """:meth:`solve` of these buffers (``vector`` ``(rows, n)``), as a call without arguments past Numba's

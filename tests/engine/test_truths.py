@@ -31,7 +31,7 @@ def test_truths_are_the_dense_solves_of_the_plant(scale):
     for k in range(steps):
         plant.reset(rng.uniform(-1.0, 1.0, (2, 3)), rng.uniform(-2.0, 2.0, (2, 3)))
         truths.record(plant, tau[k], luaf[k])
-        truths.fault(plant, fault[k], fault_acceleration[k])
+        truths.fault(fault[k], fault_acceleration[k])
         masses[k], biases[k] = plant.mass_matrices(), plant.bias
     truths.finish(qdd, luaf)
     for k in range(steps):
