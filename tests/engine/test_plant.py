@@ -292,7 +292,7 @@ def test_one_row_stops_on_a_bad_state_warning_and_on_a_mujoco_error(monkeypatch)
     plant.reset(Q0[:1], QD0[:1])
     assert plant.running == 1 and plant.step(np.zeros((1, 3))) is None
 
-    def failing(model, data):
+    def failing(model, data, nstep=1):
         raise mujoco.FatalError("stand-in")
 
     monkeypatch.setattr(plant_module.mujoco, "mj_step", failing)
