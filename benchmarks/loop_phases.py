@@ -35,20 +35,16 @@ from ftc_mj.campaign import execute
 from ftc_mj.engine import loop
 from ftc_mj.engine.members import members_from_overrides
 from ftc_mj.engine.runner import member_outcomes
+from ftc_mj.engine.series import BatchRun
 
 ROOT = Path(__file__).resolve().parents[1]
 PHASES = ("physics", "nominal model", "methods", "plant terms", "readings", "set-up and truths", "metrics")
 
 
-def phase_seconds(campaign: execute.Campaign, task: execute.Task) -> tuple[dict[str, float], int, int]:
-    """Seconds per phase of one batch on one core; the batch's rows and control periods."""
-    scenario = execute.compiled_scenario(task.scenario, task.variants, task.duration, execute.frozen(task.structure))
-    members = members_from_overrides(scenario, [member for _, _, member in task.runs])
-    seconds = dict.fromkeys(PHASES, 0.0)
+def timed_periods(run: loop._Run, seconds: dict[str, float]) -> BatchRun:
+    """Every control period of ``run`` as the loop steps it, each phase's seconds added to ``seconds`` (the
+    keys of :data:`PHASES` but the metrics); the truths after the run under "set-up and truths". The run."""
     clock = time.perf_counter
-    start = clock()
-    run = loop._Run.set_up(scenario, members, record_poses=False, nthread=1)
-    seconds["set-up and truths"] += clock() - start
     with np.errstate(all="ignore"):
         for k in range(run.steps):
             t = run.times[k]
@@ -75,6 +71,19 @@ def phase_seconds(campaign: execute.Campaign, task: execute.Task) -> tuple[dict[
         run.finish_truth()
         batch_run = run.result()
         seconds["set-up and truths"] += clock() - a
+    return batch_run
+
+
+def phase_seconds(campaign: execute.Campaign, task: execute.Task) -> tuple[dict[str, float], int, int]:
+    """Seconds per phase of one batch on one core; the batch's rows and control periods."""
+    scenario = execute.compiled_scenario(task.scenario, task.variants, task.duration, execute.frozen(task.structure))
+    members = members_from_overrides(scenario, [member for _, _, member in task.runs])
+    seconds = dict.fromkeys(PHASES, 0.0)
+    clock = time.perf_counter
+    start = clock()
+    run = loop._Run.set_up(scenario, members, record_poses=False, nthread=1)
+    seconds["set-up and truths"] += clock() - start
+    batch_run = timed_periods(run, seconds)
     a = clock()
     _, keep_detection = execute.detection_keeper(scenario, task.scales)
     member_outcomes(scenario, batch_run, 0, keep_detection)

@@ -1,0 +1,86 @@
+"""Where a single run's time goes, phase by phase, against a bare ``mj_step`` loop: the floor of its cost.
+
+One run of a scenario's variant (default ``scenarios/puma_fault.yaml``, ``proposed``): one row on one MjData, as
+``python -m ftc_mj.run`` steps it, with a timer around each phase of the loop as ``loop_phases.py`` times a
+campaign batch (physics, nominal model, methods, plant terms, readings, set-up and truths), then what the run
+does after the loop: the metrics and the Rerun file (poses kept, written to a temporary directory). Each round
+measures a bare ``mj_step`` loop of as many physics steps just before the run, and prints each phase in
+microseconds per control period and as a multiple of that bare loop; the last line is the physics phase against
+the bare loop, which says what the loop's other work between two steps costs MuJoCo's own (its caches).
+
+    python benchmarks/step_phases.py [--scenario scenarios/puma_fault.yaml] [--variant proposed] [--duration 10] [--rounds 3]
+"""
+
+from __future__ import annotations
+
+import argparse
+import tempfile
+import time
+from pathlib import Path
+
+from loop_phases import timed_periods  # this folder is on sys.path
+from step_cost import bare_loop_seconds
+from ftc_mj import load_scenario
+from ftc_mj.analysis.metrics import compute_metrics
+from ftc_mj.engine import loop
+from ftc_mj.engine.members import single
+from ftc_mj.engine.runner import variant_result
+from ftc_mj.outputs.recording import write_recording
+from ftc_mj.spec.scenario import Scenario
+
+ROOT = Path(__file__).resolve().parents[1]
+PHASES = ("physics", "nominal model", "methods", "plant terms", "readings", "set-up and truths", "metrics",
+          "recording")
+
+
+def round_seconds(scenario: Scenario) -> dict[str, float]:
+    """Seconds per phase of one run of ``scenario`` (one variant), its metrics and its recording."""
+    clock = time.perf_counter
+    seconds = dict.fromkeys(PHASES, 0.0)
+    with loop.quiet_warnings():
+        start = clock()
+        run = loop._Run.set_up(scenario, single(scenario), record_poses=True, nthread=1)
+        seconds["set-up and truths"] += clock() - start
+        batch_run = timed_periods(run, seconds)
+    start = clock()
+    result = variant_result(scenario, batch_run, 0, 0, poses=True)
+    results = [result, *result.monitors]  # what run_scenario gives
+    for each in results:
+        compute_metrics(each, scenario.spec.metrics, scenario.fault_onsets, scenario.joint_fault_onsets)
+    seconds["metrics"] += clock() - start
+    start = clock()
+    with tempfile.TemporaryDirectory() as folder:
+        write_recording(Path(folder) / "bench.rrd", scenario=scenario.name, model=scenario.model, results=results,
+                        fault_onsets=scenario.fault_onsets, seed=scenario.spec.seed)
+    seconds["recording"] += clock() - start
+    return seconds
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    parser.add_argument("--scenario", type=Path, default=ROOT / "scenarios" / "puma_fault.yaml")
+    parser.add_argument("--variant", default="proposed")
+    parser.add_argument("--duration", type=float, default=10.0)
+    parser.add_argument("--rounds", type=int, default=3, help="rounds of bare loop then run; each is printed")
+    args = parser.parse_args()
+
+    scenario = load_scenario(args.scenario, duration=args.duration, variants=[args.variant])
+    periods = len(scenario.times)
+    round_seconds(scenario)  # the first run in a process loads the kernels
+    print(f"{args.scenario.name}, variant {args.variant}: one row, {periods} control periods of {scenario.substeps} "
+          f"physics steps; bare: mj_step on the same model, as many steps, just before each round")
+    print(f"{'phase':20s} " + " ".join(f"{'us':>7s} {'/ bare':>6s}" for _ in range(args.rounds)))
+    rounds = []
+    for _ in range(args.rounds):
+        bare = bare_loop_seconds(scenario.model, periods * scenario.substeps) / periods
+        rounds.append((bare, {name: value / periods for name, value in round_seconds(scenario).items()}))
+    for name in PHASES:
+        print(f"{name:20s} " + " ".join(f"{per[name] * 1e6:7.2f} {per[name] / bare:6.2f}" for bare, per in rounds))
+    print(f"{'whole run':20s} " + " ".join(f"{sum(per.values()) * 1e6:7.2f} {sum(per.values()) / bare:6.2f}"
+                                           for bare, per in rounds))
+    print(f"{'bare mj_step':20s} " + " ".join(f"{bare * 1e6:7.2f} {1.0:6.2f}" for bare, _ in rounds))
+    print("physics phase / bare mj_step: " + ", ".join(f"{per['physics'] / bare:.2f}" for bare, per in rounds))
+
+
+if __name__ == "__main__":
+    main()
