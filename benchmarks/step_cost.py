@@ -20,6 +20,7 @@ import mujoco
 from ftc_mj import load_scenario, run_scenario
 from ftc_mj.analysis.metrics import compute_metrics
 from ftc_mj.outputs.recording import write_recording
+from ftc_mj.spec.scenario import Scenario
 
 ROOT = Path(__file__).resolve().parents[1]
 
@@ -32,15 +33,20 @@ def bare_loop_seconds(model: mujoco.MjModel, steps: int) -> float:
     return time.perf_counter() - start
 
 
-def main() -> None:
-    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+def single_run(description: str, rounds_help: str) -> tuple[argparse.Namespace, Scenario]:
+    """The command line of a single-run benchmark (scenario, variant, duration, rounds) and its scenario of
+    that one variant."""
+    parser = argparse.ArgumentParser(description=description)
     parser.add_argument("--scenario", type=Path, default=ROOT / "scenarios" / "puma_fault.yaml")
     parser.add_argument("--variant", default="proposed")
     parser.add_argument("--duration", type=float, default=10.0)
-    parser.add_argument("--rounds", type=int, default=3, help="alternated measurements of each; the fastest counts")
+    parser.add_argument("--rounds", type=int, default=3, help=rounds_help)
     args = parser.parse_args()
+    return args, load_scenario(args.scenario, duration=args.duration, variants=[args.variant])
 
-    scenario = load_scenario(args.scenario, duration=args.duration, variants=[args.variant])
+
+def main() -> None:
+    args, scenario = single_run(__doc__.split("\n\n")[0], "alternated measurements of each; the fastest counts")
     steps = int(round(args.duration / scenario.spec.control_dt))
     physics_steps = steps * scenario.substeps
 

@@ -13,14 +13,12 @@ the bare loop, which says what the loop's other work between two steps costs MuJ
 
 from __future__ import annotations
 
-import argparse
 import tempfile
 import time
 from pathlib import Path
 
 from loop_phases import timed_periods  # this folder is on sys.path
-from step_cost import bare_loop_seconds
-from ftc_mj import load_scenario
+from step_cost import bare_loop_seconds, single_run
 from ftc_mj.analysis.metrics import compute_metrics
 from ftc_mj.engine import loop
 from ftc_mj.engine.members import single
@@ -28,7 +26,6 @@ from ftc_mj.engine.runner import variant_result
 from ftc_mj.outputs.recording import write_recording
 from ftc_mj.spec.scenario import Scenario
 
-ROOT = Path(__file__).resolve().parents[1]
 PHASES = ("physics", "nominal model", "methods", "plant terms", "readings", "set-up and truths", "metrics",
           "recording")
 
@@ -57,14 +54,7 @@ def round_seconds(scenario: Scenario) -> dict[str, float]:
 
 
 def main() -> None:
-    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    parser.add_argument("--scenario", type=Path, default=ROOT / "scenarios" / "puma_fault.yaml")
-    parser.add_argument("--variant", default="proposed")
-    parser.add_argument("--duration", type=float, default=10.0)
-    parser.add_argument("--rounds", type=int, default=3, help="rounds of bare loop then run; each is printed")
-    args = parser.parse_args()
-
-    scenario = load_scenario(args.scenario, duration=args.duration, variants=[args.variant])
+    args, scenario = single_run(__doc__.split("\n\n")[0], "rounds of bare loop then run; each is printed")
     periods = len(scenario.times)
     round_seconds(scenario)  # the first run in a process loads the kernels
     print(f"{args.scenario.name}, variant {args.variant}: one row, {periods} control periods of {scenario.substeps} "
