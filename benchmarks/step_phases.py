@@ -6,7 +6,7 @@ campaign batch (physics, nominal model, methods, plant terms, readings, set-up a
 does after the loop: the metrics and the Rerun file (poses kept, written to a temporary directory). Each round
 measures a bare ``mj_step`` loop of as many physics steps just before the run, and prints each phase in
 microseconds per control period and as a multiple of that bare loop; the last line is the physics phase against
-the bare loop, which says what the loop's other work between two steps costs MuJoCo's own (its caches).
+the bare loop: what the loop's other work between two steps costs MuJoCo's own (likely through the caches).
 
     python benchmarks/step_phases.py [--scenario scenarios/puma_fault.yaml] [--variant proposed] [--duration 10] [--rounds 3]
 """

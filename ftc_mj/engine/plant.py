@@ -232,7 +232,6 @@ class OneRowPlant(MuJoCoPlant):
         self._bind(model, 1, substeps, max_position, max_velocity, lambda name: getattr(self.data, name)[None])
         self._warnings = [self.data.warning[w] for w in range(_RESET_WARNINGS.start, _RESET_WARNINGS.stop)]
         self._row = np.ones(1, dtype=bool)
-        self._rest = substeps - 1
 
     def reset(self, q0: np.ndarray, qd0: np.ndarray) -> None:
         mujoco.mj_resetData(self.model, self.data)  # MuJoCo's defaults, warnings cleared
@@ -248,12 +247,12 @@ class OneRowPlant(MuJoCoPlant):
 
     def step(self, acceleration: np.ndarray) -> np.ndarray | None:
         """As :meth:`MuJoCoPlant.step`; a MuJoCo error or bad-state warning stops the row."""
-        model, data = self.model, self.data
+        model, data, rest = self.model, self.data, self.substeps - 1
         try:
             mujoco.mj_step2(model, data)
             acceleration[...] = self.qacc
-            if self._rest:  # MuJoCo's own loop of mj_step: the same steps, one call
-                mujoco.mj_step(model, data, self._rest)
+            if rest:  # MuJoCo's own loop of mj_step: the same steps, one call
+                mujoco.mj_step(model, data, rest)
             mujoco.mj_step1(model, data)
         except mujoco.FatalError:
             return self._stop(self._row)
