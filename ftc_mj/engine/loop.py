@@ -44,6 +44,7 @@ from ftc_mj.effects import randomness
 from ftc_mj.effects.faults import ActuatorFaults
 from ftc_mj.effects.sensors import Measurement
 from ftc_mj.effects.terms import PlantTerms
+from ftc_mj.engine.copies import SampleCopies
 from ftc_mj.engine.rows import Layout
 from ftc_mj.engine.mass import MassAtReadings, mass_at_readings
 from ftc_mj.engine.members import Members
@@ -86,9 +87,10 @@ class VariantBlock:
     reading_points: tuple[np.ndarray, np.ndarray] | None
     #: The plugins' signals recorded each period: name -> ``(members, n)``.
     signals: dict[str, np.ndarray]
-    #: The block's rows of the series ``qd_hat``, ``luaf_hat`` and ``sliding``, ``(steps, members, n)`` views:
-    #: a period's write indexes them by k alone.
-    recorded: tuple[np.ndarray, np.ndarray, np.ndarray] = ()
+    #: The arrays the run's :class:`SampleCopies` copies into the block's rows of the series ``qd_hat``,
+    #: ``luaf_hat`` and ``sliding`` each period: the observer's ``qd_hat``, ``luaf_hat`` and the controller's
+    #: ``sliding`` as they were when the copies were set up (compared each period: a plugin may rebind them).
+    copied: tuple[np.ndarray, np.ndarray, np.ndarray] = ()
 
     @cached_property
     def estimators(self) -> list[Observer]:
@@ -242,6 +244,8 @@ class _Run:
     command_acceleration: np.ndarray
     solve_commands: Callable[[], None]
     blocks: list[VariantBlock]
+    #: Each period's copies of the live buffers into the series' samples and of the command into ``ctrl``.
+    copies: SampleCopies
     inputs: PlantInputs
     #: q_d and its derivatives: ``(steps, n)``, or ``(steps, members, n)`` where the reference uses parameters.
     reference: tuple[np.ndarray, np.ndarray, np.ndarray]
@@ -329,15 +333,14 @@ class _Run:
             np.asarray(inputs.fault_on, dtype=bool), scenario.measures_velocity,
             scenario.diagnoser is not None and scenario.diagnoser.space == "torque", poses,
             delivered_is_command=inputs.actuators is None)
-        for block in blocks:
-            block.recorded = tuple(series.rows[name][:, block.rows] for name in ("qd_hat", "luaf_hat", "sliding"))
+        copies = _sample_copies(plant, readings, tau, poses, series, blocks)
         truths = None
         if plant.has_truth:
             truths = Truths.allocate(solver, plant,
                                      per_row(members.nominal_mass_scale) / per_row(members.plant_mass_scale))
         solve_commands = solver.bound(mass.factor, mass.diagonal_inverse, tau, command_acceleration)
         return cls(times, layout, plant, readings, nominal, mass, solver, tau, command_acceleration, solve_commands,
-                   blocks, inputs, reference, series, poses, truths, Stops(np.full(rows, steps), np.full(rows, np.nan)))
+                   blocks, copies, inputs, reference, series, poses, truths, Stops(np.full(rows, steps), np.full(rows, np.nan)))
 
     def stop(self, stopped: np.ndarray | None, k: int) -> None:
         """Rows stopped at sample k (a mask, or None): their recording ends before it."""
@@ -378,8 +381,8 @@ class _Run:
 
     def control(self, k: int, t: float) -> None:
         """3. Each observer's injection, each controller's torque; the commands go to ``ctrl``."""
-        recorded, tau = self.series, self.tau
-        series, luaf_torque = recorded.rows, recorded.luaf_torque
+        recorded = self.series
+        luaf_torque = recorded.luaf_torque
         q_ref, qd_ref, qdd_ref = self.reference[0][k], self.reference[1][k], self.reference[2][k]
         for block in self.blocks:
             rows_b, q_b = block.rows, block.q_meas
@@ -395,27 +398,21 @@ class _Run:
                     monitor_extras = recorded.monitor_extras[block.name][name]
                     for signal_name, signal in observer.signals.items():
                         monitor_extras[signal_name][k] = signal
-            block.tau[...] = block.controller.compute(t, q_ref, qd_ref, qdd_ref, q_b, block.observer, block.model)
-            qd_hat, luaf_hat, sliding = block.recorded
-            qd_hat[k] = block.observer.qd_hat
-            luaf_hat[k] = block.observer.luaf_hat
-            sliding[k] = block.controller.sliding
+            observer, controller = block.observer, block.controller
+            block.tau[...] = controller.compute(t, q_ref, qd_ref, qdd_ref, q_b, observer, block.model)
+            qd_hat, luaf_hat, sliding = block.copied
+            if observer.qd_hat is not qd_hat or observer.luaf_hat is not luaf_hat or controller.sliding is not sliding:
+                block.copied = (observer.qd_hat, observer.luaf_hat, controller.sliding)
+                self.copies.rebind(block, block.copied)
             if luaf_torque is not None:
-                block.model.apply_M(block.observer.luaf_hat, out=luaf_torque[k, rows_b])
+                block.model.apply_M(observer.luaf_hat, out=luaf_torque[k, rows_b])
             if block.signals:
                 extras = recorded.extras[block.name]
                 for name, signal in block.signals.items():
                     extras[name][k] = signal
-        plant = self.plant
-        plant.ctrl[:] = tau
-        series["q_meas"][k] = self.readings.q_meas
-        series["q_true"][k] = plant.qpos
-        series["qd_true"][k] = plant.qvel
-        series["tau"][k] = tau
-        if recorded.qd_measured is not None:
-            recorded.qd_measured[k] = self.readings.qd_meas
-        if self.poses is not None:
-            recorded.body_xpos[k], recorded.body_xquat[k] = self.poses
+        # ctrl = tau; q_meas, q_true, qd_true, tau, the measured velocity and the poses into sample k; each block's
+        # qd_hat, luaf_hat and sliding variable into its rows of sample k.
+        self.copies(k)
 
     def actuate(self, k: int, t: float) -> None:
         """4. Terms on the true state and what the actuators deliver go to ``applied``; the fault truth."""
@@ -481,6 +478,28 @@ class _Run:
                         qd_measured=recorded.qd_measured, luaf_torque=recorded.luaf_torque,
                         body_xpos=recorded.body_xpos, body_xquat=recorded.body_xquat, done=done,
                         diverged_at=self.stops.diverged_at, monitor_extras=recorded.monitor_extras)
+
+
+def _sample_copies(plant: Plant, readings: Readings, tau: np.ndarray, poses: tuple[np.ndarray, np.ndarray] | None,
+                   series: Series, blocks: list[VariantBlock]) -> SampleCopies:
+    """What :meth:`_Run.control` copies each period, after the controllers: the command into ``ctrl``, the
+    readings, the true state, the torque (and the tachometers' readings, the poses) into the series' sample, each
+    block's estimates and sliding variable into its rows of it."""
+    copies = SampleCopies()
+    copies.into(tau, plant.ctrl)
+    rows = series.rows
+    for name, source in (("q_meas", readings.q_meas), ("q_true", plant.qpos), ("qd_true", plant.qvel), ("tau", tau)):
+        copies.sample(source, rows[name])
+    if series.qd_measured is not None:
+        copies.sample(readings.qd_meas, series.qd_measured)
+    if poses is not None:
+        copies.sample(poses[0], series.body_xpos)
+        copies.sample(poses[1], series.body_xquat)
+    for block in blocks:
+        block.copied = (block.observer.qd_hat, block.observer.luaf_hat, block.controller.sliding)
+        for source, name in zip(block.copied, ("qd_hat", "luaf_hat", "sliding")):
+            copies.sample(source, rows[name][:, block.rows], group=block)
+    return copies
 
 
 def _plant(scenario: Scenario, members: Members, rows: int, per_row: Callable[[np.ndarray], np.ndarray],

@@ -68,6 +68,18 @@ class FractionalObserver(Observer):
         self.luaf_hat += self.dt * self.config.k3 * self._sign
 
 
+class RebindingObserver(FractionalObserver):
+    """The same law, its estimates new arrays every period (``x = x + ...``, the same bits as ``x += ...``), and
+    the engine's copies of them into the series must follow (:class:`ftc_mj.engine.copies.SampleCopies`)."""
+
+    name: ClassVar[str] = "test_rebinding"
+
+    def advance(self, tau: np.ndarray, model) -> None:
+        self.q_hat = self.q_hat + self.dt * self._rate
+        self.qd_hat = self.qd_hat + self.dt * (model.psi_hat + model.command_acceleration(tau) + self.injection)
+        self.luaf_hat = self.luaf_hat + self.dt * self.config.k3 * self._sign
+
+
 GAINS = {"k1": 5.6, "k2": [16.6, 15.0, 17.0], "k3": 24.0, "exponent": 1 / 3, "width": 0.01}
 #: Per member: its own exponent (0.5 among them: sqrt where a number, pow where a gain), gains, seed.
 MEMBERS = [
@@ -105,15 +117,28 @@ def scenario_dict() -> dict:
 
 
 @pytest.fixture(scope="module")
-def scenario(tmp_path_factory):
-    """The scenario, with the test observer registered as a built-in while the module's tests run."""
+def scenarios(tmp_path_factory):
+    """The scenario, and the same with the rebinding observer, the test observers registered as built-ins
+    while the module's tests run."""
     with pytest.MonkeyPatch.context() as patch:
         registry._discover.cache_clear()
-        patch.setitem(observers.BUILTIN, FractionalObserver.name, FractionalObserver)
-        path = tmp_path_factory.mktemp("plugin") / "plugin.yaml"
-        path.write_text(yaml.safe_dump(scenario_dict(), sort_keys=False), encoding="utf-8")
-        yield load_scenario(path)
+        for plugin in (FractionalObserver, RebindingObserver):
+            patch.setitem(observers.BUILTIN, plugin.name, plugin)
+        folder = tmp_path_factory.mktemp("plugin")
+        loaded = []
+        for plugin in (FractionalObserver, RebindingObserver):
+            spec = scenario_dict()
+            spec["variants"]["fractional"]["observer"]["type"] = plugin.name
+            path = folder / f"{plugin.name}.yaml"
+            path.write_text(yaml.safe_dump(spec, sort_keys=False), encoding="utf-8")
+            loaded.append(load_scenario(path))
+        yield loaded
     registry._discover.cache_clear()
+
+
+@pytest.fixture(scope="module")
+def scenario(scenarios):
+    return scenarios[0]
 
 
 @pytest.fixture(scope="module")
@@ -142,3 +167,15 @@ def test_the_members_differ(scenario, batch_run):
     first = variant_result(scenario, batch_run, 0, 0).luaf_hat
     for member in range(1, len(MEMBERS)):
         assert np.abs(variant_result(scenario, batch_run, 0, member).luaf_hat - first).max() > 1e-6, member
+
+
+@pytest.mark.parametrize("members", [1, 4])
+def test_estimates_rebound_every_period_are_recorded_as_written_in_place(scenarios, members):
+    """The series of an observer that makes its estimates new arrays every period are those of the same law
+    writing them in place, bit for bit: the engine copies what the plugin holds now, not what it held."""
+    runs = [simulate(each, members_from_overrides(each, MEMBERS[:members]), nthread=1) for each in scenarios]
+    for member in range(members):
+        in_place, rebound = (variant_result(each, run, 0, member) for each, run in zip(scenarios, runs))
+        assert np.abs(np.diff(rebound.qd_hat, axis=0)).max() > 0  # the estimate moves
+        for name in SERIES:
+            np.testing.assert_array_equal(getattr(rebound, name), getattr(in_place, name), err_msg=name)

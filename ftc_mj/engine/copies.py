@@ -1,0 +1,141 @@
+"""A period's copies of live buffers into the series' samples (and into ``ctrl``), in one compiled call.
+
+Each control period the loop writes some ten small arrays into the series: the readings, the true state, the
+torque, each variant's estimates and sliding variable, the bodies' poses; and the command into the plant's
+``ctrl``. As NumPy assignments ``series[k] = source`` each costs about a third of a microsecond, nearly all
+of it NumPy's call (on a single run's row the copy itself is a few nanoseconds), and a compiled kernel that
+takes the arrays as arguments pays about as much again to unbox them (``config/kernels.py`` says why).
+:class:`SampleCopies` takes none: it keeps a table of the entries' addresses (source, destination at sample 0,
+the destination's bytes per sample, elements), built once, and one call of a kernel copies every entry for
+sample k.
+
+**The same bytes.** An entry is a float64 source and a float64 destination sample of the same shape, both
+contiguous: the copy is ``destination[k] = source`` element for element, and any other pair (another dtype,
+strides, a shape NumPy would broadcast) is copied by that NumPy assignment instead, after the kernel.
+
+**The same arrays.** The table holds addresses, so it keeps a reference to every array it was built from (the
+memory stays alive) and copies what that array object holds, as NumPy would. What it cannot know is that a
+caller's attribute now names another array (a plugin may rebind its ``qd_hat`` rather than write into it):
+its caller compares them each period (``is``, a few tens of nanoseconds) and, where one differs,
+:meth:`SampleCopies.rebind` gives the entries the new arrays and moves them to the NumPy assignments for the rest
+of the run.
+"""
+
+from __future__ import annotations
+
+import os
+
+os.environ.setdefault("NUMBA_DISABLE_INTEL_SVML", "1")  # before Numba is imported: ftc_mj.robot.rigid says why
+
+from collections.abc import Callable, Sequence  # noqa: E402
+
+import numba  # noqa: E402
+import numpy as np  # noqa: E402
+from numba import types  # noqa: E402
+from numba.extending import intrinsic  # noqa: E402
+
+from ftc_mj.config.kernels import direct  # noqa: E402
+
+#: Columns of the table: source address, destination address at sample 0, destination bytes per sample (0:
+#: the same buffer every sample), elements.
+_SOURCE, _DESTINATION, _STRIDE, _COUNT = range(4)
+
+
+class SampleCopies:
+    """``destination[k] = source`` (or ``buffer[...] = source``) for every entry, each period, in one call.
+
+    Entries are added before the first call (:meth:`sample`, :meth:`into`), each with a group: the key of the
+    owner that may rebind its arrays (:meth:`rebind`). Then ``copies(k)`` copies them all for sample k."""
+
+    def __init__(self) -> None:
+        #: Per entry: (group, source, destination as NumPy writes it for sample k, per sample?).
+        self._entries: list[tuple[object, np.ndarray, np.ndarray, bool]] = []
+        #: The groups whose entries NumPy copies (their ``id``: a group is any object, hashable or not).
+        self._assigned: set[int] = set()
+        self._call: Callable[[int], None] | None = None
+
+    def sample(self, source: np.ndarray, series: np.ndarray, group: object = None) -> None:
+        """``series[k] = source`` at every call's k (``series`` is ``(steps, ...)``)."""
+        self._add(group, source, series, True)
+
+    def into(self, source: np.ndarray, buffer: np.ndarray, group: object = None) -> None:
+        """``buffer[...] = source`` at every call."""
+        self._add(group, source, buffer, False)
+
+    def _add(self, group: object, source: np.ndarray, destination: np.ndarray, per_sample: bool) -> None:
+        self._entries.append((group, source, destination, per_sample))
+        self._call = None
+
+    def rebind(self, group: object, sources: Sequence[np.ndarray]) -> None:
+        """``group``'s owner now holds ``sources`` (in the order its entries were added), of which some are other
+        objects than the entries': the entries take them, and NumPy copies them from now on (an owner that
+        rebinds once may rebind every period: the table is not rebuilt for it again)."""
+        entries = [index for index, entry in enumerate(self._entries) if entry[0] is group]
+        for index, source in zip(entries, sources):
+            _, _, destination, per_sample = self._entries[index]
+            self._entries[index] = (group, source, destination, per_sample)
+        self._assigned.add(id(group))
+        self._call = None
+
+    def __call__(self, k: int) -> None:
+        call = self._call
+        if call is None:
+            call = self._call = self._build()
+        call(k)
+
+    def _build(self) -> Callable[[int], None]:
+        """The table of the entries the kernel copies and the list NumPy copies; the call of both."""
+        rows, numpy = [], []
+        for group, source, destination, per_sample in self._entries:
+            target = destination[0] if per_sample else destination
+            if id(group) not in self._assigned and _copyable(source, target):
+                rows.append((source.ctypes.data, target.ctypes.data, destination.strides[0] if per_sample else 0,
+                             source.size))
+            else:
+                numpy.append((source, destination, per_sample))
+        table = np.array(rows, dtype=np.int64).reshape(len(rows), 4)
+        # The arrays whose addresses the table holds, alive as long as the call.
+        keep = [(source, destination) for _, source, destination, _ in self._entries]
+        copy = direct(_copy, 0, table)
+
+        def call(k: int) -> None:
+            copy(k, table)
+            for source, destination, per_sample in numpy:
+                if per_sample:
+                    destination[k] = source
+                else:
+                    destination[...] = source
+
+        call.keep = keep  # type: ignore[attr-defined]
+        return call
+
+
+def _copyable(source: np.ndarray, target: np.ndarray) -> bool:
+    """Whether copying ``source`` into ``target`` element for element is NumPy's assignment of it: both float64
+    arrays, contiguous, of one shape, the target writeable."""
+    return (type(source) is np.ndarray and type(target) is np.ndarray and source.dtype == np.float64
+            and target.dtype == np.float64 and source.shape == target.shape and source.flags.c_contiguous
+            and target.flags.c_contiguous and target.flags.writeable and source.size > 0)
+
+
+@intrinsic
+def _pointer(typingctx, address):  # noqa: ANN001, ANN202 (Numba's typing)
+    """The float64 pointer at the integer ``address``."""
+    signature = types.CPointer(types.float64)(types.int64)
+
+    def codegen(context, builder, signature, arguments):  # noqa: ANN001, ANN202
+        return builder.inttoptr(arguments[0], context.get_value_type(types.CPointer(types.float64)))
+
+    return signature, codegen
+
+
+@numba.njit(cache=True, nogil=True)
+def _copy(k, table):  # noqa: ANN001, ANN202
+    """Every entry of ``table`` for sample ``k``: its elements from the source's address to the destination's
+    address plus k times its stride."""
+    for entry in range(table.shape[0]):
+        count = table[entry, _COUNT]
+        source = numba.carray(_pointer(table[entry, _SOURCE]), count)
+        destination = numba.carray(_pointer(table[entry, _DESTINATION] + k * table[entry, _STRIDE]), count)
+        for i in range(count):
+            destination[i] = source[i]

@@ -1,0 +1,115 @@
+"""SampleCopies: each entry is NumPy's assignment of it, bit for bit, whether the kernel or NumPy copies it."""
+
+from __future__ import annotations
+
+import gc
+
+import numpy as np
+import pytest
+
+from ftc_mj.engine.copies import SampleCopies, _copyable
+
+STEPS, ROWS, N = 7, 5, 3  # rows != joints, so that a mixed-up axis shows
+
+
+def _random(shape: tuple[int, ...], seed: int) -> np.ndarray:
+    return np.random.default_rng(seed).standard_normal(shape)
+
+
+def test_every_kind_of_entry_is_numpys_assignment() -> None:
+    """Contiguous pairs (a whole series, a block of its rows, a pose array, a buffer) and pairs NumPy must copy
+    (a strided source, float32, a row broadcast over the rows) end with the bytes NumPy's assignments leave."""
+    series = {name: np.zeros((STEPS, ROWS, N)) for name in ("whole", "block", "strided", "float32", "broadcast")}
+    poses, ctrl = np.zeros((STEPS, ROWS, 8, 4)), np.zeros((ROWS, N))
+    sources = {"whole": _random((ROWS, N), 0), "block": _random((2, N), 1), "poses": _random((ROWS, 8, 4), 2),
+               "strided": _random((ROWS, 2 * N), 3)[:, ::2], "float32": _random((ROWS, N), 4).astype(np.float32),
+               "broadcast": _random((N,), 5), "ctrl": _random((ROWS, N), 6)}
+    copies = SampleCopies()
+    copies.sample(sources["whole"], series["whole"])
+    copies.sample(sources["block"], series["block"][:, 1:3])
+    copies.sample(sources["poses"], poses)
+    for name in ("strided", "float32", "broadcast"):
+        copies.sample(sources[name], series[name])
+    copies.into(sources["ctrl"], ctrl)
+    expected = {name: np.zeros_like(values) for name, values in series.items()}
+    expected_poses = np.zeros_like(poses)
+    for k in (0, 3, STEPS - 1):
+        for source in sources.values():
+            source[...] += 1.0  # new values every sample
+        copies(k)
+        expected["whole"][k] = sources["whole"]
+        expected["block"][k, 1:3] = sources["block"]
+        expected_poses[k] = sources["poses"]
+        for name in ("strided", "float32", "broadcast"):
+            expected[name][k] = sources[name]
+        np.testing.assert_array_equal(ctrl, sources["ctrl"])
+    for name, values in series.items():
+        assert values.tobytes() == expected[name].tobytes(), name
+    assert poses.tobytes() == expected_poses.tobytes()
+
+
+def test_only_contiguous_float64_pairs_of_one_shape_go_to_the_kernel() -> None:
+    a = np.zeros((ROWS, N))
+    assert _copyable(a, np.zeros((ROWS, N)))
+    assert not _copyable(a[:, :2], np.zeros((ROWS, 2)))  # strided source
+    assert not _copyable(a, np.zeros((ROWS, 2 * N))[:, ::2])  # strided target
+    assert not _copyable(a.astype(np.float32), np.zeros((ROWS, N)))
+    assert not _copyable(a, np.zeros((ROWS, N), dtype=np.float32))
+    assert not _copyable(a[0], np.zeros((ROWS, N)))  # NumPy would broadcast it
+    read_only = np.zeros((ROWS, N))
+    read_only.flags.writeable = False
+    assert not _copyable(a, read_only)
+
+
+def test_a_rebound_group_copies_the_arrays_its_owner_now_holds() -> None:
+    """After rebind the group's entries copy the new arrays (by NumPy), the other entries still theirs."""
+    series, other = np.zeros((STEPS, ROWS, N)), np.zeros((STEPS, ROWS, N))
+    owner, fixed = _random((ROWS, N), 0), _random((ROWS, N), 1)
+    copies = SampleCopies()
+    group = object()
+    copies.sample(owner, series, group=group)
+    copies.sample(fixed, other)
+    copies(0)
+    replacement = owner + 10.0
+    owner[...] = -1.0  # the old array changes too: it must no longer be read
+    copies.rebind(group, [replacement])
+    copies(1)
+    np.testing.assert_array_equal(series[1], replacement)
+    np.testing.assert_array_equal(other[1], fixed)
+    replacement[...] = 3.0
+    copies(2)
+    np.testing.assert_array_equal(series[2], 3.0)
+
+
+def test_the_table_keeps_its_arrays_alive() -> None:
+    """The kernel reads addresses: the arrays behind them stay alive while the copies do, whoever else drops
+    them."""
+    series = np.zeros((STEPS, ROWS, N))
+    copies = SampleCopies()
+    copies.sample(_random((ROWS, N), 0), series)
+    copies(0)
+    gc.collect()
+    for _ in range(50):  # memory freed and reused would show as other numbers
+        np.full((ROWS, N), 7.0)
+    copies(1)
+    np.testing.assert_array_equal(series[1], _random((ROWS, N), 0))
+
+
+def test_entries_added_after_a_call_are_copied_too() -> None:
+    first, second = np.zeros((STEPS, ROWS, N)), np.zeros((STEPS, ROWS, N))
+    copies = SampleCopies()
+    copies.sample(np.ones((ROWS, N)), first)
+    copies(0)
+    copies.sample(np.full((ROWS, N), 2.0), second)
+    copies(1)
+    assert np.all(first[:2] == 1.0) and np.all(second[1] == 2.0) and np.all(second[0] == 0.0)
+
+
+@pytest.mark.parametrize("count", [0, 1])
+def test_no_entry_or_one(count: int) -> None:
+    series = np.zeros((STEPS, 1, 1))
+    copies = SampleCopies()
+    if count:
+        copies.sample(np.full((1, 1), 4.0), series)
+    copies(STEPS - 1)
+    assert series[STEPS - 1, 0, 0] == (4.0 if count else 0.0)
