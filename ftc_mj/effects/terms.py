@@ -27,7 +27,7 @@ import numpy as np
 import sympy as sp
 
 from ftc_mj.effects.profiles import Profile, ProfileSpec, compile_profile
-from ftc_mj.robot.nominal import matvec
+from ftc_mj.robot.nominal import MatvecSite
 from ftc_mj.robot.rigid import cache_is_cold
 from ftc_mj.config import expressions, programs
 from ftc_mj.config.errors import InputError
@@ -169,6 +169,10 @@ class PlantTerms:
         self._sums = np.zeros((5,) + shape)
         self.torque, self.acceleration, self.fault, self.fault_force, self._fault_acceleration = self._sums
         self._mapped = np.zeros(shape)
+        #: M(q) of the acceleration sum and of the fault's, each a call site of its own (the same buffers),
+        #: while ``mass`` is the array of the period before.
+        self._map_acceleration, self._map_fault_acceleration = MatvecSite(), MatvecSite()
+        self._mass: np.ndarray | None = None
         self._parameters = np.asarray(parameters, dtype=float).reshape(rows, -1)
         names = list(parameter_names)
         #: Per term with a rate parameter (a slot each, in file order): each row's rate ``(1, rows)``, the
@@ -279,11 +283,23 @@ class PlantTerms:
         if not plan.maps_acceleration:
             out[...] = self.torque  # an assignment costs half np.copyto's call on a few rows
             return
-        mapped = matvec(mass, self.acceleration, self._mapped)
+        mapped = self._mapped
+        if mass is not self._mass:  # a new M(q) buffer: the sites compile for it from its second period on
+            self._mass = mass
+            self._map_acceleration.vectors = self._map_fault_acceleration.vectors = None
+        site = self._map_acceleration
+        if site.vectors is not None:
+            site.call(mass, self.acceleration, mapped)
+        else:
+            site.new(mass, self.acceleration, mapped)
         np.add(self.torque, mapped, out=out)
         if plan.maps_fault_acceleration:
             if not plan.same_acceleration_sums:
-                mapped = matvec(mass, self._fault_acceleration, self._mapped)
+                site = self._map_fault_acceleration
+                if site.vectors is not None:
+                    site.call(mass, self._fault_acceleration, mapped)
+                else:
+                    site.new(mass, self._fault_acceleration, mapped)
             self.fault_force += mapped
 
 

@@ -50,6 +50,33 @@ def matvec(matrices: np.ndarray, vectors: np.ndarray, out: np.ndarray) -> np.nda
     return _einsum("rij,rj->ri", matrices, vectors, out=out)
 
 
+class MatvecSite:
+    """:func:`matvec` at one call site, past Numba's dispatcher once its vectors and output are the arrays of
+    the call before (the same objects): a loop that maps the same buffers every period then pays the compiled
+    function's call alone (:func:`~ftc_mj.config.kernels.direct`). The caller compares the arrays
+    (:meth:`same`, inline: a method call would cost what it saves) and calls :attr:`call` where they are the
+    same, :meth:`new` where not. The matrices are the caller's own buffer, the same object at every call. The
+    same bits either way; an array is not reshaped in place between two calls (a view is another object)."""
+
+    __slots__ = ("vectors", "out", "call", "_seen")
+
+    def __init__(self) -> None:
+        #: The arrays :attr:`call` was compiled for (None: none yet), and the compiled function.
+        self.vectors: np.ndarray | None = None
+        self.out: np.ndarray | None = None
+        self.call: Callable[[np.ndarray, np.ndarray, np.ndarray], None] = _matvec_in_pairs
+        self._seen: tuple[np.ndarray, np.ndarray] | None = None
+
+    def new(self, matrices: np.ndarray, vectors: np.ndarray, out: np.ndarray) -> np.ndarray:
+        """:func:`matvec` of arrays other than :attr:`vectors`, :attr:`out`; where they are those of the last
+        call too, the compiled function for them is taken for the next calls."""
+        seen, self._seen = self._seen, (vectors, out)
+        if (seen is not None and seen[0] is vectors and seen[1] is out and sums_in_pairs(matrices.shape[-1])
+                and all(type(a) is np.ndarray for a in (matrices, vectors, out))):
+            self.vectors, self.out, self.call = vectors, out, direct(_matvec_in_pairs, matrices, vectors, out)
+        return matvec(matrices, vectors, out)
+
+
 @lru_cache(maxsize=None)
 def sums_in_pairs(n: int) -> bool:
     """Whether :func:`_matvec_in_pairs` gives ``np.einsum``'s bits for n columns here, checked once on random
@@ -130,6 +157,7 @@ class StepModel:
         self._factor, self._diagonal_inverse, self._solver = factor, diagonal_inverse, solver
         self._solution = np.zeros(psi_hat.shape)
         self._command = command
+        self._apply = MatvecSite()
 
     def control_velocity(self, observer_qd_hat: np.ndarray) -> np.ndarray:
         """The velocity x2 the controller uses: the tachometer reading or the observer's x2_hat."""
@@ -149,7 +177,11 @@ class StepModel:
 
     def apply_M(self, vector: np.ndarray, out: np.ndarray) -> np.ndarray:
         """M(x1) vector per member, into ``out``."""
-        return matvec(self.M, vector, out)
+        site = self._apply
+        if vector is site.vectors and out is site.out:
+            site.call(self.M, vector, out)
+            return out
+        return site.new(self.M, vector, out)
 
 
 #: What the nominal model leaves out of MuJoCo's forward dynamics: constraints (joint limits, contacts,

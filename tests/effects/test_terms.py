@@ -418,3 +418,30 @@ def test_the_terms_are_evaluated_on_the_buffers_given_bound_once_per_pair() -> N
         assert terms._state[2] is not binding
         binding = terms._state[2]
         q, qd = q_next, qd_next
+
+
+def test_the_mapped_terms_are_the_same_on_a_live_mass_buffer_and_on_new_ones() -> None:
+    """The loop passes one live M(q) buffer every period (the products then run past the dispatcher), or a new
+    one; both give the bits of a new view each period, also after the buffer changes, for the acceleration sum
+    and the fault's (an acceleration friction beside the fault: the two sums differ)."""
+    friction = TermSpec(kind="friction", space="acceleration", sign=-1, value=["0.5*qd1", "sin(q2)", "qd3"])
+    specs = [friction, TermSpec(kind="fault", space="acceleration", sign=1, value=VALUE, onset=ONSET, rate="zeta")]
+    scale, zeta = np.array([1.0, 0.5, 2.0]), np.array([3.0, 1.0, 2.0])
+    from ftc_mj.robot.nominal import sums_in_pairs
+
+    expected, _ = apply_terms(specs, scale, zeta)  # a new view of the masses each period
+    rows = len(zeta)
+    plant = PlantTerms(compile_terms(specs, "test.yaml", NJ, PARAMETERS), TIMES, rows, NJ,
+                       np.column_stack([scale, zeta]), PARAMETERS)
+    q, qd = states(rows)
+    mass, live, other = masses(rows), np.empty((rows, NJ, NJ)), np.empty((2 * rows, NJ, NJ))[::2]
+    out = np.empty((rows, NJ))
+    for k, t in enumerate(TIMES.tolist()):
+        buffer = live if k < len(TIMES) // 2 else other  # one buffer, then another of another layout
+        buffer[...] = mass[k]
+        plant.apply(k, t, q[k], qd[k], buffer, out)
+        np.testing.assert_array_equal(out, expected["applied"][k])
+        np.testing.assert_array_equal(plant.fault_force, expected["fault_force"][k])
+    if sums_in_pairs(NJ):  # where the compiled product is einsum's: it ran for the live buffers
+        assert plant._map_acceleration.vectors is plant.acceleration and plant._mass is other
+        assert plant._map_fault_acceleration.vectors is plant._fault_acceleration

@@ -517,3 +517,61 @@ def test_the_compiled_product_sums_even_and_odd_products_apart():
     c_einsum("rij,rj->ri", matrix, vector, out=einsum)
     if sums_in_pairs(3):
         assert einsum[0, 0] == 0.0
+
+
+@pytest.mark.parametrize("n", [3, 9])
+def test_a_matvec_site_gives_matvecs_bits_and_compiles_only_for_arrays_seen_twice(n):
+    """A call site's product is matvec's whatever it is called with: its own buffers (compiled for them from
+    their second call on), a new output each call (never compiled), another layout after the buffers (a
+    strided view: matvec again, then compiled for it). Beyond PAIRED_COLUMNS it never compiles."""
+    from ftc_mj.robot.nominal import MatvecSite, matvec, sums_in_pairs
+
+    generator = np.random.default_rng(n)
+    matrices, vectors = generator.standard_normal((6, n, n)), generator.standard_normal((6, n))
+    out, expected = np.empty((6, n)), np.empty((6, n))
+    site = MatvecSite()
+    calls = []
+    for step in range(3):
+        vectors += 1.0
+        matvec(matrices, vectors, expected)
+        if vectors is site.vectors and out is site.out:
+            site.call(matrices, vectors, out)
+            calls.append("compiled")
+        else:
+            site.new(matrices, vectors, out)
+            calls.append("new")
+        np.testing.assert_array_equal(out, expected)
+    assert calls == (["new", "new", "compiled"] if sums_in_pairs(n) else ["new"] * 3)
+    for step in range(3):  # a new output each call: matvec each time
+        fresh = np.full((6, n), np.nan)
+        site.new(matrices, vectors, fresh)
+        np.testing.assert_array_equal(fresh, expected)
+        assert site.out is not fresh
+    strided_matrices, strided = matrices[::2], vectors[::2]
+    short_out, short_expected = np.empty((3, n)), np.empty((3, n))
+    matvec(strided_matrices, strided, short_expected)
+    for step in range(2):
+        site.new(strided_matrices, strided, short_out)
+        np.testing.assert_array_equal(short_out, short_expected)
+    assert (site.vectors is strided) == sums_in_pairs(n)
+    short_out[...] = np.nan
+    site.call(strided_matrices, strided, short_out) if sums_in_pairs(n) else site.new(strided_matrices, strided,
+                                                                                       short_out)
+    np.testing.assert_array_equal(short_out, short_expected)
+
+
+def test_step_model_apply_m_is_matvec_at_every_call():
+    """StepModel.apply_M on the same buffers (compiled from the second call), on new ones, and back."""
+    from ftc_mj.robot.nominal import matvec
+
+    generator = np.random.default_rng(5)
+    M = generator.standard_normal((4, 3, 3))
+    model = StepModel(M=M, factor=np.zeros((4, 6)), diagonal_inverse=np.ones((4, 3)),
+                      psi_hat=np.zeros((4, 3)), solver=None)
+    vector, out = generator.standard_normal((4, 3)), np.empty((4, 3))
+    for outputs in ([out] * 3, [np.empty((4, 3)) for _ in range(2)], [out] * 2):
+        for target in outputs:
+            vector *= 1.5
+            M += 0.25  # the model's M is a live buffer
+            assert model.apply_M(vector, out=target) is target
+            np.testing.assert_array_equal(target, matvec(M, vector, np.empty((4, 3))))
