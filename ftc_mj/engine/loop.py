@@ -336,8 +336,11 @@ class _Run:
         copies = _sample_copies(plant, readings, tau, poses, series, blocks)
         truths = None
         if plant.has_truth:
+            rows_series = series.rows
             truths = Truths.allocate(solver, plant,
-                                     per_row(members.nominal_mass_scale) / per_row(members.plant_mass_scale))
+                                     per_row(members.nominal_mass_scale) / per_row(members.plant_mass_scale), tau,
+                                     rows_series["luaf_true"], rows_series["fault_torque"],
+                                     rows_series["fault_acceleration"])
         solve_commands = solver.bound(mass.factor, mass.diagonal_inverse, tau, command_acceleration)
         return cls(times, layout, plant, readings, nominal, mass, solver, tau, command_acceleration, solve_commands,
                    blocks, copies, inputs, reference, series, poses, truths, Stops(np.full(rows, steps), np.full(rows, np.nan)))
@@ -420,9 +423,6 @@ class _Run:
         terms = inputs.terms
         # The dense M(q) only in the periods whose terms map accelerations (e.g. from a fault's onset on).
         true_mass = self.mass.true_mass() if terms.maps_acceleration(k) else None
-        truths = self.truths
-        if truths is not None:  # M(q)^-1 (tau / c - C qd - G) at the sample instant
-            truths.record(plant, tau, series["luaf_true"][k])
         terms.apply(k, t, plant.qpos, plant.qvel, true_mass, plant.applied)
         fault_terms_on = inputs.fault_terms_on[k]
         if fault_terms_on:
@@ -435,10 +435,12 @@ class _Run:
             plant.applied += actuators.torque
             terms.fault_force += actuators.torque
             series["tau_delivered"][k] = actuators.delivered
-        if actuators is not None or fault_terms_on:
+        fault_torque = actuators is not None or fault_terms_on
+        if fault_torque:
             series["fault_torque"][k] = terms.fault_force
-            if truths is not None and inputs.fault_on[k]:  # the fault's acceleration M(q)^-1 f
-                truths.fault(series["fault_torque"][k], series["fault_acceleration"][k])
+        truths = self.truths
+        if truths is not None:  # M(q)^-1 (tau / c - C qd - G) at the sample instant; the fault's M(q)^-1 f
+            truths.record(k, fault_torque and inputs.fault_on[k])
 
     def advance(self, k: int) -> None:
         """5. The observers integrate over the period (:meth:`integrate_observers`); the plant steps

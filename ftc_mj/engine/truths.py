@@ -3,7 +3,7 @@ factorisation: the true LUaF, qdd - (Psi + M^-1 tau) of the nominal model at the
 acceleration, M^-1 of the fault force.
 
 At the sample instant (before the plant steps) :meth:`Truths.record` solves M_plant^-1 of the right-hand side
-into the LUaF series' sample, and :meth:`Truths.fault` the fault's acceleration where a fault is on; after
+into the LUaF series' sample and, where a fault is on, the fault's acceleration, in one compiled call; after
 the run :meth:`Truths.finish` subtracts each sample's solution from the true acceleration (known only once the
 plant has stepped). The nominal model is the plant's with its masses, inertias and armature scaled by c =
 nominal scale / plant scale, so its M and C qd + G are c times the plant's: Psi + M^-1 tau = M_plant^-1
@@ -15,53 +15,73 @@ before: the factorisation of every sample and row).
 
 from __future__ import annotations
 
-from collections.abc import Callable
-from dataclasses import dataclass
+import os
 
-import numpy as np
+os.environ.setdefault("NUMBA_DISABLE_INTEL_SVML", "1")  # before Numba is imported: ftc_mj.robot.rigid says why
 
-from ftc_mj.engine.plant import Plant
-from ftc_mj.robot.nominal import SparseSolver
+from collections.abc import Callable  # noqa: E402
+from dataclasses import dataclass  # noqa: E402
+
+import numba  # noqa: E402
+import numpy as np  # noqa: E402
+
+from ftc_mj.config.kernels import direct  # noqa: E402
+from ftc_mj.engine.plant import Plant  # noqa: E402
+from ftc_mj.robot.nominal import SparseSolver  # noqa: E402
+from ftc_mj.robot.rigid import solve_factored  # noqa: E402
 
 
 @dataclass
 class Truths:
-    """The buffers and solves of the per-period truths of a run's rows."""
+    """The buffers and the per-period solve of the truths of a run's rows."""
 
     #: tau / c - C qd - G of the plant at the last sample, ``(rows, n)``.
     force: np.ndarray
     #: c per row, ``(rows, 1)``, or None where c = 1 for every row.
     scale: np.ndarray | None
-    #: M(q)^-1 ``force`` of the plant into a sample of a series (:meth:`SparseSolver.into`).
-    solve_force: Callable[[np.ndarray], None]
-    #: M(q)^-1 of one sample of a series into another (:meth:`SparseSolver.between`).
-    solve_sample: Callable[[np.ndarray, np.ndarray], None]
+    #: The solve of a sample k (:meth:`record`), past Numba's dispatcher, and its arguments after k and the
+    #: fault flag.
+    _solve: Callable[..., None]
+    _arguments: tuple
 
     @classmethod
-    def allocate(cls, solver: SparseSolver, plant: Plant, scale: np.ndarray) -> Truths:
-        """For ``plant``'s rows; ``scale``: c of each row, ``(rows,)``."""
+    def allocate(cls, solver: SparseSolver, plant: Plant, scale: np.ndarray, tau: np.ndarray,
+                 luaf_true: np.ndarray, fault_torque: np.ndarray, fault_acceleration: np.ndarray) -> Truths:
+        """For ``plant``'s rows; ``scale``: c of each row, ``(rows,)``; ``tau``: the loop's command buffer; the
+        series ``(steps, rows, n)`` the solves go to (the LUaF's, until :meth:`finish`; the fault's
+        acceleration) and the one the fault torque is read from."""
         force = np.zeros(plant.qpos.shape)
-        return cls(force, None if np.all(scale == 1.0) else scale[:, None],
-                   solver.into(plant.factor, plant.diagonal_inverse, force, np.zeros_like(force)),
-                   solver.between(plant.factor, plant.diagonal_inverse, force))
+        unit = bool(np.all(scale == 1.0))
+        row_scale = np.ones((len(force), 1)) if unit else np.ascontiguousarray(scale, dtype=float)[:, None]
+        arguments = (plant.factor, plant.diagonal_inverse, tau, plant.bias, row_scale, not unit, force, luaf_true,
+                     fault_torque, fault_acceleration, *solver.structure)
+        return cls(force, None if unit else row_scale, direct(_record, 0, False, *arguments), arguments)
 
-    def record(self, plant: Plant, tau: np.ndarray, out: np.ndarray) -> None:
-        """At the sample instant: M(q)^-1 (tau / c - C qd - G) of the plant for the command ``tau`` into
-        ``out`` (the LUaF series' sample, until :meth:`finish`)."""
-        if self.scale is None:
-            force = np.subtract(tau, plant.bias, out=self.force)
-        else:
-            force = np.divide(tau, self.scale, out=self.force)
-            force -= plant.bias
-        self.solve_force(out)
-
-    def fault(self, fault_torque: np.ndarray, out: np.ndarray) -> None:
-        """At the sample instant: the fault's acceleration M(q)^-1 ``fault_torque`` into ``out``, two samples of
-        series (C-ordered ``(rows, n)`` float arrays: the solve is called past Numba's dispatcher)."""
-        self.solve_sample(fault_torque, out)
+    def record(self, k: int, fault: bool) -> None:
+        """At sample k's instant: M(q)^-1 (tau / c - C qd - G) of the plant for the command into the LUaF
+        series' sample k (until :meth:`finish`); with ``fault``, the fault's acceleration M(q)^-1 of the fault
+        torque's sample k into its own. After the period's fault torque is written and before the plant steps."""
+        self._solve(k, fault, *self._arguments)
 
     @staticmethod
     def finish(qdd_true: np.ndarray, luaf_true: np.ndarray) -> None:
         """After the run: ``luaf_true`` = qdd - (Psi + M^-1 tau) at every sample, from the solutions
         :meth:`record` left in it."""
         np.subtract(qdd_true, luaf_true, out=luaf_true)
+
+
+@numba.njit(cache=True, nogil=True, fastmath=False, error_model="numpy")
+def _record(k, fault, factor, diagonal_inverse, tau, bias, scale, scaled, force, luaf_true,  # noqa: ANN001, ANN202
+            fault_torque, fault_acceleration, rows, starts, addresses, columns):
+    """:meth:`Truths.record` of sample k: force = tau / c - bias (tau - bias where c = 1: no division), each an
+    IEEE operation as NumPy's; then MuJoCo's sparse solves (:func:`~ftc_mj.robot.rigid.solve_factored`)."""
+    for r in range(force.shape[0]):
+        for j in range(force.shape[1]):
+            if scaled:
+                force[r, j] = tau[r, j] / scale[r, 0] - bias[r, j]
+            else:
+                force[r, j] = tau[r, j] - bias[r, j]
+    solve_factored(factor, diagonal_inverse, force, luaf_true[k], rows, starts, addresses, columns)
+    if fault:
+        solve_factored(factor, diagonal_inverse, fault_torque[k], fault_acceleration[k], rows, starts, addresses,
+                       columns)

@@ -329,6 +329,12 @@ class SparseSolver:
         self._structure = tuple(np.asarray(values, dtype=np.int64) for values in (rows, starts, addresses, columns))
         self._n = model.nv
 
+    @property
+    def structure(self) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+        """The flattened sparse structure :func:`~ftc_mj.robot.rigid.solve_factored` takes after ``out``: the rows
+        with entries left of the diagonal, their entries' starts, addresses in qLD and columns."""
+        return self._structure
+
     def solve(self, factor: np.ndarray, diagonal_inverse: np.ndarray, vector: np.ndarray, out: np.ndarray) -> np.ndarray:
         """``out = M^-1 vector`` per row, from the rows' ``qLD`` ``(rows, nM)`` and ``qLDiagInv`` ``(rows, n)``;
         ``vector`` is ``(rows, n)`` or one ``(n,)`` for every row."""
@@ -336,25 +342,6 @@ class SparseSolver:
             vector = np.broadcast_to(vector, (len(out), self._n))
         solve_factored(factor, diagonal_inverse, vector, out, *self._structure)
         return out
-
-    def into(self, factor: np.ndarray, diagonal_inverse: np.ndarray, vector: np.ndarray,
-             out: np.ndarray) -> Callable[[np.ndarray], None]:
-        """:meth:`solve` of these buffers (``vector`` ``(rows, n)``) into any array of ``out``'s type (a sample of
-        a series, say), past Numba's dispatcher (:func:`~ftc_mj.config.kernels.direct`)."""
-        structure = self._structure
-        solve = direct(solve_factored, factor, diagonal_inverse, vector, out, *structure)
-        rows, starts, addresses, columns = structure
-        return lambda target: solve(factor, diagonal_inverse, vector, target, rows, starts, addresses, columns)
-
-    def between(self, factor: np.ndarray, diagonal_inverse: np.ndarray,
-                like: np.ndarray) -> Callable[[np.ndarray, np.ndarray], None]:
-        """:meth:`solve` of these factors from any ``(rows, n)`` array of ``like``'s type into another (two
-        samples of series, say), past Numba's dispatcher (:func:`~ftc_mj.config.kernels.direct`)."""
-        structure = self._structure
-        solve = direct(solve_factored, factor, diagonal_inverse, like, like, *structure)
-        rows, starts, addresses, columns = structure
-        return lambda vector, target: solve(factor, diagonal_inverse, vector, target, rows, starts, addresses,
-                                            columns)
 
     def bound(self, factor: np.ndarray, diagonal_inverse: np.ndarray, vector: np.ndarray,
               out: np.ndarray) -> Callable[[], None]:
