@@ -129,7 +129,7 @@ def _pointer(typingctx, address):  # noqa: ANN001, ANN202 (Numba's typing)
     return signature, codegen
 
 
-@numba.njit(cache=True, nogil=True)
+@numba.njit(cache=True)
 def _copy(k, table):  # noqa: ANN001, ANN202
     """Every entry of ``table`` for sample ``k``: its elements from the source's address to the destination's
     address plus k times its stride."""
