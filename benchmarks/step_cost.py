@@ -5,12 +5,15 @@
 The closed loop is the scenario's variant with recording on: body poses kept for the 3-D view, ground truth
 computed, metrics evaluated, and the Rerun file written (to a temporary directory). The bare loop is
 ``mujoco.mj_step`` on the same model with nothing else, as many steps. Prints microseconds per control step of
-each and their ratio.
+each (the fastest round of each) and their ratio; then each round's own ratio, its closed loop against the bare
+loop measured just before it, and their median: the machine's speed drifts from minute to minute, and a round's
+two measurements, a second apart, drift least.
 """
 
 from __future__ import annotations
 
 import argparse
+import statistics
 import tempfile
 import time
 from pathlib import Path
@@ -50,10 +53,13 @@ def main() -> None:
     steps = int(round(args.duration / scenario.spec.control_dt))
     physics_steps = steps * scenario.substeps
 
+    run_scenario(scenario, record_poses=True)  # the first run in a process loads the kernels: not a round
     # Alternated rounds, the fastest of each: this machine's speed drifts by a fifth from minute to minute.
     bare = simulated = recorded = float("inf")
+    paired = []
     for _ in range(args.rounds):
-        bare = min(bare, bare_loop_seconds(scenario.model, physics_steps))
+        round_bare = bare_loop_seconds(scenario.model, physics_steps)
+        bare = min(bare, round_bare)
         start = time.perf_counter()
         results = run_scenario(scenario, record_poses=True)
         loop_done = time.perf_counter()
@@ -64,6 +70,7 @@ def main() -> None:
                             results=results, fault_onsets=scenario.fault_onsets, seed=scenario.spec.seed)
         end = time.perf_counter()
         simulated, recorded = min(simulated, loop_done - start), min(recorded, end - start)
+        paired.append((end - start) / round_bare)
 
     per_step = lambda seconds: seconds / steps * 1e6  # noqa: E731
     print(f"scenario {scenario.name}, variant {args.variant}, {steps} control steps "
@@ -72,6 +79,8 @@ def main() -> None:
     print(f"closed loop (sim only):      {per_step(simulated):8.2f} us per control step")
     print(f"closed loop (with record):   {per_step(recorded):8.2f} us per control step")
     print(f"ratio closed loop / bare:    {recorded / bare:8.1f}")
+    print("each round against its own bare loop: " + ", ".join(f"{ratio:.2f}" for ratio in paired)
+          + f"; median {statistics.median(paired):.2f}")
 
 
 if __name__ == "__main__":
