@@ -13,8 +13,8 @@ sample k.
 contiguous: the copy is ``destination[k] = source`` element for element, and any other pair (another dtype,
 strides, a shape NumPy would broadcast) is copied by that NumPy assignment instead, after the kernel.
 
-**The same arrays.** The table holds addresses, so it keeps a reference to every array it was built from (the
-memory stays alive) and copies what that array object holds, as NumPy would. What it cannot know is that a
+**The same arrays.** The table holds addresses; the entries hold the arrays they were made of (so the memory
+stays alive as long as the table) and it copies what those array objects hold, as NumPy would. What it cannot know is that a
 caller's attribute now names another array (a plugin may rebind its ``qd_hat`` rather than write into it):
 its caller compares them each period (``is``, a few tens of nanoseconds) and, where one differs,
 :meth:`SampleCopies.rebind` gives the entries the new arrays and moves them to the NumPy assignments for the rest
@@ -53,6 +53,8 @@ class SampleCopies:
         #: The groups whose entries NumPy copies (their ``id``: a group is any object, hashable or not).
         self._assigned: set[int] = set()
         self._call: Callable[[int], None] | None = None
+        #: How many entries the kernel copies (the rest NumPy's assignments), as of the last call.
+        self.kernel_entries = 0
 
     def sample(self, source: np.ndarray, series: np.ndarray, group: object = None) -> None:
         """``series[k] = source`` at every call's k (``series`` is ``(steps, ...)``)."""
@@ -94,8 +96,7 @@ class SampleCopies:
             else:
                 numpy.append((source, destination, per_sample))
         table = np.array(rows, dtype=np.int64).reshape(len(rows), 4)
-        # The arrays whose addresses the table holds, alive as long as the call.
-        keep = [(source, destination) for _, source, destination, _ in self._entries]
+        self.kernel_entries = len(rows)
         copy = direct(_copy, 0, table)
 
         def call(k: int) -> None:
@@ -106,7 +107,6 @@ class SampleCopies:
                 else:
                     destination[...] = source
 
-        call.keep = keep  # type: ignore[attr-defined]
         return call
 
 
@@ -115,7 +115,7 @@ def _copyable(source: np.ndarray, target: np.ndarray) -> bool:
     arrays, contiguous, of one shape, the target writeable."""
     return (type(source) is np.ndarray and type(target) is np.ndarray and source.dtype == np.float64
             and target.dtype == np.float64 and source.shape == target.shape and source.flags.c_contiguous
-            and target.flags.c_contiguous and target.flags.writeable and source.size > 0)
+            and target.flags.c_contiguous and target.flags.writeable)
 
 
 @intrinsic

@@ -52,7 +52,7 @@ class Truths:
         acceleration) and the one the fault torque is read from."""
         force = np.zeros(plant.qpos.shape)
         unit = bool(np.all(scale == 1.0))
-        row_scale = np.ones((len(force), 1)) if unit else np.ascontiguousarray(scale, dtype=float)[:, None]
+        row_scale = np.ascontiguousarray(scale, dtype=float)[:, None]  # not read where every c is 1
         arguments = (plant.factor, plant.diagonal_inverse, tau, plant.bias, row_scale, not unit, force, luaf_true,
                      fault_torque, fault_acceleration, *solver.structure)
         return cls(force, None if unit else row_scale, direct(_record, 0, False, *arguments), arguments)

@@ -46,6 +46,7 @@ def test_every_kind_of_entry_is_numpys_assignment() -> None:
     for name, values in series.items():
         assert values.tobytes() == expected[name].tobytes(), name
     assert poses.tobytes() == expected_poses.tobytes()
+    assert copies.kernel_entries == 4  # whole, block, poses, ctrl; the other three by NumPy
 
 
 def test_only_contiguous_float64_pairs_of_one_shape_go_to_the_kernel() -> None:
@@ -70,6 +71,7 @@ def test_a_rebound_group_copies_the_arrays_its_owner_now_holds() -> None:
     copies.sample(owner, series, group=group)
     copies.sample(fixed, other)
     copies(0)
+    assert copies.kernel_entries == 2
     replacement = owner + 10.0
     owner[...] = -1.0  # the old array changes too: it must no longer be read
     copies.rebind(group, [replacement])
@@ -79,14 +81,36 @@ def test_a_rebound_group_copies_the_arrays_its_owner_now_holds() -> None:
     replacement[...] = 3.0
     copies(2)
     np.testing.assert_array_equal(series[2], 3.0)
+    assert copies.kernel_entries == 1  # the rebound group by NumPy from now on, the other still compiled
+
+
+def test_a_rebound_buffer_entry_and_the_other_groups() -> None:
+    """rebind moves only its own group's entries, a buffer's (``into``) as a sample's; the engine's entries
+    (no group) stay in the table."""
+    ctrl, series = np.zeros((ROWS, N)), np.zeros((STEPS, ROWS, N))
+    first, second, fixed = (_random((ROWS, N), seed) for seed in range(3))
+    copies = SampleCopies()
+    group, other = object(), object()
+    copies.into(first, ctrl, group=group)
+    copies.sample(second, series, group=other)
+    copies.into(fixed, np.zeros((ROWS, N)))
+    copies.into(second, np.zeros((ROWS, N)))
+    copies(0)
+    assert copies.kernel_entries == 4
+    copies.rebind(group, [fixed])
+    copies(1)
+    assert copies.kernel_entries == 3
+    np.testing.assert_array_equal(ctrl, fixed)
+    np.testing.assert_array_equal(series[1], second)
 
 
 def test_the_table_keeps_its_arrays_alive() -> None:
     """The kernel reads addresses: the arrays behind them stay alive while the copies do, whoever else drops
-    them."""
+    them (the first call compiles the table from an array nobody else holds)."""
     series = np.zeros((STEPS, ROWS, N))
     copies = SampleCopies()
     copies.sample(_random((ROWS, N), 0), series)
+    gc.collect()
     copies(0)
     gc.collect()
     for _ in range(50):  # memory freed and reused would show as other numbers
@@ -95,14 +119,20 @@ def test_the_table_keeps_its_arrays_alive() -> None:
     np.testing.assert_array_equal(series[1], _random((ROWS, N), 0))
 
 
-def test_entries_added_after_a_call_are_copied_too() -> None:
+def test_the_table_is_built_once_and_again_only_for_new_entries() -> None:
+    """Nothing is compiled before the first call; later calls reuse its table until an entry is added."""
     first, second = np.zeros((STEPS, ROWS, N)), np.zeros((STEPS, ROWS, N))
     copies = SampleCopies()
     copies.sample(np.ones((ROWS, N)), first)
+    assert copies.kernel_entries == 0
     copies(0)
-    copies.sample(np.full((ROWS, N), 2.0), second)
+    call = copies._call
     copies(1)
-    assert np.all(first[:2] == 1.0) and np.all(second[1] == 2.0) and np.all(second[0] == 0.0)
+    assert copies._call is call and copies.kernel_entries == 1
+    copies.sample(np.full((ROWS, N), 2.0), second)
+    copies(2)
+    assert copies._call is not call and copies.kernel_entries == 2
+    assert np.all(first[:3] == 1.0) and np.all(second[2] == 2.0) and np.all(second[:2] == 0.0)
 
 
 @pytest.mark.parametrize("count", [0, 1])
