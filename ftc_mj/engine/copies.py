@@ -14,11 +14,11 @@ contiguous: the copy is ``destination[k] = source`` element for element, and any
 strides, a shape NumPy would broadcast) is copied by that NumPy assignment instead, after the kernel.
 
 **The same arrays.** The table holds addresses; the entries hold the arrays they were made of (so the memory
-stays alive as long as the table) and it copies what those array objects hold, as NumPy would. What it cannot know is that a
-caller's attribute now names another array (a plugin may rebind its ``qd_hat`` rather than write into it):
-its caller compares them each period (``is``, a few tens of nanoseconds) and, where one differs,
-:meth:`SampleCopies.rebind` gives the entries the new arrays and moves them to the NumPy assignments for the rest
-of the run.
+stays alive as long as the table) and it copies what those array objects hold, as NumPy would. What it cannot
+know is that a caller's attribute now names another array (a plugin may rebind its ``qd_hat`` rather than write
+into it): its caller compares them each period (``is``, a few tens of nanoseconds) and, where one differs,
+:meth:`SampleCopies.rebind` gives the entries the new arrays and moves them to the NumPy assignments for the
+rest of the run (the table is rebuilt once, not at every later rebinding).
 """
 
 from __future__ import annotations
@@ -70,14 +70,16 @@ class SampleCopies:
 
     def rebind(self, group: object, sources: Sequence[np.ndarray]) -> None:
         """``group``'s owner now holds ``sources`` (in the order its entries were added), of which some are other
-        objects than the entries': the entries take them, and NumPy copies them from now on (an owner that
-        rebinds once may rebind every period: the table is not rebuilt for it again)."""
+        objects than the entries': the entries take them, and NumPy copies them from now on. An owner that
+        rebinds once may rebind every period: the table is rebuilt the first time only (NumPy's assignments
+        read the entries as they are at each call)."""
         entries = [index for index, entry in enumerate(self._entries) if entry[0] is group]
         for index, source in zip(entries, sources):
             _, _, destination, per_sample = self._entries[index]
             self._entries[index] = (group, source, destination, per_sample)
-        self._assigned.add(id(group))
-        self._call = None
+        if id(group) not in self._assigned:
+            self._assigned.add(id(group))
+            self._call = None
 
     def __call__(self, k: int) -> None:
         call = self._call
@@ -88,20 +90,22 @@ class SampleCopies:
     def _build(self) -> Callable[[int], None]:
         """The table of the entries the kernel copies and the list NumPy copies; the call of both."""
         rows, numpy = [], []
-        for group, source, destination, per_sample in self._entries:
+        entries = self._entries
+        for index, (group, source, destination, per_sample) in enumerate(entries):
             target = destination[0] if per_sample else destination
             if id(group) not in self._assigned and _copyable(source, target):
                 rows.append((source.ctypes.data, target.ctypes.data, destination.strides[0] if per_sample else 0,
                              source.size))
             else:
-                numpy.append((source, destination, per_sample))
+                numpy.append(index)
         table = np.array(rows, dtype=np.int64).reshape(len(rows), 4)
         self.kernel_entries = len(rows)
         copy = direct(_copy, 0, table)
 
         def call(k: int) -> None:
             copy(k, table)
-            for source, destination, per_sample in numpy:
+            for index in numpy:
+                _, source, destination, per_sample = entries[index]
                 if per_sample:
                     destination[k] = source
                 else:

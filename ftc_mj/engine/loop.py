@@ -343,7 +343,8 @@ class _Run:
                                      rows_series["fault_acceleration"])
         solve_commands = solver.bound(mass.factor, mass.diagonal_inverse, tau, command_acceleration)
         return cls(times, layout, plant, readings, nominal, mass, solver, tau, command_acceleration, solve_commands,
-                   blocks, copies, inputs, reference, series, poses, truths, Stops(np.full(rows, steps), np.full(rows, np.nan)))
+                   blocks, copies, inputs, reference, series, poses, truths,
+                   Stops(np.full(rows, steps), np.full(rows, np.nan)))
 
     def stop(self, stopped: np.ndarray | None, k: int) -> None:
         """Rows stopped at sample k (a mask, or None): their recording ends before it."""

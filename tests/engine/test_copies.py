@@ -82,6 +82,13 @@ def test_a_rebound_group_copies_the_arrays_its_owner_now_holds() -> None:
     copies(2)
     np.testing.assert_array_equal(series[2], 3.0)
     assert copies.kernel_entries == 1  # the rebound group by NumPy from now on, the other still compiled
+    call = copies._call
+    for k in range(3, STEPS):  # rebound every period: the same table, the new arrays copied
+        latest = np.full((ROWS, N), float(k))
+        copies.rebind(group, [latest])
+        copies(k)
+        np.testing.assert_array_equal(series[k], latest)
+    assert copies._call is call
 
 
 def test_a_rebound_buffer_entry_and_the_other_groups() -> None:
