@@ -169,10 +169,10 @@ class PlantTerms:
         self._sums = np.zeros((5,) + shape)
         self.torque, self.acceleration, self.fault, self.fault_force, self._fault_acceleration = self._sums
         self._mapped = np.zeros(shape)
-        #: M(q) of the acceleration sum and of the fault's, each a call site of its own (the same buffers),
-        #: while ``mass`` is the array of the period before.
+        #: M(q) of the acceleration sum and of the fault's, each a call site of its own: its vectors and output
+        #: are these buffers, so a site is compiled for a period's ``mass`` where it is the array it was
+        #: compiled for.
         self._map_acceleration, self._map_fault_acceleration = MatvecSite(), MatvecSite()
-        self._mass: np.ndarray | None = None
         self._parameters = np.asarray(parameters, dtype=float).reshape(rows, -1)
         names = list(parameter_names)
         #: Per term with a rate parameter (a slot each, in file order): each row's rate ``(1, rows)``, the
@@ -283,23 +283,13 @@ class PlantTerms:
         if not plan.maps_acceleration:
             out[...] = self.torque  # an assignment costs half np.copyto's call on a few rows
             return
-        mapped = self._mapped
-        if mass is not self._mass:  # a new M(q) buffer: the sites compile for it from its second period on
-            self._mass = mass
-            self._map_acceleration.vectors = self._map_fault_acceleration.vectors = None
-        site = self._map_acceleration
-        if site.vectors is not None:
-            site.call(mass, self.acceleration, mapped)
-        else:
-            site.new(mass, self.acceleration, mapped)
+        mapped, site = self._mapped, self._map_acceleration
+        (site.call if mass is site.matrices else site.new)(mass, self.acceleration, mapped)
         np.add(self.torque, mapped, out=out)
         if plan.maps_fault_acceleration:
             if not plan.same_acceleration_sums:
                 site = self._map_fault_acceleration
-                if site.vectors is not None:
-                    site.call(mass, self._fault_acceleration, mapped)
-                else:
-                    site.new(mass, self._fault_acceleration, mapped)
+                (site.call if mass is site.matrices else site.new)(mass, self._fault_acceleration, mapped)
             self.fault_force += mapped
 
 

@@ -51,29 +51,32 @@ def matvec(matrices: np.ndarray, vectors: np.ndarray, out: np.ndarray) -> np.nda
 
 
 class MatvecSite:
-    """:func:`matvec` at one call site, past Numba's dispatcher once its vectors and output are the arrays of
-    the call before (the same objects): a loop that maps the same buffers every period then pays the compiled
-    function's call alone (:func:`~ftc_mj.config.kernels.direct`). The caller compares the arrays
-    (:meth:`same`, inline: a method call would cost what it saves) and calls :attr:`call` where they are the
-    same, :meth:`new` where not. The matrices are the caller's own buffer, the same object at every call. The
-    same bits either way; an array is not reshaped in place between two calls (a view is another object)."""
+    """:func:`matvec` at one call site, past Numba's dispatcher once its matrices, vectors and output are the
+    arrays of the call before (the same objects): a loop that maps the same buffers every period then pays the
+    compiled function's call alone (:func:`~ftc_mj.config.kernels.direct`). The caller compares the arrays
+    with :attr:`matrices`, :attr:`vectors`, :attr:`out` inline (a method call would cost what it saves) and
+    calls :attr:`call` where they are the same, :meth:`new` where not; a caller whose own buffers never change
+    need compare only the others. The same bits either way; an array is not reshaped in place between two
+    calls (a view is another object)."""
 
-    __slots__ = ("vectors", "out", "call", "_seen")
+    __slots__ = ("matrices", "vectors", "out", "call", "_seen")
 
     def __init__(self) -> None:
         #: The arrays :attr:`call` was compiled for (None: none yet), and the compiled function.
+        self.matrices: np.ndarray | None = None
         self.vectors: np.ndarray | None = None
         self.out: np.ndarray | None = None
         self.call: Callable[[np.ndarray, np.ndarray, np.ndarray], None] = _matvec_in_pairs
         self._seen: tuple[np.ndarray, np.ndarray] | None = None
 
     def new(self, matrices: np.ndarray, vectors: np.ndarray, out: np.ndarray) -> np.ndarray:
-        """:func:`matvec` of arrays other than :attr:`vectors`, :attr:`out`; where they are those of the last
-        call too, the compiled function for them is taken for the next calls."""
+        """:func:`matvec` of arrays other than the compiled call's; where the vectors and output are those of the
+        last call too, the compiled function for these arrays is taken for the next calls."""
         seen, self._seen = self._seen, (vectors, out)
         if (seen is not None and seen[0] is vectors and seen[1] is out and sums_in_pairs(matrices.shape[-1])
                 and all(type(a) is np.ndarray for a in (matrices, vectors, out))):
-            self.vectors, self.out, self.call = vectors, out, direct(_matvec_in_pairs, matrices, vectors, out)
+            self.matrices, self.vectors, self.out = matrices, vectors, out
+            self.call = direct(_matvec_in_pairs, matrices, vectors, out)
         return matvec(matrices, vectors, out)
 
 
@@ -178,7 +181,7 @@ class StepModel:
     def apply_M(self, vector: np.ndarray, out: np.ndarray) -> np.ndarray:
         """M(x1) vector per member, into ``out``."""
         site = self._apply
-        if vector is site.vectors and out is site.out:
+        if vector is site.vectors and out is site.out:  # M is the same buffer every call
             site.call(self.M, vector, out)
             return out
         return site.new(self.M, vector, out)

@@ -443,5 +443,5 @@ def test_the_mapped_terms_are_the_same_on_a_live_mass_buffer_and_on_new_ones() -
         np.testing.assert_array_equal(out, expected["applied"][k])
         np.testing.assert_array_equal(plant.fault_force, expected["fault_force"][k])
     if sums_in_pairs(NJ):  # where the compiled product is einsum's: it ran for the live buffers
-        assert plant._map_acceleration.vectors is plant.acceleration and plant._mass is other
+        assert plant._map_acceleration.vectors is plant.acceleration and plant._map_acceleration.matrices is other
         assert plant._map_fault_acceleration.vectors is plant._fault_acceleration
