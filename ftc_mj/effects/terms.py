@@ -149,6 +149,20 @@ def _term_profile(term: TermSpec, file: str, field: str, n: int, parameters: Seq
     return Profile("abrupt" if rate is None else "incipient", onset=term.onset, rate=rate)
 
 
+def active_term_sets(on: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """The distinct sets of active terms and each sample's set: ``np.unique(on.T, axis=0, return_inverse=True)``
+    of ``on`` (``(terms, samples)``, whether each term is on at each sample), the same arrays. Terms switch on
+    and off a few times in a run, so only the first sample of each stretch with one set is compared with the
+    others (NumPy's unique of rows sorts every sample's row: most of a single run's set-up)."""
+    samples = on.shape[1]
+    if samples == 0 or on.shape[0] == 0:
+        sets, plan_of_sample = np.unique(on.T, axis=0, return_inverse=True)
+        return sets, plan_of_sample.reshape(-1)
+    starts = np.flatnonzero(np.concatenate(([True], np.any(on[:, 1:] != on[:, :-1], axis=0))))
+    sets, plan_of_stretch = np.unique(on.T[starts], axis=0, return_inverse=True)
+    return sets, np.repeat(plan_of_stretch.reshape(-1), np.diff(np.append(starts, samples)))
+
+
 class PlantTerms:
     """Friction, disturbance and fault terms of every row, evaluated on the true states.
 
@@ -204,11 +218,11 @@ class PlantTerms:
                                   for term, profile in zip(terms, profiles)]).reshape(len(terms), len(times), n_joints)
         on = np.array([np.ones(len(times), dtype=bool) if profile is None else profile.active(times)
                        for profile in profiles], dtype=bool).reshape(len(terms), len(times))
-        active_sets, self._plan_of_sample = np.unique(on.T, axis=0, return_inverse=True)
-        self._plan_of_sample = self._plan_of_sample.reshape(-1).tolist()
+        active_sets, plan_of_sample = active_term_sets(on)
+        self._plan_of_sample = plan_of_sample.tolist()
         self._plans = [self._plan(np.flatnonzero(active)) for active in active_sets]
         #: Whether a fault term is on at each sample, ``(samples,)``.
-        self.fault_on = np.array([self._plans[plan].fault_active for plan in self._plan_of_sample], dtype=bool)
+        self.fault_on = np.array([plan.fault_active for plan in self._plans], dtype=bool)[plan_of_sample]
 
     def _plan(self, active: np.ndarray) -> "_Plan":
         """What a period with the terms ``active`` (indices, file order) does: each term, the sums it goes to

@@ -14,7 +14,7 @@ import yaml
 
 from ftc_mj.config.errors import InputError
 from ftc_mj.config.expressions import SCALAR_ROWS
-from ftc_mj.effects.terms import PlantTerms, TermSpec, compile_terms
+from ftc_mj.effects.terms import PlantTerms, TermSpec, active_term_sets, compile_terms
 from ftc_mj.engine.runner import simulate_variant
 from ftc_mj.spec.loading import load_scenario
 
@@ -445,3 +445,20 @@ def test_the_mapped_terms_are_the_same_on_a_live_mass_buffer_and_on_new_ones() -
     if sums_in_pairs(NJ):  # where the compiled product is einsum's: it ran for the live buffers
         assert plant._map_acceleration.vectors is plant.acceleration and plant._map_acceleration.matrices is other
         assert plant._map_fault_acceleration.vectors is plant._fault_acceleration
+
+
+@pytest.mark.parametrize("shape", [(3, 400), (1, 1), (5, 2), (0, 7), (2, 0)])
+def test_the_active_term_sets_are_numpys_unique_rows_of_every_sample(shape: tuple[int, int]) -> None:
+    """The sets and each sample's set as ``np.unique(on.T, axis=0, return_inverse=True)`` gives them: stretches of
+    one set, a set that comes back after another, a term that flips every sample, no terms, no samples."""
+    generator = np.random.default_rng(7)
+    on = np.zeros(shape, dtype=bool)
+    if on.size:
+        on[:, shape[1] // 3:] = True
+        on[0, 2 * shape[1] // 3:] = False  # back to an earlier set
+        on[-1, ::2] = generator.random(on[-1, ::2].shape) < 0.5
+    expected_sets, expected_plans = np.unique(on.T, axis=0, return_inverse=True)
+    sets, plans = active_term_sets(on)
+    np.testing.assert_array_equal(sets, expected_sets)
+    np.testing.assert_array_equal(plans, expected_plans.reshape(-1))
+    assert plans.shape == (shape[1],)
