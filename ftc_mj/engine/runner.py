@@ -196,35 +196,36 @@ def _finished_metrics(scenario: Scenario, run: BatchRun, joint_onsets: np.ndarra
     n, steps = scenario.n_joints, len(run.times)
     if n < 2:
         return {}
-    rows = np.flatnonzero(run.done == steps)
+    finished = run.done == steps
     series, q_ref = run.series, run.reference[0]
     limits = scenario.torque_limits
     out: dict[int, dict[str, np.ndarray]] = {}
-    for start in range(0, rows.size, METRICS_ROWS):
-        group = rows[start : start + METRICS_ROWS]
-        # Consecutive rows (no row of the group stopped) as a slice: each series' columns are then a view of the
-        # run's; else one gather by ``take``, whose copy is laid out as the columns are read (fancy indexing's is
-        # not, and reshaping it copied it again). The same numbers either way.
-        first, stop = int(group[0]), int(group[-1]) + 1
-        consecutive = stop - first == group.size
-
-        def picked(values: np.ndarray) -> np.ndarray:
-            return values[:steps, first:stop] if consecutive else np.take(values[:steps], group, axis=1)
+    for start in range(0, finished.size, METRICS_ROWS):
+        rows = start + np.flatnonzero(finished[start : start + METRICS_ROWS])
+        if not rows.size:
+            continue
+        # The rows from the group's first finished row to its last, stopped ones among them, as one slice: each
+        # series' columns are then a view of the run's (a gather of the finished rows alone cost as much as the
+        # metrics). Every metric is a pass along each column alone, so a stopped row's columns (NaN, or the
+        # state it stopped in) change no other column's numbers; theirs are not kept.
+        first, stop = int(rows[0]), int(rows[-1]) + 1
+        width = stop - first
 
         def columns(values: np.ndarray) -> np.ndarray:
-            return picked(values).reshape(steps, group.size * n)
+            return values[:steps, first:stop].reshape(steps, width * n)
 
-        reference = q_ref[:steps, None] if q_ref.ndim == 2 else q_ref[:steps, group % run.members]
-        metrics = series_metrics(
-            run.times[:steps],
-            (picked(series["q_true"]) - reference).reshape(steps, group.size * n),
-            columns(series["qd_true"]) - columns(series["qd_hat"]),
-            columns(series["luaf_true"]) - columns(series["luaf_hat"]),
-            columns(series["tau"]), columns(series["sliding"]), scenario.spec.metrics, scenario.fault_onsets,
-            np.tile(joint_onsets, group.size), None if limits is None else np.tile(limits, group.size))
-        by_row = {name: values.reshape(group.size, n) for name, values in metrics.items()}
-        for index, row in enumerate(group):
-            out[int(row)] = {name: values[index].copy() for name, values in by_row.items()}
+        reference = q_ref[:steps, None] if q_ref.ndim == 2 else q_ref[:steps, np.arange(first, stop) % run.members]
+        with np.errstate(all="ignore" if width > rows.size else None):  # a stopped row's NaN: no warning
+            metrics = series_metrics(
+                run.times[:steps],
+                (series["q_true"][:steps, first:stop] - reference).reshape(steps, width * n),
+                columns(series["qd_true"]) - columns(series["qd_hat"]),
+                columns(series["luaf_true"]) - columns(series["luaf_hat"]),
+                columns(series["tau"]), columns(series["sliding"]), scenario.spec.metrics, scenario.fault_onsets,
+                np.tile(joint_onsets, width), None if limits is None else np.tile(limits, width))
+        by_row = {name: values.reshape(width, n) for name, values in metrics.items()}
+        for row in rows.tolist():
+            out[row] = {name: values[row - first].copy() for name, values in by_row.items()}
     return out
 
 
