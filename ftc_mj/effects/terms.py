@@ -155,7 +155,7 @@ def active_term_sets(on: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     and off a few times in a run, so only the first sample of each stretch with one set is compared with the
     others (NumPy's unique of rows sorts every sample's row: most of a single run's set-up)."""
     samples = on.shape[1]
-    if samples == 0 or on.shape[0] == 0:
+    if samples == 0:  # no first sample to compare
         sets, plan_of_sample = np.unique(on.T, axis=0, return_inverse=True)
         return sets, plan_of_sample.reshape(-1)
     starts = np.flatnonzero(np.concatenate(([True], np.any(on[:, 1:] != on[:, :-1], axis=0))))

@@ -462,3 +462,24 @@ def test_the_active_term_sets_are_numpys_unique_rows_of_every_sample(shape: tupl
     np.testing.assert_array_equal(sets, expected_sets)
     np.testing.assert_array_equal(plans, expected_plans.reshape(-1))
     assert plans.shape == (shape[1],)
+
+
+@pytest.mark.parametrize(("samples", "onset_sample", "rows"), [(300, 50, 2), (100, 10, 3), (600, 0, 300)])
+def test_a_rated_fault_reads_its_own_samples_weights_on_any_grid(samples: int, onset_sample: int, rows: int) -> None:
+    """The incipient weights are tabulated a block of periods at a time from the first faulted period on: on a
+    grid shorter than a block, one between one and two blocks long, an onset a few periods in, and more rows
+    than a block has periods, every sample's fault is s (1 - exp(-zeta (t - Tf))) of its own time."""
+    times = np.arange(samples) * DT
+    onset = float(times[onset_sample])
+    spec = TermSpec(kind="fault", space="torque", sign=-1, value=["1", "2", "0"], onset=onset, rate="zeta",
+                    name="fault")
+    zeta = np.linspace(2.0, 9.0, rows)
+    plant = PlantTerms(compile_terms([spec], "test.yaml", NJ, PARAMETERS), times, rows, NJ,
+                       np.column_stack([np.ones(rows), zeta]), PARAMETERS)
+    q, qd, out = np.zeros((rows, NJ)), np.zeros((rows, NJ)), np.empty((rows, NJ))
+    for k, t in enumerate(times.tolist()):
+        plant.apply(k, t, q, qd, None, out)
+        elapsed = t - onset
+        weight = 1.0 - np.exp(-zeta * elapsed) if elapsed >= 0 else np.zeros(rows)
+        np.testing.assert_allclose(plant.fault, -weight[:, None] * np.array([1.0, 2.0, 0.0]), rtol=1e-12, atol=0,
+                                   err_msg=f"sample {k}")
