@@ -211,14 +211,17 @@ def _finished_metrics(scenario: Scenario, run: BatchRun, joint_onsets: np.ndarra
         first, stop = int(rows[0]), int(rows[-1]) + 1
         width = stop - first
 
+        def block(values: np.ndarray) -> np.ndarray:
+            return values[:steps, first:stop]
+
         def columns(values: np.ndarray) -> np.ndarray:
-            return values[:steps, first:stop].reshape(steps, width * n)
+            return block(values).reshape(steps, width * n)
 
         reference = q_ref[:steps, None] if q_ref.ndim == 2 else q_ref[:steps, np.arange(first, stop) % run.members]
         with np.errstate(all="ignore" if width > rows.size else None):  # a stopped row's NaN: no warning
             metrics = series_metrics(
                 run.times[:steps],
-                (series["q_true"][:steps, first:stop] - reference).reshape(steps, width * n),
+                (block(series["q_true"]) - reference).reshape(steps, width * n),
                 columns(series["qd_true"]) - columns(series["qd_hat"]),
                 columns(series["luaf_true"]) - columns(series["luaf_hat"]),
                 columns(series["tau"]), columns(series["sliding"]), scenario.spec.metrics, scenario.fault_onsets,
