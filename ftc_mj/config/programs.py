@@ -33,7 +33,7 @@ from dataclasses import dataclass  # noqa: E402
 import numba  # noqa: E402
 import numpy as np  # noqa: E402
 
-from ftc_mj.config.kernels import direct  # noqa: E402
+from ftc_mj.config.kernels import WITHOUT_RUNTIME, direct  # noqa: E402
 
 # Opcodes. A load pushes one number; an operation pops its operands and pushes its result; a store pops one.
 LOAD_CONSTANT, LOAD_TIME, LOAD_POSITION, LOAD_VELOCITY, LOAD_PARAMETER, LOAD_TEMPORARY = range(6)
@@ -78,15 +78,20 @@ class Program:
     def evaluate(self, t: float, q: np.ndarray, qd: np.ndarray, parameters: np.ndarray, out: np.ndarray) -> None:
         """Every row of ``q``, ``qd`` ``(rows, n)`` and ``parameters`` ``(rows, p)`` into ``out``
         ``(rows, outputs)``."""
-        _run(self.code, self.constants, self.temporaries, self.stack, float(t), q, qd, parameters, out)
+        _run(self.code, self.constants, *self.buffers(len(out)), float(t), q, qd, parameters, out)
+
+    def buffers(self, rows: int) -> tuple[np.ndarray, np.ndarray]:
+        """The interpreter's working buffers for ``rows`` rows: the stack ``(stack, rows)`` and the temporaries
+        ``(temporaries, rows)`` (at least one slot)."""
+        return np.empty((self.stack, rows)), np.empty((max(self.temporaries, 1), rows))
 
     def evaluation(self, q: np.ndarray, qd: np.ndarray, parameters: np.ndarray,
                    out: np.ndarray) -> Callable[[float], None]:
         """:meth:`evaluate` of these buffers (the same objects every call) as a function of time alone, the
         kernel called past Numba's dispatcher (:func:`~ftc_mj.config.kernels.direct`)."""
-        code, constants, temporaries, stack = self.code, self.constants, self.temporaries, self.stack
-        run = direct(_run, code, constants, temporaries, stack, 0.0, q, qd, parameters, out)
-        return lambda t: run(code, constants, temporaries, stack, float(t), q, qd, parameters, out)
+        code, constants, (stack, saved) = self.code, self.constants, self.buffers(len(out))
+        run = direct(_run, code, constants, stack, saved, 0.0, q, qd, parameters, out)
+        return lambda t: run(code, constants, stack, saved, float(t), q, qd, parameters, out)
 
 
 class _Compiler:
@@ -230,14 +235,13 @@ def _constant_value(node: ast.expr) -> float | None:
     return float(folded)
 
 
-@numba.njit(cache=True, nogil=True, error_model="numpy")
-def _run(code: np.ndarray, constants: np.ndarray, temporaries: int, depth: int, t: float, q: np.ndarray,
+@numba.njit(cache=True, nogil=True, error_model="numpy", **WITHOUT_RUNTIME)
+def _run(code: np.ndarray, constants: np.ndarray, stack: np.ndarray, saved: np.ndarray, t: float, q: np.ndarray,
          qd: np.ndarray, parameters: np.ndarray, out: np.ndarray) -> None:
     """The stack machine (opcodes at the top of the module), each instruction over all rows at once: a stack
-    slot holds a value per row."""
+    slot holds a value per row; ``stack`` and ``saved`` (the temporaries) are the caller's buffers
+    (:meth:`Program.buffers`), so the kernel allocates nothing."""
     rows = out.shape[0]
-    stack = np.empty((depth, rows))
-    saved = np.empty((max(temporaries, 1), rows))
     top = 0  # the number of slots in use
     for i in range(code.shape[0]):
         opcode, argument = code[i, 0], code[i, 1]
@@ -257,11 +261,13 @@ def _run(code: np.ndarray, constants: np.ndarray, temporaries: int, depth: int, 
                 for r in range(rows):
                     slot[r] = parameters[r, argument]
             else:
-                slot[:] = saved[argument]
+                for r in range(rows):
+                    slot[r] = saved[argument, r]
             top += 1
         elif opcode == STORE_TEMPORARY:
             top -= 1
-            saved[argument] = stack[top]
+            for r in range(rows):
+                saved[argument, r] = stack[top, r]
         elif opcode == STORE_OUTPUT:
             top -= 1
             for r in range(rows):

@@ -25,6 +25,7 @@ import numba
 import numpy as np
 from pydantic import Field, StrictInt, model_validator
 
+from ftc_mj.config.kernels import WITHOUT_RUNTIME
 from ftc_mj.config.types import (
     FiniteFloat,
     Interval,
@@ -174,7 +175,7 @@ class Measurement:
                  stuck, self._last, out)
 
 
-@numba.njit(cache=True, nogil=True)
+@numba.njit(cache=True, nogil=True, **WITHOUT_RUNTIME)
 def _measure(source: np.ndarray, offsets: np.ndarray, offset: bool, quantise: bool, inverse_step: np.ndarray,
              step: np.ndarray, quantised: np.ndarray, stuck: np.ndarray, last: np.ndarray, out: np.ndarray) -> None:
     """Steps 2-4 of the module docstring for every row (blocks of the same members, variant-major: row r is

@@ -31,7 +31,7 @@ from ftc_mj.robot.nominal import MatvecSite
 from ftc_mj.robot.rigid import cache_is_cold
 from ftc_mj.config import expressions, programs
 from ftc_mj.config.errors import InputError
-from ftc_mj.config.kernels import direct
+from ftc_mj.config.kernels import WITHOUT_RUNTIME, direct
 from ftc_mj.config.types import (ExpressionText, NonNegativeFloat, ParameterName, PositiveFloat, Strict,
                                 parse_expression, per_joint)
 
@@ -350,7 +350,7 @@ class _Plan:
     sum_terms: Callable[..., None] | None = None
 
 
-@numba.njit(cache=True, nogil=True)
+@numba.njit(cache=True, nogil=True, **WITHOUT_RUNTIME)
 def _sum_terms(values: np.ndarray, terms: np.ndarray, slots: np.ndarray, targets: np.ndarray, factors: np.ndarray,
                k: int, weights: np.ndarray, block: int, sums: np.ndarray) -> None:
     """Every sum from zero, then term by term in the file's order: its values ``(rows, terms x n)`` times its

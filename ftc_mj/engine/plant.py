@@ -23,7 +23,7 @@ import numba
 import numpy as np
 from mujoco.batch import Batch, SimulationError
 
-from ftc_mj.config.kernels import bound
+from ftc_mj.config.kernels import WITHOUT_RUNTIME, bound
 from ftc_mj.logs.trajectory import Log
 from ftc_mj.robot.model import position_sensor_addresses, velocity_sensor_addresses
 from ftc_mj.robot.nominal import DenseMass, scale_masses
@@ -370,7 +370,7 @@ def _kinematics(model: mujoco.MjModel, positions: np.ndarray) -> tuple[np.ndarra
     return xpos, xquat
 
 
-@numba.njit(cache=True, nogil=True)
+@numba.njit(cache=True, nogil=True, **WITHOUT_RUNTIME)
 def _within(qpos: np.ndarray, qvel: np.ndarray, alive: np.ndarray, max_position: float, max_velocity: float) -> bool:
     """Whether every |qpos| <= max_position and every |qvel| <= max_velocity (NaN is not) in the rows still
     ``alive``: a stopped row keeps the state it stopped in, which would otherwise send every later period to

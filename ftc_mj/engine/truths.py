@@ -25,7 +25,7 @@ from dataclasses import dataclass  # noqa: E402
 import numba  # noqa: E402
 import numpy as np  # noqa: E402
 
-from ftc_mj.config.kernels import direct  # noqa: E402
+from ftc_mj.config.kernels import WITHOUT_RUNTIME, direct  # noqa: E402
 from ftc_mj.engine.plant import Plant  # noqa: E402
 from ftc_mj.robot.nominal import SparseSolver  # noqa: E402
 from ftc_mj.robot.rigid import solve_factored  # noqa: E402
@@ -70,7 +70,7 @@ class Truths:
         np.subtract(qdd_true, luaf_true, out=luaf_true)
 
 
-@numba.njit(cache=True, nogil=True, fastmath=False, error_model="numpy")
+@numba.njit(cache=True, nogil=True, fastmath=False, error_model="numpy", **WITHOUT_RUNTIME)
 def _record(k, fault, factor, diagonal_inverse, tau, bias, scale, scaled, force, luaf_true,  # noqa: ANN001, ANN202
             fault_torque, fault_acceleration, rows, starts, addresses, columns):
     """:meth:`Truths.record` of sample k: force = tau / c - bias (tau - bias where c = 1: no division), each an

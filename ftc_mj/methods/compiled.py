@@ -42,7 +42,7 @@ import numba  # noqa: E402
 import numpy as np  # noqa: E402
 from numba.extending import overload  # noqa: E402
 
-from ftc_mj.config.kernels import direct  # noqa: E402
+from ftc_mj.config.kernels import WITHOUT_RUNTIME, direct  # noqa: E402
 from ftc_mj.methods.plugin import Method  # noqa: E402
 from ftc_mj.robot.rigid import cache_is_cold  # noqa: E402
 
@@ -76,8 +76,9 @@ def fused(method: Method, classes: tuple[type, ...], *operands: object) -> bool:
 
 def kernel(function: Callable) -> numba.core.registry.CPUDispatcher:
     """The decorator of every fused kernel: compiled without fast-math, NumPy's semantics for division, cached
-    on disk."""
-    dispatcher = numba.njit(cache=True, nogil=True, fastmath=False, error_model="numpy")(function)
+    on disk, without Numba's runtime (:data:`~ftc_mj.config.kernels.WITHOUT_RUNTIME`: a fused kernel allocates
+    nothing)."""
+    dispatcher = numba.njit(cache=True, nogil=True, fastmath=False, error_model="numpy", **WITHOUT_RUNTIME)(function)
     _KERNELS.setdefault(function.__module__, []).append(dispatcher)
     return dispatcher
 

@@ -22,7 +22,7 @@ import numba
 import numpy as np
 from mujoco.batch import Batch
 
-from ftc_mj.config.kernels import bound, direct
+from ftc_mj.config.kernels import WITHOUT_RUNTIME, bound, direct
 from ftc_mj.config.types import PositiveFloat, Strict
 from ftc_mj.robot.rigid import RigidTree, evaluation, solve_factored
 
@@ -94,7 +94,7 @@ def sums_in_pairs(n: int) -> bool:
     return bool(np.array_equal(expected, paired))
 
 
-@numba.njit(cache=True, nogil=True)
+@numba.njit(cache=True, nogil=True, **WITHOUT_RUNTIME)
 def _matvec_in_pairs(matrices: np.ndarray, vectors: np.ndarray, out: np.ndarray) -> None:
     """``out[r, i] = sum_j matrices[r, i, j] vectors[r, j]`` summed as einsum's loop sums fewer than eight
     products: even and odd products in two running sums, an odd count's last product into the even one, then
@@ -302,7 +302,7 @@ class DenseMass:
         return self.out
 
 
-@numba.njit(cache=True, nogil=True)
+@numba.njit(cache=True, nogil=True, **WITHOUT_RUNTIME)
 def _gather(values: np.ndarray, index: np.ndarray, out: np.ndarray) -> None:
     """``out[r, e] = values[r, index[e]]``: ``values.take(index, axis=1, out=out)`` in one compiled pass."""
     for r in range(out.shape[0]):

@@ -67,7 +67,7 @@ import mujoco  # noqa: E402
 import numba  # noqa: E402
 import numpy as np  # noqa: E402
 
-from ftc_mj.config.kernels import bound  # noqa: E402
+from ftc_mj.config.kernels import WITHOUT_RUNTIME, bound  # noqa: E402
 
 _HINGE, _SLIDE = int(mujoco.mjtJoint.mjJNT_HINGE), int(mujoco.mjtJoint.mjJNT_SLIDE)
 #: No point asks for the momentum terms: the kernel's arguments when none are wanted (types fixed for Numba).
@@ -200,7 +200,13 @@ class RigidTree:
                 self.reference, self.gravity, self.sparse_row, self.sparse_column,
                 mass, first_moment, inertia, armature, qpos, qvel, applied,
                 sparse_M, factor, diagonal_inverse, qacc, bias, int(velocity_points),
-                momentum_points, coriolis_transpose, gravity)
+                momentum_points, coriolis_transpose, gravity, np.empty(scratch_size(self.n)))
+
+
+def scratch_size(n: int) -> int:
+    """The length of the kernel's scratch buffer for a tree of ``n`` joints: its working arrays, one call's
+    (so each thread's call has its own)."""
+    return 9 * n + 3 * n + 4 * 6 * n + n + 3 * n + 9 * n + n * n + n + 6 * n + 45
 
 
 def evaluate(arguments: tuple) -> None:
@@ -265,36 +271,49 @@ def _apply_inertia(m: float, h: np.ndarray, inertia: np.ndarray, motion: np.ndar
     _cross(h[0], h[1], h[2], w, out[3:], -1.0)
 
 
-@numba.njit(cache=True, nogil=True, fastmath=False, error_model="numpy")
+@numba.njit(cache=True, nogil=True, fastmath=False, error_model="numpy", **WITHOUT_RUNTIME)
 def _evaluate(parent, offset_position, offset_rotation, hinge, axis, anchor, reference, gravity, sparse_row,
               sparse_column, mass, first_moment, inertia, armature, qpos, qvel, applied, sparse_M, factor,
               diagonal_inverse, qacc, bias, velocity_points, momentum_points, coriolis_transpose,
-              gravity_torque):  # pragma: no cover - compiled (tested through its wrapper)
+              gravity_torque, scratch):  # pragma: no cover - compiled (tested through its wrapper)
     """:meth:`RigidTree.evaluate` over the points ``p``: kinematics and each node's inertia in world coordinates,
     Newton-Euler (the first ``velocity_points`` points), composite inertias, C^T qd and G where
-    ``momentum_points`` asks, M, L'DL and the solve. One point's numbers come from its inputs alone (scratch arrays are rewritten per point); the
-    momentum terms only add outputs, the other quantities are computed as without them."""
+    ``momentum_points`` asks, M, L'DL and the solve. One point's numbers come from its inputs alone (its working
+    arrays, views of ``scratch``, are written before they are read at every point); the momentum terms only add
+    outputs, the other quantities are computed as without them."""
     points, n = qpos.shape
-    rotation = np.empty((n, 3, 3))
-    position = np.empty((n, 3))
-    subspace = np.empty((n, 6))  # each joint's motion subspace S in world coordinates [w; v at the origin]
-    velocity = np.empty((n, 6))
-    acceleration = np.empty((n, 6))
-    force = np.empty((n, 6))
-    c_mass = np.empty(n)  # composite inertias, world frame about the origin
-    c_first = np.empty((n, 3))
-    c_inertia = np.empty((n, 3, 3))
-    dense = np.empty((n, n))
-    momentum = np.empty(6)
-    column = np.empty(6)
-    before = np.empty((3, 3))
-    turn = np.empty((3, 3))
-    world_axis = np.empty(3)
-    world_anchor = np.empty(3)
-    h = np.empty(3)  # a node's first moment about its body origin, world axes
-    rhs = np.empty(n)
-    subtree_momentum = np.empty((n, 6))  # h_i: the spatial momenta of i's subtree, [angular; linear]
-    base = np.zeros(6)  # a_0 = [0; -gravity]
+    # The working arrays: views of the caller's buffer (:func:`scratch_size`), so that the kernel allocates nothing.
+    o = 0
+    rotation = scratch[o:o + 9 * n].reshape((n, 3, 3))
+    o += 9 * n
+    position = scratch[o:o + 3 * n].reshape((n, 3))
+    o += 3 * n
+    # Each joint's motion subspace S in world coordinates [w; v at the origin].
+    subspace = scratch[o:o + 6 * n].reshape((n, 6))
+    o += 6 * n
+    velocity = scratch[o:o + 6 * n].reshape((n, 6))
+    o += 6 * n
+    acceleration = scratch[o:o + 6 * n].reshape((n, 6))
+    o += 6 * n
+    force = scratch[o:o + 6 * n].reshape((n, 6))
+    o += 6 * n
+    c_mass = scratch[o:o + n]  # composite inertias, world frame about the origin
+    o += n
+    c_first = scratch[o:o + 3 * n].reshape((n, 3))
+    o += 3 * n
+    c_inertia = scratch[o:o + 9 * n].reshape((n, 3, 3))
+    o += 9 * n
+    dense = scratch[o:o + n * n].reshape((n, n))
+    o += n * n
+    rhs = scratch[o:o + n]
+    o += n
+    subtree_momentum = scratch[o:o + 6 * n].reshape((n, 6))  # h_i: i's subtree's spatial momenta [angular; linear]
+    o += 6 * n
+    momentum, column, base = scratch[o:o + 6], scratch[o + 6:o + 12], scratch[o + 12:o + 18]
+    before, turn = scratch[o + 18:o + 27].reshape((3, 3)), scratch[o + 27:o + 36].reshape((3, 3))
+    world_axis, world_anchor = scratch[o + 36:o + 39], scratch[o + 39:o + 42]
+    h = scratch[o + 42:o + 45]  # a node's first moment about its body origin, world axes
+    base[:3] = 0.0  # a_0 = [0; -gravity]
     for r in range(3):
         base[3 + r] = -gravity[r]
     any_momentum = len(momentum_points) > 0
@@ -341,16 +360,20 @@ def _evaluate(parent, offset_position, offset_rotation, hinge, axis, anchor, ref
                                              + before[r, 2] * turn[2, c])
                 for r in range(3):
                     position[i, r] = world_anchor[r] - _row_dot(rotation[i], r, anchor[i])
-                subspace[i, :3] = world_axis
+                for r in range(3):
+                    subspace[i, r] = world_axis[r]
                 subspace[i, 3] = world_anchor[1] * world_axis[2] - world_anchor[2] * world_axis[1]
                 subspace[i, 4] = world_anchor[2] * world_axis[0] - world_anchor[0] * world_axis[2]
                 subspace[i, 5] = world_anchor[0] * world_axis[1] - world_anchor[1] * world_axis[0]
             else:
-                rotation[i] = before
+                for r in range(3):
+                    for c in range(3):
+                        rotation[i, r, c] = before[r, c]
                 for r in range(3):
                     position[i, r] += world_axis[r] * displacement
                 subspace[i, :3] = 0.0
-                subspace[i, 3:] = world_axis
+                for r in range(3):
+                    subspace[i, 3 + r] = world_axis[r]
             # The node's inertia in world coordinates about the world origin: R I R' shifted by the position d,
             # I_O = R I R' - m [d][d] - [d][h] - [h][d] with h = R h_body the first moment about the body origin.
             m, d = mass[p, i], position[i]
@@ -388,7 +411,8 @@ def _evaluate(parent, offset_position, offset_rotation, hinge, axis, anchor, ref
                     for r in range(3):
                         acceleration[i, 3 + r] = -gravity[r]
                 else:
-                    acceleration[i] = acceleration[up]
+                    for k in range(6):
+                        acceleration[i, k] = acceleration[up, k]
                 # + V x S qd (motion cross product: [w x a_w; w x a_v + v x a_w])
                 w, v = velocity[i, :3], velocity[i, 3:]
                 _cross(w[0], w[1], w[2], column[:3], acceleration[i, :3], 1.0)
@@ -398,7 +422,8 @@ def _evaluate(parent, offset_position, offset_rotation, hinge, axis, anchor, ref
                 _apply_inertia(c_mass[i], c_first[i], c_inertia[i], acceleration[i], force[i])
                 _apply_inertia(c_mass[i], c_first[i], c_inertia[i], velocity[i], momentum)
                 if with_momentum:
-                    subtree_momentum[i] = momentum
+                    for k in range(6):
+                        subtree_momentum[i, k] = momentum[k]
                 _cross(w[0], w[1], w[2], momentum[:3], force[i, :3], 1.0)
                 _cross(v[0], v[1], v[2], momentum[3:], force[i, :3], 1.0)
                 _cross(w[0], w[1], w[2], momentum[3:], force[i, 3:], 1.0)
@@ -487,7 +512,7 @@ def _evaluate(parent, offset_position, offset_rotation, hinge, axis, anchor, ref
                 qacc[p, i] = rhs[i]
 
 
-@numba.njit(cache=True, nogil=True, fastmath=False, error_model="numpy")
+@numba.njit(cache=True, nogil=True, fastmath=False, error_model="numpy", **WITHOUT_RUNTIME)
 def solve_factored(factor, diagonal_inverse, vector, out, rows, starts, addresses, columns):  # noqa: ANN001, ANN201
     """``out[r] = M_r^-1 vector[r]`` from MuJoCo's factorisation M = L' D L of each row r (``qLD``,
     ``qLDiagInv``), with ``mj_solveM``'s operations in its order: x <- L'^-1 x from the last row up, x <- D^-1

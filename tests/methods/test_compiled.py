@@ -213,7 +213,7 @@ def test_fused_laws_call_their_kernels_past_the_dispatcher_after_the_first_perio
             assert all(type(getattr(method, name)).__name__ == "builtin_function_or_method" for name in names), k
 
 
-def test_the_kernel_decorator_compiles_without_fast_math_and_registers_the_kernel():
+def test_the_kernel_decorator_compiles_without_fast_math_or_numbas_runtime_and_registers_the_kernel():
     def divide_by_zero(x):  # noqa: ANN001, ANN202
         return x / 0.0
 
@@ -225,7 +225,7 @@ def test_the_kernel_decorator_compiles_without_fast_math_and_registers_the_kerne
         compiled._KERNELS.pop(__name__, None)
     assert kernels == [dispatcher]
     assert dispatcher.targetoptions == {"nogil": True, "fastmath": False, "error_model": "numpy", "nopython": True,
-                                        "boundscheck": None}
+                                        "boundscheck": None, "_nrt": False}
     assert type(dispatcher._cache).__name__ == "FunctionCache"  # cached on disk (else a NullCache)
     with np.errstate(divide="ignore"):
         assert dispatcher(1.0) == np.inf  # NumPy's division: inf, not ZeroDivisionError
