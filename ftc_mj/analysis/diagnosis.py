@@ -70,6 +70,7 @@ import numpy as np  # noqa: E402
 from pydantic import Field, StrictInt, model_validator  # noqa: E402
 
 from ftc_mj.config.errors import InputError  # noqa: E402
+from ftc_mj.config.kernels import WITHOUT_RUNTIME  # noqa: E402
 from ftc_mj.config.expressions import StateFunction, state_variables  # noqa: E402
 from ftc_mj.results import Diagnosis, VariantResult  # noqa: E402
 from ftc_mj.config.types import (  # noqa: E402
@@ -319,34 +320,60 @@ def persistent(exceeded: np.ndarray, samples: int, axis: int = 0) -> np.ndarray:
     exceeded = np.asarray(exceeded, dtype=bool)
     if samples <= 1 or exceeded.size == 0:
         return exceeded.copy()
-    # Time last and contiguous: the windows, codes and running maximum of _debounce work along rows.
+    # Time last and contiguous: the compiled state machine runs along rows.
     series = np.ascontiguousarray(np.moveaxis(exceeded, axis, -1))
     alarm = _debounce(series.reshape(-1, series.shape[-1]), samples).reshape(series.shape)
     return np.ascontiguousarray(np.moveaxis(alarm, -1, axis))
 
 
 def _debounce(series: np.ndarray, samples: int) -> np.ndarray:
-    """:func:`persistent` of each row of ``(rows, N)``. The alarm at sample i is the value of the last window of
-    ``samples`` equal samples that ends at or before i (off if none): a window where a run long enough to
-    switch the alarm does so, or keeps it; shorter runs switch nothing."""
+    """:func:`persistent` of each row of ``(rows, N)`` (:func:`_debounce_rows`)."""
     alarm = np.zeros_like(series)
-    hits = np.flatnonzero(series.any(axis=0))
-    if hits.size == 0:
-        return alarm
-    first = int(hits[0])  # the alarm is off up to the first True: start there (a False prefix switches nothing)
-    tail = series[:, first:]
-    if tail.shape[1] < samples:
-        return alarm
-    on = _window(tail, samples, np.logical_and, axis=1)  # the window ending at each sample is all True
-    off = _window(~tail, samples, np.logical_and, axis=1)  # all False
-    # The last constant window so far, coded 2 k + 1 (all True) or 2 k (all False), -2 before any, so that one
-    # running maximum carries it forward; its low bit is the alarm.
-    code = np.arange(0, 2 * on.shape[1], 2, dtype=np.int32) + on
-    code[~(on | off)] = -2
-    np.maximum.accumulate(code, axis=1, out=code)
-    np.bitwise_and(code, 1, out=code)
-    alarm[:, first + samples - 1:] = code
+    _debounce_rows(series, samples, alarm)
     return alarm
+
+
+@numba.njit(cache=True, nogil=True, **WITHOUT_RUNTIME)
+def _debounce_rows(series: np.ndarray, samples: int, alarm: np.ndarray) -> None:  # pragma: no cover - compiled
+    """Each row's alarm in one pass: the value of the last run of ``samples`` equal samples that ends at or before
+    the sample (off before any), i.e. the alarm switches at the ``samples``-th consecutive sample of a value."""
+    for r in range(series.shape[0]):
+        state, run = False, 0
+        for i in range(series.shape[1]):
+            value = series[r, i]
+            run = run + 1 if i > 0 and value == series[r, i - 1] else 1
+            if run >= samples:
+                state = value
+            alarm[r, i] = state
+
+
+@numba.njit(cache=True, nogil=True, **WITHOUT_RUNTIME)
+def _scaled_alarms(residual: np.ndarray, threshold: np.ndarray, scales: np.ndarray, samples: int, armed: np.ndarray,
+                   t: np.ndarray, onsets: np.ndarray, false_alarms: np.ndarray,
+                   first_alarm: np.ndarray) -> None:  # pragma: no cover - compiled
+    """The diagnoser at c times its threshold for every scale c and joint j, ``(N, n)`` residual and threshold
+    (``residual > c * threshold``, NaN never above), debounced as :func:`_debounce_rows` does, in one pass per
+    scale and joint: the alarms raised while armed before the joint's onset into ``false_alarms[s, j]``, the
+    first sample alarmed at or after it into ``first_alarm[s, j]`` (-1: none)."""
+    for s in range(scales.shape[0]):
+        c = scales[s]
+        for j in range(residual.shape[1]):
+            onset = onsets[j]
+            state, run, previous, count, first = False, 0, False, 0, -1
+            for i in range(residual.shape[0]):
+                value = residual[i, j] > c * threshold[i, j]
+                run = run + 1 if i > 0 and value == previous else 1
+                previous = value
+                raised = False
+                if run >= samples:
+                    raised = value and not state
+                    state = value
+                if raised and armed[i] and t[i] < onset:
+                    count += 1
+                if state and first < 0 and t[i] >= onset:
+                    first = i
+            false_alarms[s, j] = count
+            first_alarm[s, j] = first
 
 
 def _window(x: np.ndarray, p: int, combine: np.ufunc, axis: int = 0) -> np.ndarray:
@@ -467,17 +494,12 @@ def detection_statistics(
         out["healthy_time"][j] = (diagnosis.armed & (t < onsets[j])).sum() * dt
     if not scales:
         return out
-    # Every scale at once, time last: scales x joints x samples (c times the threshold: the products as one by one).
-    residual, threshold = np.ascontiguousarray(diagnosis.residual.T), np.ascontiguousarray(diagnosis.threshold.T)
-    with np.errstate(invalid="ignore"):
-        exceeded = residual[None] > np.asarray(scales, dtype=float)[:, None, None] * threshold[None]
-    alarm = _debounce(exceeded.reshape(-1, len(t)), p).reshape(exceeded.shape)
-    raised = alarm.copy()
-    raised[..., 1:] &= ~alarm[..., :-1]
-    fault_free = diagnosis.armed[None, :] & (t[None, :] < onsets[:, None])  # joints x samples
-    false_alarms = np.count_nonzero(raised & fault_free, axis=-1)  # scales x joints
-    after = alarm & (t[None, :] >= onsets[:, None])
-    delay = np.where(after.any(axis=-1) & faulty, t[np.argmax(after, axis=-1)] - onsets, np.nan)
+    # Every scale and joint in one compiled pass (the products c x threshold as NumPy's, one by one).
+    false_alarms = np.zeros((len(scales), n), dtype=np.int64)
+    first = np.zeros((len(scales), n), dtype=np.int64)
+    _scaled_alarms(diagnosis.residual, diagnosis.threshold, np.asarray(scales, dtype=float), p, diagnosis.armed,
+                   t, onsets, false_alarms, first)
+    delay = np.where((first >= 0) & faulty, t[np.maximum(first, 0)] - onsets, np.nan)
     for s, c in enumerate(scales):
         tag = scale_tag(c)
         out[f"false_alarms_{tag}"] = false_alarms[s].astype(float)
