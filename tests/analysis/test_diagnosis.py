@@ -217,6 +217,47 @@ def test_staggered_onsets_in_the_detection_statistics() -> None:
     np.testing.assert_array_equal(stats["isolated"], [1, 1, 0])
 
 
+def test_a_healthy_runs_diagnosis_through_compute_metrics() -> None:
+    """Without fault onsets compute_metrics still scores the diagnosis: every alarm is a false one, over the
+    armed run (no first fault to split it at)."""
+    from ftc_mj.analysis.metrics import MetricsSpec
+    from ftc_mj.results import Diagnosis, VariantResult
+
+    t = np.arange(400) * DT
+    residual = np.zeros((len(t), 2))
+    residual[100:150, 1] = 2.0  # 50 samples above a threshold of 1: one alarm on joint 2
+    threshold = np.ones((len(t), 2))
+    diagnosis = Diagnosis(space="torque", t=t, signal=residual, fault_estimate=residual, residual=residual,
+                          threshold=threshold, alarm=persistent(residual > threshold, 5), armed=np.ones(len(t), bool),
+                          mean=np.zeros(2), std=np.ones(2), injected=np.zeros((len(t), 2)))
+    zeros = np.zeros((len(t), 2))
+    result = VariantResult(name="v", observer="obs", controller="ctl", t=t, q_ref=zeros, q_true=zeros,
+                           fault_active=np.zeros(len(t), bool), diagnosis=diagnosis,
+                           **{name: zeros for name in ("qd_ref", "qdd_ref", "q_meas", "qd_true", "qdd_true", "qd_hat",
+                                                       "luaf_hat", "luaf_true", "tau", "sliding", "fault")})
+    m = compute_metrics(result, MetricsSpec(window_start=0.1, estimation_window_start=0.1), [])
+    np.testing.assert_array_equal(m["false_alarms"], [0.0, 1.0])
+    np.testing.assert_array_equal(m["isolation_correct"], [1.0, 0.0])  # joint 2 named faulty on a healthy robot
+    assert np.isnan(m["detection_delay"]).all()
+
+
+def test_an_alarm_on_the_first_sample_is_a_detection_without_delay() -> None:
+    """Armed from the first sample, a fault from t = 0 above every scaled threshold there, one sample of
+    persistence: the alarm is raised at sample 0 and detected with a delay of 0 at every scale it exceeds."""
+    from ftc_mj.results import Diagnosis
+
+    t = np.arange(50) * DT
+    residual = np.full((len(t), 1), 3.0)
+    threshold = np.ones((len(t), 1))
+    diagnosis = Diagnosis(space="torque", t=t, signal=residual, fault_estimate=residual, residual=residual,
+                          threshold=threshold, alarm=persistent(residual > threshold, 1), armed=np.ones(len(t), bool),
+                          mean=np.zeros(1), std=np.ones(1), injected=residual)
+    stats = detection_statistics(diagnosis, 1, np.array([0.0]), [1.0, 2.0, 4.0], 1)
+    assert stats["detection_delay_x1"][0] == 0.0 and stats["detection_delay_x2"][0] == 0.0
+    assert np.isnan(stats["detection_delay_x4"][0])  # 3 is never above 4 times the threshold
+    assert diagnosis_metrics(diagnosis, np.array([0.0]), 0.0, 1)["detection_delay"][0] == 0.0
+
+
 def test_staggered_onsets_through_compute_metrics() -> None:
     """compute_metrics hands each joint's onset to the diagnosis metrics and to the fault response: joint 2's
     tracking excursion at 3 s (before its onset) is not its fault peak."""
