@@ -71,3 +71,26 @@ def test_a_call_site_runs_the_dispatcher_once_then_the_compiled_function() -> No
     a2, b2, out2 = arrays(3, 4)
     owner.kernel(a2 * 3, b2, 0.25, out2)
     assert np.array_equal(out2, (a2 * 3) * 0.25 + b2)
+
+
+def test_every_period_kernel_is_compiled_without_numbas_runtime() -> None:
+    """The kernels the loop calls every period take their arguments without the runtime's wrappers
+    (``WITHOUT_RUNTIME``); a kernel that allocates cannot be one (Numba refuses to compile it)."""
+    import pytest
+
+    from ftc_mj.config import programs
+    from ftc_mj.config.kernels import WITHOUT_RUNTIME
+    from ftc_mj.effects import sensors, terms
+    from ftc_mj.engine import plant, truths
+    from ftc_mj.robot import nominal, rigid
+
+    period_kernels = [programs._run, sensors._measure, terms._sum_terms, plant._within, truths._record,
+                      nominal._matvec_in_pairs, nominal._gather, rigid._evaluate, rigid.solve_factored]
+    for kernel in period_kernels:
+        assert kernel.targetoptions.get("_nrt") is False, kernel.py_func.__qualname__
+    def allocate(n: int) -> np.ndarray:
+        return np.zeros(n)
+
+    assert numba.njit(cache=False)(allocate)(3).tolist() == [0.0, 0.0, 0.0]  # with the runtime it compiles
+    with pytest.raises(numba.core.errors.NumbaError):  # without it, Numba refuses the allocation
+        numba.njit(cache=False, **WITHOUT_RUNTIME)(allocate)(3)
