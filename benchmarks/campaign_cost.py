@@ -75,14 +75,12 @@ def main() -> None:
     threads = execute.default_workers()
     rows = max(len(task.runs) for task in execute.tasks_for(campaign, campaign.runs, None, threads)) * variants
 
-    def physics_rounds(count: int) -> list[float]:
-        return [bare(campaign.scenario.model, rows, campaign.scenario.substeps, min(periods, 4000), threads)
-                for _ in range(count)]
+    def physics_rounds(count: int, persistent: bool | None = None) -> list[float]:
+        """``count`` bare rounds: the plant's kind of batch, or ``persistent`` True: one MjData per row."""
+        return [bare(campaign.scenario.model, rows, campaign.scenario.substeps, min(periods, 4000), threads,
+                     persistent) for _ in range(count)]
 
-    def persistent_round() -> float:  # one MjData per row: the faster kind of bare batch on some machines
-        return bare(campaign.scenario.model, rows, campaign.scenario.substeps, min(periods, 4000), threads, True)
-
-    persistent_times = [persistent_round()]
+    persistent_times = physics_rounds(1, True)  # the faster kind of bare batch on some machines
     physics_times = [physics_rounds(args.bare_rounds)]
     wall = 0.0
     with tempfile.TemporaryDirectory() as folder:
@@ -93,7 +91,7 @@ def main() -> None:
             summary = execute.execute(part, out)
             wall += summary["wall_time"]
             physics_times.append(physics_rounds(args.bare_rounds if slice_ == args.slices else 1))
-    persistent_times.append(persistent_round())
+    persistent_times += physics_rounds(1, True)
     summary["wall_time"], summary["runs_per_second"] = wall, len(campaign.runs) / wall
     batched = wall / member_periods
     physics = float(np.mean([x for times in physics_times for x in times]))

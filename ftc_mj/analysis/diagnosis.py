@@ -322,28 +322,29 @@ def persistent(exceeded: np.ndarray, samples: int, axis: int = 0) -> np.ndarray:
         return exceeded.copy()
     # Time last and contiguous: the compiled state machine runs along rows.
     series = np.ascontiguousarray(np.moveaxis(exceeded, axis, -1))
-    alarm = _debounce(series.reshape(-1, series.shape[-1]), samples).reshape(series.shape)
+    alarm = np.zeros_like(series)
+    _debounce_rows(series.reshape(-1, series.shape[-1]), samples, alarm.reshape(-1, series.shape[-1]))
     return np.ascontiguousarray(np.moveaxis(alarm, -1, axis))
 
 
-def _debounce(series: np.ndarray, samples: int) -> np.ndarray:
-    """:func:`persistent` of each row of ``(rows, N)`` (:func:`_debounce_rows`)."""
-    alarm = np.zeros_like(series)
-    _debounce_rows(series, samples, alarm)
-    return alarm
+@numba.njit(cache=True, nogil=True, inline="always")
+def _debounce_step(value: bool, previous: bool, run: int, state: bool, samples: int) -> tuple[int, bool]:
+    """One sample of the debounce: the run of equal samples ending here (``run`` 0 before the first sample) and
+    the alarm, the value of the last run of ``samples`` equal samples that ends at or before it (off before
+    any): the alarm switches at the ``samples``-th consecutive sample of a value."""
+    run = run + 1 if run > 0 and value == previous else 1
+    return run, value if run >= samples else state
 
 
 @numba.njit(cache=True, nogil=True, **WITHOUT_RUNTIME)
 def _debounce_rows(series: np.ndarray, samples: int, alarm: np.ndarray) -> None:  # pragma: no cover - compiled
-    """Each row's alarm in one pass: the value of the last run of ``samples`` equal samples that ends at or before
-    the sample (off before any), i.e. the alarm switches at the ``samples``-th consecutive sample of a value."""
+    """Each row's alarm in one pass (:func:`_debounce_step`)."""
     for r in range(series.shape[0]):
-        state, run = False, 0
+        state, run, previous = False, 0, False
         for i in range(series.shape[1]):
             value = series[r, i]
-            run = run + 1 if i > 0 and value == series[r, i - 1] else 1
-            if run >= samples:
-                state = value
+            run, state = _debounce_step(value, previous, run, state, samples)
+            previous = value
             alarm[r, i] = state
 
 
@@ -352,9 +353,9 @@ def _scaled_alarms(residual: np.ndarray, threshold: np.ndarray, scales: np.ndarr
                    t: np.ndarray, onsets: np.ndarray, false_alarms: np.ndarray,
                    first_alarm: np.ndarray) -> None:  # pragma: no cover - compiled
     """The diagnoser at c times its threshold for every scale c and joint j, ``(N, n)`` residual and threshold
-    (``residual > c * threshold``, NaN never above), debounced as :func:`_debounce_rows` does, in one pass per
-    scale and joint: the alarms raised while armed before the joint's onset into ``false_alarms[s, j]``, the
-    first sample alarmed at or after it into ``first_alarm[s, j]`` (-1: none)."""
+    (``residual > c * threshold``, NaN never above), debounced by :func:`_debounce_step`, in one pass per scale
+    and joint: the alarms raised while armed before the joint's onset into ``false_alarms[s, j]``, the first
+    sample alarmed at or after it into ``first_alarm[s, j]`` (-1: none)."""
     for s in range(scales.shape[0]):
         c = scales[s]
         for j in range(residual.shape[1]):
@@ -362,14 +363,11 @@ def _scaled_alarms(residual: np.ndarray, threshold: np.ndarray, scales: np.ndarr
             state, run, previous, count, first = False, 0, False, 0, -1
             for i in range(residual.shape[0]):
                 value = residual[i, j] > c * threshold[i, j]
-                run = run + 1 if i > 0 and value == previous else 1
+                run, alarm = _debounce_step(value, previous, run, state, samples)
                 previous = value
-                raised = False
-                if run >= samples:
-                    raised = value and not state
-                    state = value
-                if raised and armed[i] and t[i] < onset:
+                if alarm and not state and armed[i] and t[i] < onset:  # raised here
                     count += 1
+                state = alarm
                 if state and first < 0 and t[i] >= onset:
                     first = i
             false_alarms[s, j] = count

@@ -313,6 +313,8 @@ def _evaluate(parent, offset_position, offset_rotation, hinge, axis, anchor, ref
     before, turn = scratch[o + 18:o + 27].reshape((3, 3)), scratch[o + 27:o + 36].reshape((3, 3))
     world_axis, world_anchor = scratch[o + 36:o + 39], scratch[o + 39:o + 42]
     h = scratch[o + 42:o + 45]  # a node's first moment about its body origin, world axes
+    if o + 45 != scratch.shape[0]:  # the views would run past a shorter buffer: unchecked memory
+        raise ValueError("the scratch buffer is not scratch_size(n) long")
     base[:3] = 0.0  # a_0 = [0; -gravity]
     for r in range(3):
         base[3 + r] = -gravity[r]

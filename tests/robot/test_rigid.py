@@ -124,6 +124,23 @@ def test_a_points_numbers_do_not_depend_on_the_other_points():
             np.testing.assert_array_equal(alone[field][0], many[field][point])
 
 
+def test_the_kernel_refuses_a_scratch_buffer_of_another_length():
+    """The working arrays are views of the caller's buffer, unchecked inside the kernel: a buffer that is not
+    ``scratch_size(n)`` long is refused before anything is written."""
+    from ftc_mj.robot.rigid import evaluate, scratch_size
+
+    model = rigid_body_model(mujoco.MjModel.from_xml_path(str(MODELS / "puma560.xml")))
+    tree = RigidTree.from_model(model)
+    q = np.zeros((2, 3))
+    buffers = [np.zeros((2, len(tree.sparse_row))) for _ in range(2)] + [np.zeros((2, 3)) for _ in range(3)]
+    arguments = tree.arguments(*tree.scaled(np.ones(2)), q, q, q, *buffers, True)
+    assert len(arguments[-1]) == scratch_size(3)
+    evaluate(arguments)  # its own buffer: fine
+    for length in (scratch_size(3) - 1, scratch_size(3) + 1):
+        with pytest.raises(ValueError, match="scratch_size"):
+            evaluate((*arguments[:-1], np.zeros(length)))
+
+
 def test_mass_only_gives_the_same_M_and_factor_and_no_velocity_terms():
     model = rigid_body_model(mujoco.MjModel.from_xml_string(TREE))
     tree = RigidTree.from_model(model)
