@@ -1,4 +1,5 @@
-"""The refactor check: a SHA-256 of every series of every shipped scenario, and of a small batch's metrics.
+"""The refactor check: a SHA-256 of every series and metric of every shipped scenario, and of a small batch's
+metrics.
 
 A change that must keep results bit-identical is run before and after::
 
@@ -7,7 +8,7 @@ A change that must keep results bit-identical is run before and after::
     python benchmarks/series_hashes.py --out after.json --compare before.json
 
 Every scenario under ``scenarios/`` (not the fragments of ``scenarios/bases/``) runs as written (one member,
-every variant and monitor, every series, extras and diagnosis arrays); a batch of five members of
+every variant and monitor, every series, extras and diagnosis arrays, and each variant's metrics); a batch of five members of
 ``scenarios/puma_fault.yaml`` with per-member gains, seeds, parameters and mass scales is run through
 ``run_batch`` and its metrics hashed too, so the member path (overrides, stacking) is covered. ``--compare``
 prints every series that moved and exits 1 if any did. Scenarios whose robot cannot be loaded here (the
@@ -63,9 +64,16 @@ def result_hashes(result) -> dict[str, str]:
 
 def scenario_hashes(path: Path) -> dict[str, dict[str, str]]:
     from ftc_mj import load_scenario, run_scenario
+    from ftc_mj.analysis.metrics import compute_metrics
 
     scenario = load_scenario(path)
-    return {result.name: result_hashes(result) for result in run_scenario(scenario, nthread=1)}
+    hashes = {}
+    for result in run_scenario(scenario, nthread=1):
+        metrics = compute_metrics(result, scenario.spec.metrics, scenario.fault_onsets, scenario.joint_fault_onsets,
+                                  scenario.torque_limits)
+        hashes[result.name] = result_hashes(result) | {f"metrics.{name}": digest(np.asarray(value, dtype=float))
+                                                       for name, value in sorted(metrics.items())}
+    return hashes
 
 
 def batch_hashes() -> dict[str, dict[str, str]]:

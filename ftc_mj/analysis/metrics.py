@@ -50,7 +50,9 @@ Diagnosis metrics (``detection_delay``, ``missed_detection``, ``false_alarms``, 
 from __future__ import annotations
 
 from collections.abc import Sequence
+from typing import NamedTuple
 
+import numba
 import numpy as np
 from pydantic import Field
 
@@ -145,112 +147,6 @@ def evaluation_mask(t: np.ndarray, start: float, fault_onsets: Sequence[float], 
     return mask
 
 
-def settling_time(t: np.ndarray, error: np.ndarray, tolerance: float, until: float) -> np.ndarray:
-    """Per joint: the first time from which |error| <= tolerance holds up to ``until``; NaN if never."""
-    window = t < until
-    outside = ~(np.abs(error[window]) <= tolerance)  # NaN counts as outside
-    times = t[window]
-    result = np.full(error.shape[1], np.nan)
-    for joint in range(error.shape[1]):
-        bad = np.flatnonzero(outside[:, joint])
-        if bad.size == 0:
-            result[joint] = times[0] if times.size else np.nan
-        elif bad[-1] + 1 < times.size:
-            result[joint] = times[bad[-1] + 1]
-    return result
-
-
-def first_entry_time(t: np.ndarray, error: np.ndarray, tolerance: float, until: float) -> np.ndarray:
-    """Per joint: the first time before ``until`` with |error| <= tolerance; NaN if never."""
-    window = t < until
-    inside = np.abs(error[window]) <= tolerance  # NaN counts as outside
-    times = t[window]
-    first = np.argmax(inside, axis=0) if times.size else np.zeros(error.shape[1], dtype=int)
-    found = inside.any(axis=0) if times.size else np.zeros(error.shape[1], dtype=bool)
-    return np.where(found, times[first] if times.size else np.nan, np.nan)
-
-
-def overshoot(error: np.ndarray, mask: np.ndarray) -> np.ndarray:
-    """Per joint: the largest error of the sign opposite to the first masked sample's (the initial error),
-    over the masked samples; 0 if it never crosses; the largest |error| if the initial error is 0."""
-    if not mask.any():
-        return np.full(error.shape[1], np.nan)
-    window = error[mask]
-    initial = np.sign(window[0])
-    beyond = np.max(-initial * window, axis=0)
-    return np.where(initial == 0, np.max(np.abs(window), axis=0), np.maximum(beyond, 0.0))
-
-
-def _rms(x: np.ndarray, mask: np.ndarray) -> np.ndarray:
-    """Per joint RMS over the samples of ``mask``: ``(T,)`` for all joints alike or ``(T, n)`` per joint.
-
-    The squares are summed sample by sample in time order (NumPy's sum over the first axis), so leaving the
-    samples outside a ``(T,)`` mask out gives the same bits as adding them as zeros, at less cost."""
-    if mask.ndim == 1:
-        selected = x if mask.all() else x[mask]
-        count = np.full(x.shape[1], len(selected))
-        total = np.square(selected).sum(axis=0)
-    else:
-        count = mask.sum(axis=0)
-        total = np.square(np.where(mask, x, 0.0)).sum(axis=0)
-    with np.errstate(invalid="ignore", divide="ignore"):
-        return np.where(count > 0, np.sqrt(total / np.maximum(count, 1)), np.nan)
-
-
-def _max_abs(x: np.ndarray, mask: np.ndarray) -> np.ndarray:
-    """Per joint max |x| over the samples of ``mask`` (``(T,)`` or ``(T, n)``); NaN where none."""
-    if mask.ndim == 1:
-        if not mask.any():
-            return np.full(x.shape[1], np.nan)
-        return np.abs(x if mask.all() else x[mask]).max(axis=0)
-    if x.shape[0] == 0:
-        return np.full(x.shape[1], np.nan)
-    peak = np.max(np.where(mask, np.abs(x), -np.inf), axis=0)
-    return np.where(mask.any(axis=0), peak, np.nan)
-
-
-def saturation_share(tau: np.ndarray, limits: np.ndarray | None) -> np.ndarray:
-    """Per joint, the share of the samples of ``tau`` ``(T, n)`` beyond ``limits`` ``(n,)`` in magnitude (the
-    samples the plant clipped); zeros without limits, NaN without samples."""
-    n = tau.shape[1]
-    if tau.shape[0] == 0:
-        return np.full(n, np.nan)
-    if limits is None:
-        return np.zeros(n)
-    return (np.abs(tau) > limits).mean(axis=0)
-
-
-def converged_mask(t: np.ndarray, start: float, fault_onsets: Sequence[float], settle: float,
-                   convergence: np.ndarray) -> np.ndarray:
-    """``(T, n)``: the evaluation mask of :func:`evaluation_mask` starting per joint at max(``start``, that
-    joint's ``convergence`` (its first entry into the tolerance) + ``settle``); NaN starts at ``start``."""
-    begin = np.where(np.isfinite(convergence), np.maximum(start, convergence + settle), start)
-    return evaluation_mask(t, 0.0, fault_onsets, settle)[:, None] & (t[:, None] >= begin[None, :])
-
-
-def fault_response(
-    t: np.ndarray, error: np.ndarray, joint_onsets: np.ndarray, fault_onsets: Sequence[float], tolerance: float,
-    window: float = np.inf,
-) -> tuple[np.ndarray, np.ndarray]:
-    """Per joint: (peak |error| in ``[onset, onset + window)``, recovery time up to the next onset of any
-    fault or the end) after the joint's first fault onset; both are cut at the next onset. NaN for joints
-    without a fault."""
-    n = error.shape[1]
-    peak, recovery = np.full(n, np.nan), np.full(n, np.nan)
-    for joint in range(n):
-        onset = joint_onsets[joint]
-        if not np.isfinite(onset):
-            continue
-        until = min((o for o in fault_onsets if o > onset), default=np.inf)
-        inside = (t >= onset) & (t < until)
-        if not inside.any():
-            continue
-        column = error[inside, joint : joint + 1]
-        peak[joint] = np.max(np.abs(error[inside & (t < onset + window), joint]))
-        recovery[joint] = settling_time(t[inside], column, tolerance, until)[0] - onset
-    return peak, recovery
-
-
 def compute_metrics(
     result: VariantResult,
     spec: MetricsSpec,
@@ -265,12 +161,9 @@ def compute_metrics(
     it every joint counts as faulty from the first onset. ``torque_limits``: per joint the |torque| at which
     the plant clips the command (inf: none; :attr:`~ftc_mj.spec.scenario.Scenario.torque_limits`).
     """
-    # Each error series once (the result's properties compute them anew at every access).
-    error = result.tracking_error
-    n = error.shape[1]
+    n = result.q_true.shape[1]
     joint_onsets = onsets_per_joint(joint_onsets, fault_onsets, n)
-    metrics = series_metrics(result.t, error, result.velocity_error, result.luaf_error, result.tau,
-                             result.sliding, spec, fault_onsets, joint_onsets, torque_limits)
+    metrics = series_metrics(result.t, RecordedSeries.of(result), spec, fault_onsets, joint_onsets, torque_limits)
     return {**metrics, **diagnosis_metrics(result.diagnosis, joint_onsets, min(fault_onsets, default=np.inf), n)}
 
 
@@ -282,60 +175,236 @@ def onsets_per_joint(joint_onsets: np.ndarray | None, fault_onsets: Sequence[flo
     return np.full(n, first_fault if np.isfinite(first_fault) else np.nan)
 
 
+class RecordedSeries(NamedTuple):
+    """The series the metrics read, as recorded: each ``(T, n)`` for one result, or ``(T, W, n)`` for ``W``
+    results side by side (``q_ref`` may be a broadcast view, one reference for all)."""
+
+    q_true: np.ndarray
+    q_ref: np.ndarray
+    qd_true: np.ndarray
+    qd_hat: np.ndarray
+    luaf_true: np.ndarray
+    luaf_hat: np.ndarray
+    tau: np.ndarray
+    sliding: np.ndarray
+
+    @classmethod
+    def of(cls, result: VariantResult) -> "RecordedSeries":
+        """One result's series."""
+        return cls(*(getattr(result, name) for name in cls._fields))
+
+
 def series_metrics(
-    t: np.ndarray, error: np.ndarray, velocity_error: np.ndarray, luaf_error: np.ndarray, tau: np.ndarray,
-    sliding: np.ndarray, spec: MetricsSpec, fault_onsets: Sequence[float], joint_onsets: np.ndarray,
-    torque_limits: np.ndarray | None = None,
+    t: np.ndarray, series: RecordedSeries, spec: MetricsSpec, fault_onsets: Sequence[float],
+    joint_onsets: np.ndarray, torque_limits: np.ndarray | None = None,
 ) -> dict[str, np.ndarray]:
-    """The metrics of :func:`compute_metrics` but the diagnosis', from the series themselves, ``(T, columns)``.
+    """The metrics of :func:`compute_metrics` but the diagnosis', from the recorded series themselves: each
+    ``(n,)`` for ``(T, n)`` series, ``(W, n)`` for ``W`` results side by side (``(T, W, n)``; ``joint_onsets``
+    and ``torque_limits`` ``(n,)``, the same for all).
 
-    Every metric is per column and every reduction runs over the samples alone (sums in time order), so the
-    columns may be one result's joints or the joints of many results side by side (``joint_onsets`` and
-    ``torque_limits`` then repeated per result): each column's value has the same bits either way. With a
-    single column the sums over time become NumPy's pairwise ones, so one column is one result's (n = 1) only.
-    """
-    everything = np.ones(t.shape, dtype=bool)
-    estimation = evaluation_mask(t, spec.estimation_window_start, fault_onsets, spec.fault_settle)
+    One compiled pass over the samples computes every metric of every column, then a second one the windows
+    that start at each column's own convergence (:func:`_series_pass`). Each column's sums run over its samples
+    in time order, so a column's value has the same bits whatever results stand beside it: those of NumPy's sums
+    over the time axis of a ``(T, n)`` array with n >= 2 (of a single column NumPy's sum would be pairwise)."""
+    single = series.q_true.ndim == 2
+    columns = RecordedSeries(*(np.asarray(values[:, None, :] if single else values, dtype=float) for values in series))
+    t = np.asarray(t, dtype=float)
+    steps, width, n = columns.q_true.shape
     first_fault = min(fault_onsets, default=np.inf)
-    n = error.shape[1]
-    convergence = settling_time(t, error, spec.tracking_tolerance, first_fault)
-    # Per joint, from max(window_start, its first entry into the tolerance + fault_settle): steady states only.
-    entry = first_entry_time(t, error, spec.tracking_tolerance, first_fault)
-    window = converged_mask(t, spec.window_start, fault_onsets, spec.fault_settle, entry)
-    fault_peak, recovery = fault_response(t, error, joint_onsets, fault_onsets, spec.tracking_tolerance,
-                                          spec.fault_window)
+    # The windows that are the same for every column, one flag per sample.
+    estimation = evaluation_mask(t, spec.estimation_window_start, fault_onsets, spec.fault_settle)
+    flags = np.stack([
+        estimation,
+        evaluation_mask(t, 0.0, fault_onsets, spec.fault_settle),  # the converged window, before its start
+        t < spec.estimation_window_start,  # the estimates' transient
+        t < first_fault,  # where convergence and reaching are sought
+        estimation & (t >= first_fault),  # the estimates after the fault
+    ])
+    # Per joint, its fault window: from its first onset to the next onset of any fault.
+    until = np.array([min((o for o in fault_onsets if o > onset), default=np.inf) for onset in joint_onsets])
+    limits = np.full(n, np.inf) if torque_limits is None else np.asarray(torque_limits, dtype=float)
+    out = np.empty((len(_PASS_OUTPUTS), width, n))
+    tolerances = np.array([spec.tracking_tolerance, spec.velocity_tolerance, spec.luaf_tolerance,
+                           spec.sliding_tolerance])
+    _series_pass(t, *columns, flags, float(spec.window_start), float(spec.fault_settle), float(spec.fault_window),
+                 tolerances, np.asarray(joint_onsets, dtype=float), until, limits, out)
+    return {name: values[0] if single else values for name, values in zip(_PASS_OUTPUTS, out)}
 
-    # Total variation inside the window: only differences between two consecutive samples that are both in it.
-    pairs = window[1:] & window[:-1]
-    window_seconds = pairs.sum(axis=0) * (t[1] - t[0]) if t.size > 1 else np.zeros(n)
-    variation = np.where(pairs, np.abs(np.diff(tau, axis=0)), 0.0).sum(axis=0)
-    with np.errstate(invalid="ignore", divide="ignore"):
-        chattering = np.where(window_seconds > 0, variation / np.where(window_seconds > 0, window_seconds, 1.0),
-                              np.nan)
-    transient = t < spec.estimation_window_start
 
-    return {
-        "rms_error": _rms(error, everything),
-        "max_error": _max_abs(error, everything),
-        "rms_error_converged": _rms(error, window),
-        "max_error_converged": _max_abs(error, window),
-        "convergence_time": convergence,
-        "rms_velocity_error": _rms(velocity_error, estimation),
-        "rms_luaf_error": _rms(luaf_error, estimation),
-        "observer_convergence_time": settling_time(t, velocity_error, spec.velocity_tolerance, first_fault),
-        "luaf_convergence_time": settling_time(t, luaf_error, spec.luaf_tolerance, first_fault),
-        "peak_luaf_error_transient": _max_abs(luaf_error, transient),
-        "luaf_overshoot": overshoot(luaf_error, transient),
-        "rms_luaf_error_fault": _rms(luaf_error, estimation & (t >= first_fault)),
-        "first_reaching_time": first_entry_time(t, sliding, spec.sliding_tolerance, first_fault),
-        "reaching_time": settling_time(t, sliding, spec.sliding_tolerance, first_fault),
-        "fault_peak_error": fault_peak,
-        "recovery_time": recovery,
-        "rms_torque": _rms(tau, everything),
-        "chattering": chattering,
-        "saturation_time": saturation_share(tau, torque_limits),
-    }
+#: The metrics of :func:`_series_pass`'s output, in its order.
+_PASS_OUTPUTS: tuple[str, ...] = METRICS[:METRICS.index(DIAGNOSIS_METRICS[0])]
 
+
+@numba.njit(cache=True, nogil=True, inline="always")
+def _nan_peak(peak: float, value: float) -> float:  # pragma: no cover - compiled
+    """NumPy's ``maximum``: the larger of the two, NaN if either is."""
+    if peak != peak:
+        return peak
+    if value != value or value > peak:
+        return value
+    return peak
+
+
+@numba.njit(cache=True, nogil=True, inline="always")
+def _settle_step(result: float, searching: bool, outside: bool, time: float) -> tuple[float, bool]:  # pragma: no cover
+    """One sample of a settling time: the first time of the last run of samples within the tolerance so far
+    (NaN while outside), and whether the next sample within starts a new run."""
+    if outside:
+        return np.nan, True
+    if searching:
+        return time, False
+    return result, False
+
+
+@numba.njit(cache=True, nogil=True, inline="always")
+def _root_mean(squares: float, count: int) -> float:  # pragma: no cover - compiled
+    """sqrt(squares / count); NaN without samples."""
+    return np.sqrt(squares / count) if count > 0 else np.nan
+
+
+def _pass_signature() -> numba.core.typing.Signature:
+    """One compiled version for every caller: read-only arrays of any layout (a result's strided views, a
+    broadcast reference, a test's contiguous arrays) all convert to these types."""
+    def array(dtype: numba.types.Type, ndim: int) -> numba.types.Array:
+        return numba.types.Array(dtype, ndim, "A", readonly=True)
+
+    series, values, number = array(numba.float64, 3), array(numba.float64, 1), numba.float64
+    return numba.void(values, *[series] * len(RecordedSeries._fields), array(numba.boolean, 2), number, number,
+                      number, values, values, values, values, numba.types.Array(numba.float64, 3, "C"))
+
+
+@numba.njit(_pass_signature(), cache=True, nogil=True)
+def _series_pass(t, q_true, q_ref, qd_true, qd_hat, luaf_true, luaf_hat, tau, sliding, flags, window_start,
+                 settle, fault_window, tolerances, onsets, until, limits, out):  # pragma: no cover - compiled
+    """Every metric of :data:`_PASS_OUTPUTS` into ``out[metric, w, j]``, from ``(T, W, n)`` series (see
+    :func:`series_metrics`) and the per-sample ``flags`` (estimation window, outside the settle intervals, the
+    estimates' transient, before the first fault, estimation window after it).
+
+    The definitions (module docstring) as state updated sample by sample, samples in time order: sums of
+    squares from 0 (NumPy's time-ordered sums, whose first term is the first square), maxima that NaN
+    poisons (NumPy's), settling times as the first sample after the last one outside the tolerance (NaN
+    counts as outside), and after a first pass, a second one over each column's converged window."""
+    steps, width, n = q_true.shape
+    shape = (width, n)
+    tracking, velocity, luaf_tolerance, sliding_tolerance = tolerances[0], tolerances[1], tolerances[2], tolerances[3]
+    error_squares, error_peak = np.zeros(shape), np.full(shape, -np.inf)
+    convergence, converging = np.full(shape, np.nan), np.ones(shape, dtype=np.bool_)
+    entry = np.full(shape, np.nan)
+    velocity_squares = np.zeros(shape)
+    observer, observing = np.full(shape, np.nan), np.ones(shape, dtype=np.bool_)
+    luaf_squares, luaf_fault_squares = np.zeros(shape), np.zeros(shape)
+    luaf_settled, luaf_settling = np.full(shape, np.nan), np.ones(shape, dtype=np.bool_)
+    transient_peak, initial, beyond = np.full(shape, -np.inf), np.zeros(shape), np.full(shape, -np.inf)
+    reached, reaching, first_reached = np.full(shape, np.nan), np.ones(shape, dtype=np.bool_), np.full(shape, np.nan)
+    torque_squares, saturated = np.zeros(shape), np.zeros(shape, dtype=np.int64)
+    fault_peak, fault_samples = np.full(shape, -np.inf), np.zeros(shape, dtype=np.int64)
+    recovery, recovering = np.full(shape, np.nan), np.ones(shape, dtype=np.bool_)
+    estimation_count = fault_count = transient_count = 0
+    for i in range(steps):
+        time = t[i]
+        estimated, transient, before, after = flags[0, i], flags[2, i], flags[3, i], flags[4, i]
+        first_transient = transient and transient_count == 0
+        if estimated:
+            estimation_count += 1
+        if after:
+            fault_count += 1
+        if transient:
+            transient_count += 1
+        for w in range(width):
+            for j in range(n):
+                error = q_true[i, w, j] - q_ref[i, w, j]
+                size = abs(error)
+                error_squares[w, j] += error * error
+                error_peak[w, j] = _nan_peak(error_peak[w, j], size)
+                velocity_error = qd_true[i, w, j] - qd_hat[i, w, j]
+                luaf_error = luaf_true[i, w, j] - luaf_hat[i, w, j]
+                if estimated:
+                    velocity_squares[w, j] += velocity_error * velocity_error
+                    luaf_squares[w, j] += luaf_error * luaf_error
+                if after:
+                    luaf_fault_squares[w, j] += luaf_error * luaf_error
+                if transient:
+                    if first_transient:
+                        initial[w, j] = np.sign(luaf_error)
+                    transient_peak[w, j] = _nan_peak(transient_peak[w, j], abs(luaf_error))
+                    beyond[w, j] = _nan_peak(beyond[w, j], -initial[w, j] * luaf_error)
+                s = sliding[i, w, j]
+                if before:
+                    convergence[w, j], converging[w, j] = _settle_step(
+                        convergence[w, j], converging[w, j], not size <= tracking, time)
+                    if entry[w, j] != entry[w, j] and size <= tracking:
+                        entry[w, j] = time
+                    observer[w, j], observing[w, j] = _settle_step(
+                        observer[w, j], observing[w, j], not abs(velocity_error) <= velocity, time)
+                    luaf_settled[w, j], luaf_settling[w, j] = _settle_step(
+                        luaf_settled[w, j], luaf_settling[w, j], not abs(luaf_error) <= luaf_tolerance, time)
+                    reached[w, j], reaching[w, j] = _settle_step(
+                        reached[w, j], reaching[w, j], not abs(s) <= sliding_tolerance, time)
+                    if first_reached[w, j] != first_reached[w, j] and abs(s) <= sliding_tolerance:
+                        first_reached[w, j] = time
+                onset = onsets[j]
+                if time >= onset and time < until[j]:
+                    recovery[w, j], recovering[w, j] = _settle_step(
+                        recovery[w, j], recovering[w, j], not size <= tracking, time)
+                    if time < onset + fault_window:
+                        fault_peak[w, j] = _nan_peak(fault_peak[w, j], size)
+                        fault_samples[w, j] += 1
+                torque = tau[i, w, j]
+                torque_squares[w, j] += torque * torque
+                if abs(torque) > limits[j]:
+                    saturated[w, j] += 1
+
+    # The converged window: outside the settle intervals, from max(window_start, entry + settle) on.
+    begin = np.empty(shape)
+    for w in range(width):
+        for j in range(n):
+            begin[w, j] = max(window_start, entry[w, j] + settle) if np.isfinite(entry[w, j]) else window_start
+    window_squares, window_peak = np.zeros(shape), np.full(shape, -np.inf)
+    window_count, pairs = np.zeros(shape, dtype=np.int64), np.zeros(shape, dtype=np.int64)
+    variation, was_inside = np.zeros(shape), np.zeros(shape, dtype=np.bool_)
+    for i in range(steps):
+        time, free = t[i], flags[1, i]
+        for w in range(width):
+            for j in range(n):
+                inside = free and time >= begin[w, j]
+                if inside:
+                    error = q_true[i, w, j] - q_ref[i, w, j]
+                    window_squares[w, j] += error * error
+                    window_peak[w, j] = _nan_peak(window_peak[w, j], abs(error))
+                    window_count[w, j] += 1
+                    if was_inside[w, j]:
+                        pairs[w, j] += 1
+                        variation[w, j] += abs(tau[i, w, j] - tau[i - 1, w, j])
+                was_inside[w, j] = inside
+
+    dt = t[1] - t[0] if steps > 1 else 0.0
+    for w in range(width):
+        for j in range(n):
+            out[0, w, j] = _root_mean(error_squares[w, j], steps)
+            out[1, w, j] = error_peak[w, j] if steps else np.nan
+            out[2, w, j] = _root_mean(window_squares[w, j], window_count[w, j])
+            out[3, w, j] = window_peak[w, j] if window_count[w, j] else np.nan
+            out[4, w, j] = convergence[w, j]
+            out[5, w, j] = _root_mean(velocity_squares[w, j], estimation_count)
+            out[6, w, j] = _root_mean(luaf_squares[w, j], estimation_count)
+            out[7, w, j] = observer[w, j]
+            out[8, w, j] = luaf_settled[w, j]
+            out[9, w, j] = transient_peak[w, j] if transient_count else np.nan
+            if not transient_count:
+                out[10, w, j] = np.nan
+            elif initial[w, j] == 0:
+                out[10, w, j] = transient_peak[w, j]
+            else:
+                out[10, w, j] = _nan_peak(beyond[w, j], 0.0)
+            out[11, w, j] = _root_mean(luaf_fault_squares[w, j], fault_count)
+            out[12, w, j] = first_reached[w, j]
+            out[13, w, j] = reached[w, j]
+            out[14, w, j] = fault_peak[w, j] if fault_samples[w, j] else np.nan
+            out[15, w, j] = recovery[w, j] - onsets[j]
+            out[16, w, j] = _root_mean(torque_squares[w, j], steps)
+            seconds = pairs[w, j] * dt
+            out[17, w, j] = variation[w, j] / seconds if seconds > 0 else np.nan
+            out[18, w, j] = saturated[w, j] / steps if steps else np.nan
 
 
 def windows_after_the_end(result: VariantResult, spec: MetricsSpec, fault_onsets: Sequence[float]) -> dict[str, str]:

@@ -24,7 +24,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ftc_mj.analysis.diagnosis import diagnose_result, diagnosis_metrics
-from ftc_mj.analysis.metrics import compute_metrics, onsets_per_joint, series_metrics
+from ftc_mj.analysis.metrics import RecordedSeries, compute_metrics, onsets_per_joint, series_metrics
 from ftc_mj.engine.loop import BatchRun, ChunkCallback, ProgressCallback, simulate
 from ftc_mj.engine.members import Members, single
 from ftc_mj.results import VariantResult
@@ -35,8 +35,8 @@ from ftc_mj.spec.scenario import Scenario, Variant, series_bytes
 #: physics overlaps (the crossover measured on both sides: the performance page's change 8).
 INTERLEAVED_ROWS = 96
 
-#: Rows whose metrics are computed together (:func:`_finished_metrics`): their joints side by side as the columns
-#: of one pass per metric, few enough that the pass's temporaries stay a small share of the chunk's series.
+#: Rows whose metrics are computed together (:func:`_finished_metrics`): side by side in one compiled pass, few
+#: enough that the pass's state per column (some thirty numbers) stays in a core's cache.
 METRICS_ROWS = 64
 
 #: Default memory for the series of one chunk of members [bytes].
@@ -190,45 +190,35 @@ def member_outcomes(scenario: Scenario, run: BatchRun, first: int = 0,
 def _finished_metrics(scenario: Scenario, run: BatchRun, joint_onsets: np.ndarray) -> dict[int, dict[str, np.ndarray]]:
     """Per row that ran to the end, its own result's series metrics (:func:`series_metrics`, no diagnosis).
 
-    :data:`METRICS_ROWS` rows at a time are one call: their joints are the columns of each series, so every
-    metric is one NumPy pass over them instead of one per row (a row's series are strided views of the run's, a
-    cache line per sample). Empty for one joint: a single column's sums would be pairwise, not a row's."""
-    n, steps = scenario.n_joints, len(run.times)
-    if n < 2:
-        return {}
+    :data:`METRICS_ROWS` rows at a time are one call, the rows side by side: one compiled pass over their
+    samples instead of one per row (a row's series are strided views of the run's, a cache line per sample)."""
+    steps = len(run.times)
     finished = run.done == steps
     series, q_ref = run.series, run.reference[0]
-    limits = scenario.torque_limits
     out: dict[int, dict[str, np.ndarray]] = {}
     for start in range(0, finished.size, METRICS_ROWS):
         rows = start + np.flatnonzero(finished[start : start + METRICS_ROWS])
         if not rows.size:
             continue
         # The rows from the group's first finished row to its last, stopped ones among them, as one slice: each
-        # series' columns are then a view of the run's (a gather of the finished rows alone cost as much as the
-        # metrics). Every metric is a pass along each column alone, so a stopped row's columns (NaN, or the
-        # state it stopped in) change no other column's numbers; theirs are not kept.
+        # series is then a view of the run's (a gather of the finished rows alone cost as much as the metrics).
+        # Every metric is a pass along each column alone, so a stopped row's columns (NaN, or the state it
+        # stopped in) change no other column's numbers; theirs are not kept.
         first, stop = int(rows[0]), int(rows[-1]) + 1
-        width = stop - first
 
         def block(values: np.ndarray) -> np.ndarray:
             return values[:steps, first:stop]
 
-        def columns(values: np.ndarray) -> np.ndarray:
-            return block(values).reshape(steps, width * n)
-
-        reference = q_ref[:steps, None] if q_ref.ndim == 2 else q_ref[:steps, np.arange(first, stop) % run.members]
-        with np.errstate(all="ignore" if width > rows.size else None):  # a stopped row's NaN: no warning
-            metrics = series_metrics(
-                run.times[:steps],
-                (block(series["q_true"]) - reference).reshape(steps, width * n),
-                columns(series["qd_true"]) - columns(series["qd_hat"]),
-                columns(series["luaf_true"]) - columns(series["luaf_hat"]),
-                columns(series["tau"]), columns(series["sliding"]), scenario.spec.metrics, scenario.fault_onsets,
-                np.tile(joint_onsets, width), None if limits is None else np.tile(limits, width))
-        by_row = {name: values.reshape(width, n) for name, values in metrics.items()}
+        if q_ref.ndim == 2:  # one reference for every row
+            reference = np.broadcast_to(q_ref[:steps, None], block(series["q_true"]).shape)
+        else:
+            reference = q_ref[:steps, np.arange(first, stop) % run.members]
+        recorded = RecordedSeries(block(series["q_true"]), reference, *(
+            block(series[name]) for name in RecordedSeries._fields[2:]))
+        metrics = series_metrics(run.times[:steps], recorded, scenario.spec.metrics, scenario.fault_onsets,
+                                 joint_onsets, scenario.torque_limits)
         for row in rows.tolist():
-            out[row] = {name: values[row - first].copy() for name, values in by_row.items()}
+            out[row] = {name: values[row - first].copy() for name, values in metrics.items()}
     return out
 
 

@@ -9,9 +9,22 @@ from types import SimpleNamespace
 import numpy as np
 
 from ftc_mj.analysis.diagnosis import diagnose_result
-from ftc_mj.analysis.metrics import UNITS, _max_abs, _rms, first_entry_time, overshoot, unit
+from ftc_mj.analysis.metrics import UNITS, MetricsSpec, RecordedSeries, series_metrics, unit
 
 DT = 0.25  # exact in binary
+
+
+def metrics_of(t: np.ndarray, spec: MetricsSpec | None = None, onsets: list[float] = (),
+               joint_onsets: np.ndarray | None = None, **errors: np.ndarray) -> dict[str, np.ndarray]:
+    """The series metrics of errors given as ``error``, ``velocity_error``, ``luaf_error``, ``tau``,
+    ``sliding`` (the others zero)."""
+    zeros = np.zeros_like(next(iter(errors.values())))
+    error, velocity, luaf, tau, sliding = (errors.pop(name, zeros) for name in
+                                            ("error", "velocity_error", "luaf_error", "tau", "sliding"))
+    assert not errors, errors
+    series = RecordedSeries(error, zeros, velocity, zeros, luaf, zeros, tau, sliding)
+    joint_onsets = np.full(zeros.shape[1], np.nan) if joint_onsets is None else joint_onsets
+    return series_metrics(t, series, spec or MetricsSpec(), list(onsets), joint_onsets)
 
 
 def test_units_of_the_fault_estimate_follow_the_diagnosis_space():
@@ -22,34 +35,46 @@ def test_units_of_the_fault_estimate_follow_the_diagnosis_space():
 
 
 def test_first_entry_bounds():
-    """|e| = tolerance is inside; the sample at ``until`` itself is not looked at; none before: NaN."""
+    """|e| = tolerance is inside; the sample at ``until`` (the first fault onset) itself is not looked at; none
+    before: NaN."""
     t = np.arange(6) * DT
     error = np.array([[2.0, 2.0], [1.0, 2.0], [0.5, 2.0], [0.0, 2.0], [0.0, 0.0], [0.0, 0.0]])
-    np.testing.assert_array_equal(first_entry_time(t, error, 0.5, np.inf), [2 * DT, 4 * DT])
-    np.testing.assert_array_equal(first_entry_time(t, error, 0.5, 4 * DT), [2 * DT, np.nan])
-    np.testing.assert_array_equal(first_entry_time(t, error, 0.5, 0.0), [np.nan, np.nan])
+    spec = MetricsSpec(sliding_tolerance=0.5)
+
+    def first_entry(onsets: list[float]) -> np.ndarray:
+        return metrics_of(t, spec, onsets, sliding=error)["first_reaching_time"]
+
+    np.testing.assert_array_equal(first_entry([]), [2 * DT, 4 * DT])
+    np.testing.assert_array_equal(first_entry([4 * DT]), [2 * DT, np.nan])
+    np.testing.assert_array_equal(first_entry([0.0]), [np.nan, np.nan])
 
 
 def test_overshoot_from_the_first_sample_and_per_joint():
-    """The initial sign is the first masked sample's (not the second's); an initial error of 0 takes each
+    """The initial sign is the first transient sample's (not the second's); an initial error of 0 takes each
     joint's own largest |error|, not the largest of all joints."""
     error = np.array([[1.0, 0.0], [-0.5, 0.1], [-2.0, -0.2], [0.5, 0.0]])
-    mask = np.ones(4, dtype=bool)
-    np.testing.assert_array_equal(overshoot(error, mask), [2.0, 0.2])
+    t = np.arange(4) * DT
+
+    def overshoot(t: np.ndarray, error: np.ndarray, transient_end: float) -> np.ndarray:
+        spec = MetricsSpec(estimation_window_start=transient_end)
+        return metrics_of(t, spec, luaf_error=error)["luaf_overshoot"]
+
+    np.testing.assert_array_equal(overshoot(t, error, 4 * DT), [2.0, 0.2])
     # From the second sample on, joint 1 starts negative: its overshoot is the largest positive error.
-    mask[0] = False
-    np.testing.assert_array_equal(overshoot(error, mask), [0.5, 0.2])
-    assert np.isnan(overshoot(error, np.zeros(4, dtype=bool))).all()
+    np.testing.assert_array_equal(overshoot(t[1:], error[1:], 4 * DT), [0.5, 0.2])
+    assert np.isnan(overshoot(t, error, 0.0)).all()  # no transient
 
 
 def test_a_partial_time_mask_leaves_its_samples_out():
-    """The samples outside a (T,) mask count for neither the peak nor the RMS (nor the count)."""
+    """The samples outside a window count for neither the peak nor the RMS (nor the count)."""
     x = np.array([[10.0, -10.0], [1.0, 2.0], [-3.0, 4.0]])
-    mask = np.array([False, True, True])
-    np.testing.assert_array_equal(_max_abs(x, mask), [3.0, 4.0])
-    np.testing.assert_allclose(_rms(x, mask), [np.sqrt(5.0), np.sqrt(10.0)], rtol=1e-15)
-    assert np.isnan(_max_abs(x, np.zeros(3, dtype=bool))).all()
-    assert np.isnan(_rms(x, np.zeros(3, dtype=bool))).all()
+    t = np.arange(3) * DT
+    estimation = metrics_of(t, MetricsSpec(estimation_window_start=DT), velocity_error=x)
+    np.testing.assert_allclose(estimation["rms_velocity_error"], [np.sqrt(5.0), np.sqrt(10.0)], rtol=1e-15)
+    transient = metrics_of(t, MetricsSpec(estimation_window_start=2 * DT), luaf_error=x[::-1])
+    np.testing.assert_array_equal(transient["peak_luaf_error_transient"], [3.0, 4.0])
+    assert np.isnan(metrics_of(t, MetricsSpec(), luaf_error=x)["peak_luaf_error_transient"]).all()
+    assert np.isnan(metrics_of(t, MetricsSpec(estimation_window_start=1.0), velocity_error=x)["rms_velocity_error"]).all()
 
 
 class _Recorder:
@@ -86,29 +111,29 @@ def test_diagnose_result_hands_the_estimate_of_its_space():
 def test_fault_response_per_joint_and_its_window_end():
     """A healthy joint or one whose onset is past the end does not stop the next joints from being scored;
     the fault window [onset, onset + window) leaves its end sample out."""
-    from ftc_mj.analysis.metrics import fault_response
-
     t = np.arange(12) * DT
     error = np.zeros((12, 3))
     error[4:, 2] = 0.5
     error[8, 2] = 3.0  # at onset + window exactly: outside the peak's window
     error[10:, 2] = 0.0  # back within the tolerance from sample 10
+    spec = MetricsSpec(tracking_tolerance=0.01, fault_window=4 * DT)
     for onsets in ([np.nan, np.nan, 4 * DT], [np.nan, 100.0, 4 * DT]):
-        peak, recovery = fault_response(t, error, np.array(onsets), [4 * DT], 0.01, window=4 * DT)
-        np.testing.assert_array_equal(peak, [np.nan, np.nan, 0.5])
-        np.testing.assert_array_equal(recovery, [np.nan, np.nan, 6 * DT])
+        metrics = metrics_of(t, spec, [4 * DT], np.array(onsets), error=error)
+        np.testing.assert_array_equal(metrics["fault_peak_error"], [np.nan, np.nan, 0.5])
+        np.testing.assert_array_equal(metrics["recovery_time"], [np.nan, np.nan, 6 * DT])
 
 
 def _result(t: np.ndarray, tau: np.ndarray, luaf_error: np.ndarray | None = None) -> SimpleNamespace:
     zeros = np.zeros((len(t), tau.shape[1]))
-    return SimpleNamespace(t=t, tracking_error=zeros, tau=tau, velocity_error=zeros,
-                           luaf_error=zeros if luaf_error is None else luaf_error, sliding=zeros, diagnosis=None)
+    return SimpleNamespace(t=t, q_true=zeros, q_ref=zeros, qd_true=zeros, qd_hat=zeros,
+                           luaf_true=zeros if luaf_error is None else luaf_error, luaf_hat=zeros, tau=tau,
+                           sliding=zeros, diagnosis=None)
 
 
 def test_chattering_per_second_of_a_short_window_off_zero():
     """Total variation / window length, the length from the period t[1] - t[0] on a clock that starts at 10 s,
     a window shorter than a second, and a run of two samples (one pair)."""
-    from ftc_mj.analysis.metrics import MetricsSpec, compute_metrics
+    from ftc_mj.analysis.metrics import compute_metrics
 
     spec = MetricsSpec(window_start=0.0, estimation_window_start=0.0, fault_settle=0.0)
     t = 10.0 + np.arange(4) * DT
@@ -119,7 +144,7 @@ def test_chattering_per_second_of_a_short_window_off_zero():
 
 def test_the_transient_ends_before_the_estimation_window_start():
     """The sample at estimation_window_start belongs to the estimation window, not to the transient."""
-    from ftc_mj.analysis.metrics import MetricsSpec, compute_metrics
+    from ftc_mj.analysis.metrics import compute_metrics
 
     spec = MetricsSpec(window_start=0.0, estimation_window_start=2 * DT, fault_settle=0.0)
     t = np.arange(4) * DT
@@ -130,18 +155,20 @@ def test_the_transient_ends_before_the_estimation_window_start():
 
 
 def test_settling_on_the_last_sample_and_a_joint_without_samples():
-    """Settled from the last sample when only it is inside; a (T, n) mask empty on one joint gives NaN there."""
-    from ftc_mj.analysis.metrics import settling_time
-
+    """Settled from the last sample when only it is inside; a converged window empty on one joint gives NaN
+    there (it entered the tolerance at once, and its settle interval runs past the end)."""
     t = np.arange(4) * DT
     error = np.array([[1.0, 0.0], [1.0, 0.0], [1.0, 1.0], [0.0, 1.0]])
-    np.testing.assert_array_equal(settling_time(t, error, 0.5, np.inf), [3 * DT, np.nan])
-    mask = np.array([[True, False], [True, False], [False, False], [False, False]])
-    np.testing.assert_array_equal(_max_abs(error, mask), [1.0, np.nan])
+    np.testing.assert_array_equal(metrics_of(t, MetricsSpec(tracking_tolerance=0.5), error=error)["convergence_time"],
+                                  [3 * DT, np.nan])
+    error = np.array([[1.0, 0.0], [1.0, 0.0], [1.0, 1.0], [1.0, 1.0]])
+    metrics = metrics_of(t, MetricsSpec(tracking_tolerance=0.5, fault_settle=4 * DT), error=error)
+    np.testing.assert_array_equal(metrics["max_error_converged"], [1.0, np.nan])
+    np.testing.assert_array_equal(metrics["rms_error_converged"], [1.0, np.nan])
 
 
 def test_the_fault_rms_starts_at_the_onset_sample():
-    from ftc_mj.analysis.metrics import MetricsSpec, compute_metrics
+    from ftc_mj.analysis.metrics import compute_metrics
 
     spec = MetricsSpec(window_start=0.0, estimation_window_start=0.0, fault_settle=0.0)
     t = np.arange(4) * DT

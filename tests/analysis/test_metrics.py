@@ -9,7 +9,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from ftc_mj.analysis.metrics import METRICS, compute_metrics, evaluation_mask, series_metrics, settling_time
+from ftc_mj.analysis.metrics import METRICS, RecordedSeries, compute_metrics, evaluation_mask, series_metrics
 from ftc_mj.analysis.metrics import MetricsSpec
 from ftc_mj.results import VariantResult
 
@@ -131,6 +131,15 @@ def test_all_metrics_per_joint() -> None:
 
 
 # ------------------------------------------------------------------------------------------ settling time
+
+
+def settling_time(t: np.ndarray, error: np.ndarray, tolerance: float, until: float) -> np.ndarray:
+    """The convergence time of a tracking error ``(T, n)`` with a fault at ``until`` (inf: none)."""
+    zeros = np.zeros_like(error)
+    series = RecordedSeries(error, zeros, zeros, zeros, zeros, zeros, zeros, zeros)
+    onsets = [until] if np.isfinite(until) else []
+    spec = metrics_spec(tracking_tolerance=tolerance)
+    return series_metrics(t, series, spec, onsets, np.full(error.shape[1], np.nan))["convergence_time"]
 
 
 def test_settling_time_is_the_last_entry_into_tolerance() -> None:
@@ -415,8 +424,10 @@ def test_saturation_time_is_the_share_beyond_the_limit() -> None:
 
 
 def test_series_metrics_of_results_side_by_side_are_each_results_own() -> None:
-    """Five results' joints as the columns of one call (joint onsets and torque limits repeated per result) give
-    each result's metrics bit for bit: every metric is per column, every sum over time in time order."""
+    """Five results side by side in one call (``(T, 5, n)`` series; joint onsets and torque limits per joint)
+    give each result's metrics bit for bit, with the reference as each result's own or as one broadcast to all
+    (the batch's way): every metric is per column, every sum over time in time order, NumPy's sum over the time
+    axis of ``(T, n)``."""
     rng = np.random.default_rng(4)
     spec = metrics_spec(sliding_tolerance=0.05, luaf_tolerance=0.5)
     onsets, joint_onsets, limits = [1.0, 1.5], np.array([1.0, np.nan]), np.array([0.8, np.inf])
@@ -429,14 +440,20 @@ def test_series_metrics_of_results_side_by_side_are_each_results_own() -> None:
         if r == 2:
             series["luaf_hat"][700:710, 1] = np.nan  # a NaN estimate counts as outside the tolerance
         results.append(make_result(**series))
-    side_by_side = series_metrics(
-        T, *(np.concatenate([getattr(r, name) for r in results], axis=1)
-             for name in ("tracking_error", "velocity_error", "luaf_error", "tau", "sliding")),
-        spec, onsets, np.tile(joint_onsets, 5), np.tile(limits, 5))
+    side_by_side_series = RecordedSeries(*(np.stack([getattr(r, name) for r in results], axis=1)
+                                           for name in RecordedSeries._fields))
+    side_by_side = series_metrics(T, side_by_side_series, spec, onsets, joint_onsets, limits)
+    shared = series_metrics(
+        T, side_by_side_series._replace(q_ref=np.broadcast_to(results[0].q_ref[:, None], (N, 5, NJ))), spec, onsets,
+        joint_onsets, limits)
+    for metric, values in side_by_side.items():
+        np.testing.assert_array_equal(shared[metric], values, err_msg=metric)
+    error = results[1].tracking_error
+    assert side_by_side["rms_error"][1].tobytes() == np.sqrt(np.square(error).sum(axis=0) / N).tobytes()
     for r, result in enumerate(results):
         alone = compute_metrics(result, spec, onsets, joint_onsets, limits)
         assert list(alone)[: len(side_by_side)] == list(side_by_side)
         for metric, values in side_by_side.items():
-            np.testing.assert_array_equal(values[r * NJ : (r + 1) * NJ], alone[metric], err_msg=f"{r} {metric}")
-    assert np.isfinite(side_by_side["recovery_time"][0::2]).any() and np.isnan(side_by_side["recovery_time"][1::2]).all()
-    assert (side_by_side["saturation_time"][0::2] > 0).all() and (side_by_side["saturation_time"][1::2] == 0).all()
+            np.testing.assert_array_equal(values[r], alone[metric], err_msg=f"{r} {metric}")
+    assert np.isfinite(side_by_side["recovery_time"][:, 0]).any() and np.isnan(side_by_side["recovery_time"][:, 1]).all()
+    assert (side_by_side["saturation_time"][:, 0] > 0).all() and (side_by_side["saturation_time"][:, 1] == 0).all()
