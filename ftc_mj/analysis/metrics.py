@@ -49,7 +49,8 @@ Diagnosis metrics (``detection_delay``, ``missed_detection``, ``false_alarms``, 
 
 from __future__ import annotations
 
-from collections.abc import Sequence
+import functools
+from collections.abc import Callable, Sequence
 from typing import NamedTuple
 
 import numba
@@ -57,6 +58,7 @@ import numpy as np
 from pydantic import Field
 
 from ftc_mj.analysis.diagnosis import DIAGNOSIS_METRICS, diagnosis_metrics
+from ftc_mj.config.kernels import compiled_for
 from ftc_mj.results import VariantResult
 from ftc_mj.config.types import NonNegativeFloat, PositiveFloat, Strict
 
@@ -226,7 +228,7 @@ def series_metrics(
     out = np.empty((len(_PASS_OUTPUTS), width, n))
     tolerances = np.array([spec.tracking_tolerance, spec.velocity_tolerance, spec.luaf_tolerance,
                            spec.sliding_tolerance])
-    _series_pass(t, *columns, flags, float(spec.window_start), float(spec.fault_settle), float(spec.fault_window),
+    _compiled_pass()(t, *columns, flags, float(spec.window_start), float(spec.fault_settle), float(spec.fault_window),
                  tolerances, np.asarray(joint_onsets, dtype=float), until, limits, out)
     return {name: values[0] if single else values for name, values in zip(_PASS_OUTPUTS, out)}
 
@@ -263,8 +265,8 @@ def _root_mean(squares: float, count: int) -> float:  # pragma: no cover - compi
 
 
 def _pass_signature() -> numba.core.typing.Signature:
-    """One compiled version for every caller: read-only arrays of any layout (a result's strided views, a
-    broadcast reference, a test's contiguous arrays) all convert to these types."""
+    """The one compiled version for every caller: arrays of any layout (a result's strided views, a broadcast
+    reference, a test's contiguous arrays), read only, are read right as these types."""
     def array(dtype: numba.types.Type, ndim: int) -> numba.types.Array:
         return numba.types.Array(dtype, ndim, "A", readonly=True)
 
@@ -273,7 +275,14 @@ def _pass_signature() -> numba.core.typing.Signature:
                       number, values, values, values, values, numba.types.Array(numba.float64, 3, "C"))
 
 
-@numba.njit(_pass_signature(), cache=True, nogil=True)
+@functools.cache
+def _compiled_pass() -> Callable[..., None]:
+    """:func:`_series_pass` compiled for :func:`_pass_signature` (or loaded from Numba's cache) at the first
+    metrics rather than at import, and called past the dispatcher, which would compile a version per layout."""
+    return compiled_for(_series_pass, _pass_signature().args)
+
+
+@numba.njit(cache=True, nogil=True)
 def _series_pass(t, q_true, q_ref, qd_true, qd_hat, luaf_true, luaf_hat, tau, sliding, flags, window_start,
                  settle, fault_window, tolerances, onsets, until, limits, out):  # pragma: no cover - compiled
     """Every metric of :data:`_PASS_OUTPUTS` into ``out[metric, w, j]``, from ``(T, W, n)`` series (see
