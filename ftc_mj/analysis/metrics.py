@@ -228,16 +228,26 @@ def series_metrics(
     out = np.empty((len(_PASS_OUTPUTS), width, n))
     tolerances = np.array([spec.tracking_tolerance, spec.velocity_tolerance, spec.luaf_tolerance,
                            spec.sliding_tolerance])
+    state = np.repeat(_STATE_START[:, None, None], width, axis=1).repeat(n, axis=2)
+    searching = np.ones((6, width, n), dtype=bool)  # each settling time searching; no previous sample inside
+    searching[5] = False
     _compiled_pass()(t, *columns, flags, float(spec.window_start), float(spec.fault_settle), float(spec.fault_window),
-                 tolerances, np.asarray(joint_onsets, dtype=float), until, limits, out)
+                 tolerances, np.asarray(joint_onsets, dtype=float), until, limits, out, state, searching,
+                 np.zeros((4, width, n), dtype=np.int64))
     return {name: values[0] if single else values for name, values in zip(_PASS_OUTPUTS, out)}
 
+
+#: Where each row of :func:`_series_pass`'s float state starts, in its order: sums at 0, peaks at -inf (the
+#: maximum of no sample yet), times at NaN (none yet). The caller makes the state: a kernel that allocates
+#: its own (some thirty arrays) takes a third longer to compile.
+_STATE_START = np.array([0.0, -np.inf, np.nan, np.nan, 0.0, np.nan, 0.0, 0.0, np.nan, -np.inf, 0.0, -np.inf,
+                         np.nan, np.nan, 0.0, -np.inf, np.nan, 0.0, 0.0, -np.inf, 0.0])
 
 #: The metrics of :func:`_series_pass`'s output, in its order.
 _PASS_OUTPUTS: tuple[str, ...] = METRICS[:METRICS.index(DIAGNOSIS_METRICS[0])]
 
 
-@numba.njit(cache=True, nogil=True, inline="always")
+@numba.njit(cache=True, nogil=True)
 def _nan_peak(peak: float, value: float) -> float:  # pragma: no cover - compiled
     """NumPy's ``maximum``: the larger of the two, NaN if either is."""
     if peak != peak:
@@ -247,7 +257,7 @@ def _nan_peak(peak: float, value: float) -> float:  # pragma: no cover - compile
     return peak
 
 
-@numba.njit(cache=True, nogil=True, inline="always")
+@numba.njit(cache=True, nogil=True)
 def _settle_step(result: float, searching: bool, outside: bool, time: float) -> tuple[float, bool]:  # pragma: no cover
     """One sample of a settling time: the first time of the last run of samples within the tolerance so far
     (NaN while outside), and whether the next sample within starts a new run."""
@@ -258,7 +268,7 @@ def _settle_step(result: float, searching: bool, outside: bool, time: float) -> 
     return result, False
 
 
-@numba.njit(cache=True, nogil=True, inline="always")
+@numba.njit(cache=True, nogil=True)
 def _root_mean(squares: float, count: int) -> float:  # pragma: no cover - compiled
     """sqrt(squares / count); NaN without samples."""
     return np.sqrt(squares / count) if count > 0 else np.nan
@@ -272,7 +282,8 @@ def _pass_signature() -> numba.core.typing.Signature:
 
     series, values, number = array(numba.float64, 3), array(numba.float64, 1), numba.float64
     return numba.void(values, *[series] * len(RecordedSeries._fields), array(numba.boolean, 2), number, number,
-                      number, values, values, values, values, numba.types.Array(numba.float64, 3, "C"))
+                      number, values, values, values, values, *(numba.types.Array(dtype, 3, "C") for dtype in
+                      (numba.float64, numba.float64, numba.boolean, numba.int64)))
 
 
 @functools.cache
@@ -284,7 +295,8 @@ def _compiled_pass() -> Callable[..., None]:
 
 @numba.njit(cache=True, nogil=True)
 def _series_pass(t, q_true, q_ref, qd_true, qd_hat, luaf_true, luaf_hat, tau, sliding, flags, window_start,
-                 settle, fault_window, tolerances, onsets, until, limits, out):  # pragma: no cover - compiled
+                 settle, fault_window, tolerances, onsets, until, limits, out, state, searching,
+                 counts):  # pragma: no cover - compiled
     """Every metric of :data:`_PASS_OUTPUTS` into ``out[metric, w, j]``, from ``(T, W, n)`` series (see
     :func:`series_metrics`) and the per-sample ``flags`` (estimation window, outside the settle intervals, the
     estimates' transient, before the first fault, estimation window after it).
@@ -292,22 +304,41 @@ def _series_pass(t, q_true, q_ref, qd_true, qd_hat, luaf_true, luaf_hat, tau, sl
     The definitions (module docstring) as state updated sample by sample, samples in time order: sums of
     squares from 0 (NumPy's time-ordered sums, whose first term is the first square), maxima that NaN
     poisons (NumPy's), settling times as the first sample after the last one outside the tolerance (NaN
-    counts as outside), and after a first pass, a second one over each column's converged window."""
+    counts as outside), and after a first pass, a second one over each column's converged window. The state
+    is the caller's (``state`` from :data:`_STATE_START`, ``searching``, ``counts`` at 0), one row each."""
     steps, width, n = q_true.shape
-    shape = (width, n)
     tracking, velocity, luaf_tolerance, sliding_tolerance = tolerances[0], tolerances[1], tolerances[2], tolerances[3]
-    error_squares, error_peak = np.zeros(shape), np.full(shape, -np.inf)
-    convergence, converging = np.full(shape, np.nan), np.ones(shape, dtype=np.bool_)
-    entry = np.full(shape, np.nan)
-    velocity_squares = np.zeros(shape)
-    observer, observing = np.full(shape, np.nan), np.ones(shape, dtype=np.bool_)
-    luaf_squares, luaf_fault_squares = np.zeros(shape), np.zeros(shape)
-    luaf_settled, luaf_settling = np.full(shape, np.nan), np.ones(shape, dtype=np.bool_)
-    transient_peak, initial, beyond = np.full(shape, -np.inf), np.zeros(shape), np.full(shape, -np.inf)
-    reached, reaching, first_reached = np.full(shape, np.nan), np.ones(shape, dtype=np.bool_), np.full(shape, np.nan)
-    torque_squares, saturated = np.zeros(shape), np.zeros(shape, dtype=np.int64)
-    fault_peak, fault_samples = np.full(shape, -np.inf), np.zeros(shape, dtype=np.int64)
-    recovery, recovering = np.full(shape, np.nan), np.ones(shape, dtype=np.bool_)
+    error_squares = state[0]
+    error_peak = state[1]
+    convergence = state[2]
+    entry = state[3]
+    velocity_squares = state[4]
+    observer = state[5]
+    luaf_squares = state[6]
+    luaf_fault_squares = state[7]
+    luaf_settled = state[8]
+    transient_peak = state[9]
+    initial = state[10]
+    beyond = state[11]
+    reached = state[12]
+    first_reached = state[13]
+    torque_squares = state[14]
+    fault_peak = state[15]
+    recovery = state[16]
+    begin = state[17]
+    window_squares = state[18]
+    window_peak = state[19]
+    variation = state[20]
+    converging = searching[0]
+    observing = searching[1]
+    luaf_settling = searching[2]
+    reaching = searching[3]
+    recovering = searching[4]
+    was_inside = searching[5]
+    saturated = counts[0]
+    fault_samples = counts[1]
+    window_count = counts[2]
+    pairs = counts[3]
     estimation_count = fault_count = transient_count = 0
     for i in range(steps):
         time = t[i]
@@ -364,13 +395,9 @@ def _series_pass(t, q_true, q_ref, qd_true, qd_hat, luaf_true, luaf_hat, tau, sl
                     saturated[w, j] += 1
 
     # The converged window: outside the settle intervals, from max(window_start, entry + settle) on.
-    begin = np.empty(shape)
     for w in range(width):
         for j in range(n):
             begin[w, j] = max(window_start, entry[w, j] + settle) if np.isfinite(entry[w, j]) else window_start
-    window_squares, window_peak = np.zeros(shape), np.full(shape, -np.inf)
-    window_count, pairs = np.zeros(shape, dtype=np.int64), np.zeros(shape, dtype=np.int64)
-    variation, was_inside = np.zeros(shape), np.zeros(shape, dtype=np.bool_)
     for i in range(steps):
         time, free = t[i], flags[1, i]
         for w in range(width):
