@@ -32,6 +32,7 @@ class Bug:
 
 
 M, C = "ftc_mj/methods/observers/", "ftc_mj/methods/controllers/"
+A, AT = "ftc_mj/analysis/", ("tests/analysis/test_metrics.py", "tests/analysis/test_metric_edges.py")
 TM, TC = "tests/methods/observers/", "tests/methods/controllers/"
 BUGS = [
     Bug("momentum: C^T qd - G as G - C^T qd", M + "momentum.py",
@@ -87,6 +88,25 @@ BUGS = [
         ("tests/bench/test_score.py", "tests/bench/test_score_edges.py")),
     Bug("score: ties count fully in the Mann-Whitney AUC", "ftc_mj/bench/score.py",
         "(below + 0.5 * equal)", "(below + 1.0 * equal)", ("tests/bench/test_score.py", "tests/bench/test_score_edges.py")),
+    # The series metrics are one compiled pass, which mutmut does not mutate (it leaves decorated functions
+    # alone): these bugs stand in for its mutants there.
+    Bug("metrics: the converged window from the first entry itself, without the settle interval", A + "metrics.py",
+        "max(window_start, entry[w, j] + settle)", "max(window_start, entry[w, j])", AT),
+    Bug("metrics: a settling time that restarts at every sample within (the last sample, not the run's first)",
+        A + "metrics.py", "    if searching:\n        return time, False", "    if True:\n        return time, False", AT),
+    Bug("metrics: a NaN sample does not poison a peak", A + "metrics.py",
+        "    if peak != peak:\n        return peak\n    if value != value or value > peak:",
+        "    if value > peak:", AT),
+    Bug("metrics: chattering counts the pair that enters the window", A + "metrics.py",
+        "                    if was_inside[w, j]:\n", "                    if i > 0:\n", AT),
+    Bug("metrics: the recovery time not from the onset", A + "metrics.py",
+        "out[15, w, j] = recovery[w, j] - onsets[j]", "out[15, w, j] = recovery[w, j]", AT),
+    Bug("metrics: the overshoot's initial sign from the second transient sample", A + "metrics.py",
+        "first_transient = transient and transient_count == 0", "first_transient = transient and transient_count == 1", AT),
+    Bug("metrics: the velocity error's RMS over every sample's count", A + "metrics.py",
+        "_root_mean(velocity_squares[w, j], estimation_count)", "_root_mean(velocity_squares[w, j], steps)", AT),
+    Bug("metrics: the fault window's end sample inside it", A + "metrics.py",
+        "if time < onset + fault_window:", "if time <= onset + fault_window:", AT),
 ]
 
 

@@ -175,3 +175,15 @@ def test_the_fault_rms_starts_at_the_onset_sample():
     luaf_error = np.array([[5.0], [5.0], [3.0], [0.0]])
     metrics = compute_metrics(_result(t, np.zeros((4, 1)), luaf_error), spec, [2 * DT])
     assert metrics["rms_luaf_error_fault"][0] == np.sqrt(9.0 / 2)
+
+
+def test_a_nan_sample_poisons_every_peak_it_is_in():
+    """A NaN error makes each maximum over a window holding it NaN, as NumPy's maximum does, wherever it falls
+    (before a larger sample, or after one); a peak whose window leaves it out stays a number."""
+    t = np.arange(6) * DT
+    error = np.array([[0.5, 0.0], [np.nan, 0.1], [2.0, 0.2], [0.1, np.nan], [0.0, 0.0], [0.0, 0.0]])
+    spec = MetricsSpec(window_start=4 * DT, estimation_window_start=3 * DT, fault_settle=0.0)
+    metrics = metrics_of(t, spec, error=error, luaf_error=error)
+    assert np.isnan(metrics["max_error"]).all() and np.isnan(metrics["rms_error"]).all()
+    assert np.isnan(metrics["peak_luaf_error_transient"][0]) and metrics["peak_luaf_error_transient"][1] == 0.2
+    np.testing.assert_array_equal(metrics["max_error_converged"], [0.0, 0.0])  # from sample 4: no NaN in it
