@@ -49,8 +49,7 @@ Diagnosis metrics (``detection_delay``, ``missed_detection``, ``false_alarms``, 
 
 from __future__ import annotations
 
-import functools
-from collections.abc import Callable, Sequence
+from collections.abc import Sequence
 from typing import NamedTuple
 
 import numba
@@ -58,7 +57,7 @@ import numpy as np
 from pydantic import Field
 
 from ftc_mj.analysis.diagnosis import DIAGNOSIS_METRICS, diagnosis_metrics
-from ftc_mj.config.kernels import compiled_for
+from ftc_mj.config.kernels import for_any_layout
 from ftc_mj.results import VariantResult
 from ftc_mj.config.types import NonNegativeFloat, PositiveFloat, Strict
 
@@ -209,8 +208,9 @@ def series_metrics(
     in time order, so a column's value has the same bits whatever results stand beside it: those of NumPy's sums
     over the time axis of a ``(T, n)`` array with n >= 2 (of a single column NumPy's sum would be pairwise)."""
     single = series.q_true.ndim == 2
-    columns = RecordedSeries(*(np.asarray(values[:, None, :] if single else values, dtype=float) for values in series))
-    t = np.asarray(t, dtype=float)
+    # Read-only float views: one compiled version for a result's views, a broadcast reference and arrays.
+    columns = RecordedSeries(*(_read_only(values[:, None, :] if single else values) for values in series))
+    t = _read_only(t)
     steps, width, n = columns.q_true.shape
     first_fault = min(fault_onsets, default=np.inf)
     # The windows that are the same for every column, one flag per sample.
@@ -231,10 +231,18 @@ def series_metrics(
     state = np.repeat(_STATE_START[:, None, None], width, axis=1).repeat(n, axis=2)
     searching = np.ones((6, width, n), dtype=bool)  # each settling time searching; no previous sample inside
     searching[5] = False
-    _compiled_pass()(t, *columns, flags, float(spec.window_start), float(spec.fault_settle), float(spec.fault_window),
+    arguments = (t, *columns, flags, float(spec.window_start), float(spec.fault_settle), float(spec.fault_window),
                  tolerances, np.asarray(joint_onsets, dtype=float), until, limits, out, state, searching,
                  np.zeros((4, width, n), dtype=np.int64))
+    for_any_layout(_series_pass, *arguments)(*arguments)
     return {name: values[0] if single else values for name, values in zip(_PASS_OUTPUTS, out)}
+
+
+def _read_only(values: np.ndarray) -> np.ndarray:
+    """``values`` as a read-only float view (a float copy if they are of another dtype)."""
+    view = np.asarray(values, dtype=float).view()
+    view.flags.writeable = False
+    return view
 
 
 #: Where each row of :func:`_series_pass`'s float state starts, in its order: sums at 0, peaks at -inf (the
@@ -272,25 +280,6 @@ def _settle_step(result: float, searching: bool, outside: bool, time: float) -> 
 def _root_mean(squares: float, count: int) -> float:  # pragma: no cover - compiled
     """sqrt(squares / count); NaN without samples."""
     return np.sqrt(squares / count) if count > 0 else np.nan
-
-
-def _pass_signature() -> numba.core.typing.Signature:
-    """The one compiled version for every caller: arrays of any layout (a result's strided views, a broadcast
-    reference, a test's contiguous arrays), read only, are read right as these types."""
-    def array(dtype: numba.types.Type, ndim: int) -> numba.types.Array:
-        return numba.types.Array(dtype, ndim, "A", readonly=True)
-
-    series, values, number = array(numba.float64, 3), array(numba.float64, 1), numba.float64
-    return numba.void(values, *[series] * len(RecordedSeries._fields), array(numba.boolean, 2), number, number,
-                      number, values, values, values, values, *(numba.types.Array(dtype, 3, "C") for dtype in
-                      (numba.float64, numba.float64, numba.boolean, numba.int64)))
-
-
-@functools.cache
-def _compiled_pass() -> Callable[..., None]:
-    """:func:`_series_pass` compiled for :func:`_pass_signature` (or loaded from Numba's cache) at the first
-    metrics rather than at import, and called past the dispatcher, which would compile a version per layout."""
-    return compiled_for(_series_pass, _pass_signature().args)
 
 
 @numba.njit(cache=True, nogil=True)

@@ -29,7 +29,7 @@ from collections.abc import Callable  # noqa: E402
 from functools import partial  # noqa: E402
 
 from numba.core.dispatcher import Dispatcher  # noqa: E402
-from numba.core.types import Type as NumbaType  # noqa: E402
+from numba.core.types import Array, Type as NumbaType  # noqa: E402
 
 #: The options of a kernel called every control period (with ``cache=True, nogil=True``): compiled without
 #: Numba's runtime (the module docstring). Numba refuses at compile time a kernel that would need it (one that
@@ -43,16 +43,24 @@ def direct(dispatcher: Dispatcher | Callable, *arguments: object) -> Callable:
     for calls whose arguments have exactly these types. A plain function (Numba's JIT disabled) is itself."""
     if not isinstance(dispatcher, Dispatcher):
         return dispatcher
-    return compiled_for(dispatcher, tuple(dispatcher.typeof_pyval(argument) for argument in arguments))
+    return dispatcher.compile(tuple(dispatcher.typeof_pyval(argument) for argument in arguments))
 
 
-def compiled_for(dispatcher: Dispatcher | Callable, types: tuple[NumbaType, ...]) -> Callable:
-    """``dispatcher``'s compiled function for arguments of Numba's ``types`` (compiled now, or loaded from
-    Numba's cache), called without the dispatcher's resolution: only for arguments of these types, or that
-    read right as them (any array as an array of layout ``A``). A plain function (JIT disabled) is itself."""
+def for_any_layout(dispatcher: Dispatcher | Callable, *arguments: object) -> Callable:
+    """``dispatcher``'s compiled function for the dtypes, dimensions and writability of ``arguments`` in any
+    layout (compiled now, or loaded from Numba's cache), called without the dispatcher's resolution: strided
+    views, broadcasts and contiguous arrays of one dtype and dimension share one compiled version, where the
+    dispatcher would compile one per layout. For calls made a few times (each resolves the types anew, some
+    microseconds an argument). A plain function (Numba's JIT disabled) is itself."""
     if not isinstance(dispatcher, Dispatcher):
         return dispatcher
+    types = tuple(_any_layout(dispatcher.typeof_pyval(argument)) for argument in arguments)
     return dispatcher.compile(types)
+
+
+def _any_layout(kind: NumbaType) -> NumbaType:
+    """An array type as the same type of layout ``A`` (any strides); another type as it is."""
+    return kind.copy(layout="A") if isinstance(kind, Array) else kind
 
 
 def bound(dispatcher: Dispatcher | Callable, *arguments: object) -> Callable[[], object]:

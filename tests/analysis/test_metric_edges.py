@@ -187,3 +187,35 @@ def test_a_nan_sample_poisons_every_peak_it_is_in():
     assert np.isnan(metrics["max_error"]).all() and np.isnan(metrics["rms_error"]).all()
     assert np.isnan(metrics["peak_luaf_error_transient"][0]) and metrics["peak_luaf_error_transient"][1] == 0.2
     np.testing.assert_array_equal(metrics["max_error_converged"], [0.0, 0.0])  # from sample 4: no NaN in it
+
+
+def test_chattering_counts_no_pair_before_the_first_sample():
+    """A window that starts at the run's first sample has one pair fewer than samples: no pair of the first
+    sample with anything before it (least of all the last sample)."""
+    t = np.arange(4) * DT
+    tau = np.array([[0.0], [1.0], [1.0], [3.0]])  # variation 1 + 0 + 2 over three pairs
+    assert metrics_of(t, MetricsSpec(fault_settle=0.0), tau=tau)["chattering"][0] == 3.0 / (3 * DT)
+
+
+def test_integer_inputs_give_the_metrics_of_their_float_values():
+    """Times, series, onsets and limits given as integers are read as the floats they are (the compiled pass
+    reads float arrays only), so the metrics equal those of the same values as floats, bit for bit."""
+    t = np.arange(12)
+    rng = np.random.default_rng(3)
+    errors = {name: rng.integers(-3, 4, size=(12, 2)) for name in ("error", "velocity_error", "luaf_error", "tau",
+                                                                  "sliding")}
+    spec = MetricsSpec(window_start=2.0, estimation_window_start=3.0, fault_settle=1.0, fault_window=3.0,
+                       tracking_tolerance=1.0, velocity_tolerance=1.0, luaf_tolerance=1.0, sliding_tolerance=1.0)
+
+    def metrics(cast: type) -> dict[str, np.ndarray]:
+        series = {name: values.astype(cast) for name, values in errors.items()}
+        zeros = np.zeros((12, 2), dtype=cast)
+        recorded = RecordedSeries(series["error"], zeros, series["velocity_error"], zeros, series["luaf_error"],
+                                  zeros, series["tau"], series["sliding"])
+        return series_metrics(t.astype(cast), recorded, spec, [6], np.array([6, 8], dtype=cast),
+                              np.array([2, 3], dtype=cast))
+
+    as_integers, as_floats = metrics(int), metrics(float)
+    assert np.isfinite(as_floats["recovery_time"]).any() and as_floats["saturation_time"].any()
+    for name, values in as_floats.items():
+        np.testing.assert_array_equal(as_integers[name], values, err_msg=name)
