@@ -8,7 +8,8 @@ A change that must keep results bit-identical is run before and after::
     python benchmarks/series_hashes.py --out after.json --compare before.json
 
 Every scenario under ``scenarios/`` (not the fragments of ``scenarios/bases/``) runs as written (one member,
-every variant and monitor, every series, extras and diagnosis arrays, and each variant's metrics); a batch of five members of
+every variant and monitor, every series, extras and diagnosis arrays, each variant's metrics and each diagnosis'
+campaign detection statistics at the default threshold scales); a batch of five members of
 ``scenarios/puma_fault.yaml`` with per-member gains, seeds, parameters and mass scales is run through
 ``run_batch`` and its metrics hashed too, so the member path (overrides, stacking) is covered. ``--compare``
 prints every series that moved and exits 1 if any did. Scenarios whose robot cannot be loaded here (the
@@ -64,7 +65,9 @@ def result_hashes(result) -> dict[str, str]:
 
 def scenario_hashes(path: Path) -> dict[str, dict[str, str]]:
     from ftc_mj import load_scenario, run_scenario
+    from ftc_mj.analysis.diagnosis import detection_statistics
     from ftc_mj.analysis.metrics import compute_metrics
+    from ftc_mj.campaign.spec import DEFAULT_THRESHOLD_SCALES
 
     scenario = load_scenario(path)
     hashes = {}
@@ -73,6 +76,13 @@ def scenario_hashes(path: Path) -> dict[str, dict[str, str]]:
                                   scenario.torque_limits)
         hashes[result.name] = result_hashes(result) | {f"metrics.{name}": digest(np.asarray(value, dtype=float))
                                                        for name, value in sorted(metrics.items())}
+        if scenario.diagnoser is not None:  # a campaign's statistics of each result and monitor
+            for one in (result, *result.monitors):
+                statistics = detection_statistics(one.diagnosis, scenario.diagnoser.persistence,
+                                                  scenario.joint_fault_onsets, list(DEFAULT_THRESHOLD_SCALES),
+                                                  scenario.n_joints)
+                hashes[result.name] |= {f"detection.{one.name}.{name}": digest(value)
+                                        for name, value in sorted(statistics.items())}
     return hashes
 
 

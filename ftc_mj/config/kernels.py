@@ -28,6 +28,7 @@ os.environ.setdefault("NUMBA_DISABLE_INTEL_SVML", "1")  # before Numba is import
 from collections.abc import Callable  # noqa: E402
 from functools import partial  # noqa: E402
 
+import numpy as np  # noqa: E402
 from numba.core.dispatcher import Dispatcher  # noqa: E402
 from numba.core.types import Array, Type as NumbaType  # noqa: E402
 
@@ -50,12 +51,31 @@ def for_any_layout(dispatcher: Dispatcher | Callable, *arguments: object) -> Cal
     """``dispatcher``'s compiled function for the dtypes, dimensions and writability of ``arguments`` in any
     layout (compiled now, or loaded from Numba's cache), called without the dispatcher's resolution: strided
     views, broadcasts and contiguous arrays of one dtype and dimension share one compiled version, where the
-    dispatcher would compile one per layout. For calls made a few times (each resolves the types anew, some
-    microseconds an argument). A plain function (Numba's JIT disabled) is itself."""
+    dispatcher would compile one per layout. For calls made a few times each: the function is found again by
+    what determines its types (:func:`_type_key`), not by Numba's typing of every argument (some 15 us an
+    array). A plain function (Numba's JIT disabled) is itself."""
     if not isinstance(dispatcher, Dispatcher):
         return dispatcher
-    types = tuple(_any_layout(dispatcher.typeof_pyval(argument)) for argument in arguments)
-    return dispatcher.compile(types)
+    key = (dispatcher, *(_type_key(dispatcher, argument) for argument in arguments))
+    compiled = _FOR_ANY_LAYOUT.get(key)
+    if compiled is None:
+        types = tuple(_any_layout(dispatcher.typeof_pyval(argument)) for argument in arguments)
+        compiled = _FOR_ANY_LAYOUT[key] = dispatcher.compile(types)
+    return compiled
+
+
+#: :func:`for_any_layout`'s compiled functions by dispatcher and argument types.
+_FOR_ANY_LAYOUT: dict[tuple, Callable] = {}
+
+
+def _type_key(dispatcher: Dispatcher, argument: object) -> object:
+    """What fixes ``argument``'s Numba type in layout ``A``: an array's dtype, dimensions, writability and
+    alignment; a bool's, float's or NumPy scalar's Python type; else its Numba type."""
+    if isinstance(argument, np.ndarray):
+        return argument.dtype, argument.ndim, argument.flags.writeable, argument.flags.aligned
+    if isinstance(argument, (bool, float, np.generic)):
+        return type(argument)
+    return dispatcher.typeof_pyval(argument)  # an int's type depends on its value (int64 or uint64)
 
 
 def _any_layout(kind: NumbaType) -> NumbaType:

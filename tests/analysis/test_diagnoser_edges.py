@@ -1,7 +1,8 @@
 """The edges of the diagnoser (ftc_mj.analysis.diagnosis): a residual exactly at the threshold, a run that ends
 within rounding of (or well before) its baseline's end, integer inputs, the diagnosis metrics of runs of one and
 two samples, a joint whose onset is past the run's end beside one inside it, an alarm at the onset sample, and
-the debounce and CUSUM on columns whose first True comes late or on integer input."""
+the debounce and CUSUM on columns whose first True comes late or on integer input, and NumPy's sums (in time order,
+pairwise for one joint) in the baseline and the fault estimate's RMS."""
 
 from __future__ import annotations
 
@@ -114,3 +115,29 @@ def test_cusum_of_a_series_of_integers():
     g = cusum(np.array([1, 2, 0, 3]), 0.5)
     assert g.shape == (4,)
     np.testing.assert_array_equal(g, [0.5, 2.0, 1.5, 4.0])
+
+
+def test_the_baseline_and_the_estimates_rms_have_numpys_bits_for_one_joint_and_several():
+    """The compiled diagnoser sums as NumPy does: along time in order for n >= 2, pairwise for one joint (a
+    contiguous reduction), so its baseline mean and deviation and the metrics' RMS of the fault estimate
+    from detection on are NumPy's, bit for bit, over windows long enough for the pairwise blocks."""
+    rng = np.random.default_rng(5)
+    for n in (1, 2, 3):
+        for samples in (7, 130, 1500):
+            scale = 10.0 ** rng.uniform(-3, 3, n)
+            estimate = rng.normal(size=(samples + 10, n)) * scale
+            estimate[samples + 2:] += 100.0 * scale  # a fault after the baseline
+            t = np.arange(len(estimate)) * DT
+            end = float(t[samples])
+            diagnoser = _diagnoser(fixed=np.zeros(n), k=3.0, baseline=(0.0, end), start=end)
+            injected = rng.normal(size=estimate.shape)
+            diagnosis = diagnoser.diagnose(t, estimate, estimate, estimate, injected)
+            window = estimate[t < end]
+            assert np.array_equal(diagnosis.mean, window.mean(axis=0))
+            assert np.array_equal(diagnosis.std, window.std(axis=0))
+            onsets = np.zeros(n)
+            metrics = diagnosis_metrics(diagnosis, onsets, 0.0, n)
+            for j in range(n):
+                first = np.flatnonzero(diagnosis.alarm[:, j])[0]
+                error = diagnosis.fault_estimate[first:, j] - injected[first:, j]
+                assert metrics["fault_estimate_rms"][j] == np.sqrt(np.mean(error**2))

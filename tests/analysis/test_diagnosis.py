@@ -612,6 +612,67 @@ def test_detection_statistics_equal_the_scaled_diagnoser_one_scale_at_a_time():
                 np.testing.assert_array_equal(stats[f"detection_delay_{scale_tag(c)}"][j], delay)
 
 
+
+def test_scaled_alarms_skip_no_scale_that_a_sample_changes():
+    """The scaled diagnosers step only the scales a sample can change (the order of the scales' alarms): with
+    levels that drift slowly through every scale (long settled runs), thresholds and residuals of either sign
+    (where that order reverses), NaN and zero thresholds, and scales given unsorted, every scale's false
+    alarms and delay are those of its own diagnoser run alone."""
+    from ftc_mj.results import Diagnosis
+    from ftc_mj.analysis.diagnosis import detection_statistics, scale_tag
+
+    rng = np.random.default_rng(21)
+    scales = [3.0, 0.25, 16.0, 1.0, 0.5, 8.0, 1.5]
+    for trial in range(30):
+        length, n, samples = int(rng.integers(50, 2000)), 2, int(rng.integers(1, 25))
+        t = np.arange(length) * 0.01
+        drift = np.exp(np.cumsum(rng.normal(scale=0.08, size=(length, n)), axis=0))
+        residual = drift * rng.uniform(0.5, 2.0) * (1.0 + 0.3 * rng.normal(size=(length, n)))
+        threshold = np.full((length, n), rng.uniform(0.5, 2.0))
+        if trial % 2:
+            threshold[rng.random((length, n)) < 0.01] *= -1.0
+            residual[rng.random((length, n)) < 0.02] *= -1.0
+        threshold[rng.random((length, n)) < 0.01] = 0.0
+        threshold[rng.random((length, n)) < 0.01] = np.nan
+        armed = t >= rng.uniform(0.0, 2.0)
+        diagnosis = Diagnosis(space="torque", t=t, signal=residual, fault_estimate=residual, residual=residual,
+                              threshold=threshold, alarm=persistent(residual > threshold, samples), armed=armed,
+                              mean=np.zeros(n), std=np.ones(n), injected=np.zeros((length, n)))
+        onsets = np.array([np.nan, rng.uniform(0.0, t[-1])])
+        stats = detection_statistics(diagnosis, samples, onsets, scales, n)
+        for j in range(n):
+            onset = onsets[j] if np.isfinite(onsets[j]) else np.inf
+            for c in scales:
+                alarm = _debounced(residual[:, j] > c * threshold[:, j], samples)
+                raised = alarm & ~np.concatenate([[False], alarm[:-1]])
+                assert stats[f"false_alarms_{scale_tag(c)}"][j] == raised[armed & (t < onset)].sum(), (trial, j, c)
+                detected = np.flatnonzero(alarm & (t >= onset))
+                delay = t[detected[0]] - onset if detected.size else np.nan
+                np.testing.assert_array_equal(stats[f"detection_delay_{scale_tag(c)}"][j], delay)
+
+
+def test_a_scale_on_where_the_order_reversed_still_clears():
+    """Where a negative threshold reverses the order of the scales (a negative residual exceeds c times it for
+    the large c only), a higher scale can be on while a lower one is off; it must still clear, and raise again,
+    as its own diagnoser does: two alarms at 2x, not one."""
+    from ftc_mj.results import Diagnosis
+    from ftc_mj.analysis.diagnosis import detection_statistics
+
+    residual = np.zeros(40)
+    residual[:10], residual[10], residual[25:31] = 5.0, -1.5, 5.0
+    threshold = np.ones(40)
+    threshold[10] = -1.0  # -1.5 > -1 is False, -1.5 > -2 is True
+    t = np.arange(40) * 0.01
+    diagnosis = Diagnosis(space="torque", t=t, signal=residual[:, None], fault_estimate=residual[:, None],
+                          residual=residual[:, None], threshold=threshold[:, None],
+                          alarm=persistent(residual[:, None] > threshold[:, None], 3), armed=np.ones(40, dtype=bool),
+                          mean=np.zeros(1), std=np.ones(1), injected=np.zeros((40, 1)))
+    stats = detection_statistics(diagnosis, 3, np.array([np.nan]), [1.0, 2.0], 1)
+    expected = _debounced(residual > 2.0 * threshold, 3)
+    assert (expected & ~np.concatenate([[False], expected[:-1]])).sum() == 2
+    np.testing.assert_array_equal(stats["false_alarms_x2"], [2.0])
+    np.testing.assert_array_equal(stats["false_alarms_x1"], [2.0])
+
 # ------------------------------------------------------------------------------------------ CUSUM
 
 

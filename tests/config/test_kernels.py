@@ -5,7 +5,7 @@ from __future__ import annotations
 import numba
 import numpy as np
 
-from ftc_mj.config.kernels import bound, direct
+from ftc_mj.config.kernels import bound, direct, for_any_layout
 from ftc_mj.methods import compiled
 
 
@@ -38,6 +38,36 @@ def test_direct_is_the_dispatchers_compiled_function_for_those_types() -> None:
     other = direct(scaled_sum, c, d, 2.0, out3)
     other(c, d, 2.0, out3)
     assert np.array_equal(out3, a2 * 2.0 + b2) and len(scaled_sum.overloads) == 2
+
+
+@numba.njit(cache=False)
+def column_total(values: np.ndarray, out: np.ndarray) -> None:
+    for j in range(values.shape[1]):
+        out[j] = 0.0
+        for i in range(values.shape[0]):
+            out[j] += values[i, j]
+
+
+def test_for_any_layout_serves_every_layout_of_a_dtype_with_one_function() -> None:
+    """Contiguous, strided and broadcast arrays of one dtype get the same compiled function (found again, not
+    compiled again); an integer array, or a read-only one, gets its own, which reads its values as they are."""
+    values = np.arange(12.0).reshape(4, 3)
+    out = np.zeros(3)
+    function = for_any_layout(column_total, values, out)
+    block = np.zeros((4, 5, 3))
+    block[:, 2] = values
+    for other in (values, block[:, 2], np.broadcast_to(values[:1], (4, 3)).copy()):
+        assert for_any_layout(column_total, other, out) is function
+        function(other, out)
+        assert np.array_equal(out, other.sum(axis=0))
+    integers = np.arange(12).reshape(4, 3)
+    assert for_any_layout(column_total, integers, out) is not function
+    for_any_layout(column_total, integers, out)(integers, out)
+    assert np.array_equal(out, [18.0, 22.0, 26.0])
+    frozen = values.copy()
+    frozen.flags.writeable = False
+    assert for_any_layout(column_total, frozen, out) is not function
+    assert len(column_total.overloads) == 3
 
 
 def test_bound_calls_the_same_buffers_without_arguments() -> None:
