@@ -33,6 +33,8 @@ class Bug:
 
 M, C = "ftc_mj/methods/observers/", "ftc_mj/methods/controllers/"
 A, AT = "ftc_mj/analysis/", ("tests/analysis/test_metrics.py", "tests/analysis/test_metric_edges.py")
+DT = ("tests/analysis/test_diagnosis.py", "tests/analysis/test_diagnoser_edges.py",
+      "tests/analysis/test_detection_edges.py")
 TM, TC = "tests/methods/observers/", "tests/methods/controllers/"
 BUGS = [
     Bug("momentum: C^T qd - G as G - C^T qd", M + "momentum.py",
@@ -40,9 +42,8 @@ BUGS = [
         (TM + "test_momentum.py",)),
     Bug("terms: a fault whose rate is a parameter enters with the wrong sign", "ftc_mj/effects/terms.py",
         "                if sign > 0:\n", "                if sign < 0:\n", ("tests/effects/test_terms.py",)),
-    Bug("diagnosis: the detection delay from the first fault onset, not the joint's own", "ftc_mj/analysis/diagnosis.py",
-        "out[\"detection_delay\"][joint] = t[first] - onset", "out[\"detection_delay\"][joint] = t[first] - first_fault",
-        ("tests/analysis/test_diagnosis.py",)),
+    Bug("diagnosis: the detection delay from the first fault onset, not the joint's own", A + "diagnosis.py",
+        "out[0, j] = t[detected] - onset", "out[0, j] = t[detected] - first_fault", DT),
     Bug("momentum: z integrates tau - r instead of tau + r", M + "momentum.py",
         "rate = np.add(tau, self.residual, out=self._rate)", "rate = np.subtract(tau, self.residual, out=self._rate)",
         (TM + "test_momentum.py",)),
@@ -107,6 +108,23 @@ BUGS = [
         "_root_mean(velocity_squares[w, j], estimation_count)", "_root_mean(velocity_squares[w, j], steps)", AT),
     Bug("metrics: the fault window's end sample inside it", A + "metrics.py",
         "if time < onset + fault_window:", "if time <= onset + fault_window:", AT),
+    Bug("diagnosis: every scale stepped one sample too few after a reversed order", A + "diagnosis.py",
+        "step_all_until = i + samples + 1", "step_all_until = i + samples", DT),
+    Bug("diagnosis: the scales not all stepped at the onset", A + "diagnosis.py",
+        "            step_all_until = max(step_all_until, i + 1)\n", "            crossed = True\n", DT),
+    Bug("diagnosis: the steps off stop at a scale off but not yet settled", A + "diagnosis.py",
+        "if state[1, s] >= samples and state[2, s] == 0:", "if state[2, s] == 0:", DT),
+    Bug("diagnosis: the steps on stop a sample before a scale settles", A + "diagnosis.py",
+        "if state[1, s] >= samples and state[2, s] == 1:", "if state[1, s] >= samples - 1 and state[2, s] == 1:", DT),
+    Bug("diagnosis: one joint's baseline summed in time order, not pairwise as NumPy's", A + "diagnosis.py",
+        "    if a.shape[1] == 1:\n", "    if a.shape[1] == 0:\n", DT),
+    Bug("diagnosis: the pairwise sum's eight partial sums folded in another order", A + "diagnosis.py",
+        "total = ((r0 + r1) + (r2 + r3)) + ((r4 + r5) + (r6 + r7))",
+        "total = (((r0 + r1) + r2) + r3) + (((r4 + r5) + r6) + r7)", DT),
+    Bug("diagnosis: the level held over one sample more than the persistence", A + "diagnosis.py",
+        "            oldest = i - p + 1\n", "            oldest = i - p\n", DT),
+    Bug("diagnosis: the CUSUM not restarted after a NaN", A + "diagnosis.py",
+        "        return 0.0, np.nan\n", "        return g, np.nan\n", DT),
 ]
 
 
