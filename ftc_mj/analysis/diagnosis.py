@@ -522,8 +522,9 @@ def _diagnosis_metrics_pass(t, alarm, armed, fault_estimate, injected, onsets, f
 def _any_armed_since(t, armed, first_fault):  # pragma: no cover - compiled
     """Whether the isolation window holds an armed sample: at or after the first fault onset, or anywhere in
     a run without faults (``first_fault`` inf)."""
+    since_fault = np.isfinite(first_fault)
     for i in range(t.shape[0]):
-        if armed[i] and (t[i] >= first_fault or not np.isfinite(first_fault)):
+        if armed[i] and (t[i] >= first_fault or not since_fault):
             return True
     return False
 
@@ -575,9 +576,10 @@ def detection_statistics(
     p = max(1, persistence)
     ordered = np.sort(np.asarray(scales, dtype=float))  # the pass wants them sorted (the columns are named)
     levels = np.full((4, n), np.nan)
-    false_alarms = np.zeros((len(scales), n), dtype=np.int64)
-    first = np.zeros((len(scales), n), dtype=np.int64)
-    scale_state = np.zeros((3, len(scales)), dtype=np.int64)  # per scale: the alarm, the run, the last value
+    # Filled by the pass, which starts each joint's counts and scale states itself.
+    false_alarms = np.empty((len(scales), n), dtype=np.int64)
+    first = np.empty((len(scales), n), dtype=np.int64)
+    scale_state = np.empty((3, len(scales)), dtype=np.int64)  # per scale: the alarm, the run, the last value
     window = np.empty((2, p + 1))  # the level's minimum over the last p samples: values and their samples
     arguments = (t, np.asarray(diagnosis.residual, dtype=float), np.asarray(diagnosis.threshold, dtype=float),
                  np.asarray(diagnosis.alarm, dtype=bool), np.asarray(diagnosis.armed, dtype=bool), onsets, faulty,

@@ -49,14 +49,14 @@ def column_total(values: np.ndarray, out: np.ndarray) -> None:
 
 
 def test_for_any_layout_serves_every_layout_of_a_dtype_with_one_function() -> None:
-    """Contiguous, strided and broadcast arrays of one dtype get the same compiled function (found again, not
-    compiled again); an integer array, or a read-only one, gets its own, which reads its values as they are."""
+    """Contiguous, strided and Fortran-ordered arrays of one dtype get the same compiled function (found again,
+    not compiled again); an integer array, or a read-only one, gets its own, which reads its values as they are."""
     values = np.arange(12.0).reshape(4, 3)
     out = np.zeros(3)
     function = for_any_layout(column_total, values, out)
     block = np.zeros((4, 5, 3))
     block[:, 2] = values
-    for other in (values, block[:, 2], np.broadcast_to(values[:1], (4, 3)).copy()):
+    for other in (values, block[:, 2], np.asfortranarray(values)):
         assert for_any_layout(column_total, other, out) is function
         function(other, out)
         assert np.array_equal(out, other.sum(axis=0))
