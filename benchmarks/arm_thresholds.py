@@ -21,7 +21,7 @@ from scipy.stats import beta
 
 from ftc_mj.engine.members import members_from_overrides
 from ftc_mj.engine.runner import run_batch
-from ftc_mj.spec.loading import load_scenario
+from ftc_mj.scenario.loading import load_scenario
 
 
 def clopper_pearson(k: int, n: int, level: float = 0.95) -> tuple[float, float]:

@@ -25,7 +25,7 @@ from mujoco.batch import Batch
 from ftc_mj.engine.members import replicates
 from ftc_mj.engine.plant import PERSISTENT_ROWS
 from ftc_mj.engine.runner import run_batch
-from ftc_mj.spec.loading import load_scenario
+from ftc_mj.scenario.loading import load_scenario
 
 SCENARIO = Path(__file__).resolve().parents[1] / "scenarios" / "puma_fault.yaml"
 

@@ -32,7 +32,7 @@ from batch_cost import bare  # the bare physics batch, measured as batch_cost.py
 from ftc_mj.engine.members import replicates
 from ftc_mj.engine.runner import run_batch, simulate_variant
 from ftc_mj.robot.nominal import nominal_batch
-from ftc_mj.spec.loading import load_scenario
+from ftc_mj.scenario.loading import load_scenario
 
 HERE = Path(__file__).resolve().parent
 SCENARIOS = {3: HERE.parent / "scenarios" / "puma_fault.yaml",

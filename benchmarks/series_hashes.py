@@ -67,7 +67,7 @@ def scenario_hashes(path: Path) -> dict[str, dict[str, str]]:
     from ftc_mj import load_scenario, run_scenario
     from ftc_mj.analysis.diagnosis import detection_statistics
     from ftc_mj.analysis.metrics import compute_metrics
-    from ftc_mj.campaign.spec import DEFAULT_THRESHOLD_SCALES
+    from ftc_mj.campaign.schema import DEFAULT_THRESHOLD_SCALES
 
     scenario = load_scenario(path)
     hashes = {}

@@ -23,7 +23,7 @@ import mujoco
 from ftc_mj import load_scenario, run_scenario
 from ftc_mj.analysis.metrics import compute_metrics
 from ftc_mj.outputs.recording import write_recording
-from ftc_mj.spec.scenario import Scenario
+from ftc_mj.scenario.definition import Scenario
 
 ROOT = Path(__file__).resolve().parents[1]
 

@@ -24,7 +24,7 @@ from ftc_mj.engine import loop
 from ftc_mj.engine.members import single
 from ftc_mj.engine.runner import variant_result
 from ftc_mj.outputs.recording import write_recording
-from ftc_mj.spec.scenario import Scenario
+from ftc_mj.scenario.definition import Scenario
 
 PHASES = ("physics", "nominal model", "methods", "plant terms", "readings", "set-up and truths", "metrics",
           "recording")

@@ -19,7 +19,7 @@ from typing import TYPE_CHECKING, Any
 if TYPE_CHECKING:
     from ftc_mj.config.errors import InputError
     from ftc_mj.engine.runner import run_scenario
-    from ftc_mj.spec.loading import load_scenario
+    from ftc_mj.scenario.loading import load_scenario
 
 __version__ = "0.1.0"
 
@@ -36,7 +36,7 @@ def __getattr__(name: str) -> Any:
 
         return run_scenario
     if name == "load_scenario":
-        from ftc_mj.spec.loading import load_scenario
+        from ftc_mj.scenario.loading import load_scenario
 
         return load_scenario
     raise AttributeError(f"module 'ftc_mj' has no attribute {name!r}")

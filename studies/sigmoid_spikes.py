@@ -26,7 +26,7 @@ import numpy as np
 
 from ftc_mj.analysis.metrics import compute_metrics
 from ftc_mj.engine.runner import run_scenario
-from ftc_mj.spec.loading import load_scenario
+from ftc_mj.scenario.loading import load_scenario
 
 ROOT = Path(__file__).resolve().parents[1]
 SCENARIOS = ("two_link_tosmo_simple", "two_link_tosmo_complex")

@@ -16,8 +16,8 @@ from ftc_mj.engine.runner import simulate_variant
 from ftc_mj.results import VariantResult
 from ftc_mj.config.errors import InputError
 from ftc_mj.config.inheritance import resolve_bases
-from ftc_mj.spec.loading import load_scenario
-from ftc_mj.spec.scenario import Scenario
+from ftc_mj.scenario.loading import load_scenario
+from ftc_mj.scenario.definition import Scenario
 
 ROOT = Path(__file__).resolve().parents[1]
 FAULTS = ROOT / "scenarios" / "faults"

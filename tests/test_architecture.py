@@ -29,11 +29,11 @@ LAYERS: dict[str, int] = {
     "effects": 2, "methods": 2,
     "analysis": 3, "logs": 3,
     "outputs": 4,
-    "spec": 5,
+    "scenario": 5,
     "engine": 6,
     "ftc_mj": 7,
     "campaign": 8,
-    "tuning": 9, "bench": 9,
+    "tuning": 9, "ranking": 9,
     "cli": 10, "run": 10, "figures": 10, "report": 10, "tune": 10,
 }
 
@@ -128,7 +128,7 @@ def test_the_graph_is_read_from_every_module():
     parts = {p.name for p in PACKAGE.iterdir() if p.is_dir() and p.name != "__pycache__"}
     parts |= {p.stem for p in PACKAGE.glob("*.py") if p.name != "__init__.py"}
     assert parts | {"ftc_mj"} == set(graph)
-    assert {"spec", "config"} <= graph["engine"] and "outputs" in graph["spec"] and "campaign" in graph["tuning"]
+    assert {"scenario", "config"} <= graph["engine"] and "outputs" in graph["scenario"] and "campaign" in graph["tuning"]
 
 
 def test_the_cycle_check_finds_a_long_cycle():

@@ -83,7 +83,7 @@ TARGETS: dict[str, Target] = {
     "logs": Target(("ftc_mj/logs/*",), ("tests/logs", *_without(
         "tests/logs/test_ur10.py::test_free_motion_command_writes_table_json_recording",
     ))),
-    "score": Target(("ftc_mj/bench/score.py",), ("tests/bench/test_score.py", "tests/bench/test_score_edges.py")),
+    "score": Target(("ftc_mj/ranking/score.py",), ("tests/ranking/test_score.py", "tests/ranking/test_score_edges.py")),
 }
 
 

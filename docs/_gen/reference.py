@@ -348,28 +348,28 @@ def metrics_page() -> str:
 
 
 def _scenario() -> str:
-    from ftc_mj.spec.scenario import ScenarioSpec
+    from ftc_mj.scenario.definition import ScenarioSpec
     return schema_page("Scenario file", "A scenario file (`scenarios/*.yaml`) is one `ScenarioSpec`; unknown "
                        "keys are errors. Generated from the pydantic models; how to write one: "
                        "[write a scenario](../tutorials/scenario.md).", ScenarioSpec)
 
 
 def _campaign() -> str:
-    from ftc_mj.campaign.spec import CampaignSpec
+    from ftc_mj.campaign.schema import CampaignSpec
     return schema_page("Campaign file", "A campaign file (`campaigns/*.yaml`) is one `CampaignSpec`. Generated "
                        "from the pydantic models; how to use one: [campaigns and tuning]"
                        "(../tutorials/campaigns.md).", CampaignSpec)
 
 
 def _tuning() -> str:
-    from ftc_mj.tuning.spec import TuningSpec
+    from ftc_mj.tuning.schema import TuningSpec
     return schema_page("Tuning file", "A tuning file (`tuning/*.yaml`) is one `TuningSpec`. Generated from "
                        "the pydantic models; how to use one: [campaigns and tuning](../tutorials/campaigns.md).",
                        TuningSpec)
 
 
 def _bench() -> str:
-    from ftc_mj.bench.spec import BenchSpec
+    from ftc_mj.ranking.entries import BenchSpec
     return schema_page("Benchmark entries file", "The file of entries `ftc-mj bench` takes is one `BenchSpec`. "
                        "Generated from the pydantic models; how to use it: [the benchmark]"
                        "(../tutorials/benchmark.md).", BenchSpec)

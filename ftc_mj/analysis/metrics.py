@@ -158,9 +158,9 @@ def compute_metrics(
     """All metrics of one variant, each an array with one value per joint.
 
     ``fault_onsets`` are all onsets of the scenario (they shape the windows); ``joint_onsets`` the first
-    onset per joint, NaN for healthy joints (:attr:`~ftc_mj.spec.scenario.Scenario.joint_fault_onsets`); without
+    onset per joint, NaN for healthy joints (:attr:`~ftc_mj.scenario.definition.Scenario.joint_fault_onsets`); without
     it every joint counts as faulty from the first onset. ``torque_limits``: per joint the |torque| at which
-    the plant clips the command (inf: none; :attr:`~ftc_mj.spec.scenario.Scenario.torque_limits`).
+    the plant clips the command (inf: none; :attr:`~ftc_mj.scenario.definition.Scenario.torque_limits`).
     """
     n = result.q_true.shape[1]
     joint_onsets = onsets_per_joint(joint_onsets, fault_onsets, n)

@@ -47,8 +47,8 @@ from ftc_mj.config.errors import InputError
 from ftc_mj.engine.members import members_from_overrides
 from ftc_mj.engine.runner import run_batch
 from ftc_mj.results import VariantResult
-from ftc_mj.spec.loading import load_scenario
-from ftc_mj.spec.scenario import MAX_SEED, Scenario
+from ftc_mj.scenario.loading import load_scenario
+from ftc_mj.scenario.definition import MAX_SEED, Scenario
 
 #: Euler-Mascheroni constant: the mean of the standard Gumbel distribution.
 _EULER_GAMMA = 0.5772156649015329

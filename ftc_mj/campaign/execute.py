@@ -36,7 +36,7 @@ import pyarrow.parquet as pq
 from ftc_mj.analysis.diagnosis import detection_statistics
 from ftc_mj.campaign.partition import partition
 from ftc_mj.campaign.population import Run, fingerprint, population, population_size
-from ftc_mj.campaign.spec import CampaignSpec
+from ftc_mj.campaign.schema import CampaignSpec
 from ftc_mj.engine.members import members_from_overrides
 from ftc_mj.results import VariantResult
 from ftc_mj.engine.runner import run_batch
@@ -44,8 +44,8 @@ from ftc_mj.config.errors import InputError
 from ftc_mj.config.paths import input_file_problem
 from ftc_mj.outputs.files import parquet_bytes, write_atomic
 from ftc_mj.outputs.palette import declared_colours
-from ftc_mj.spec.loading import UnknownVariant, load_scenario
-from ftc_mj.spec.scenario import MAX_SEED, MEMORY_SHARE, Scenario, machine_memory, series_bytes
+from ftc_mj.scenario.loading import UnknownVariant, load_scenario
+from ftc_mj.scenario.definition import MAX_SEED, MEMORY_SHARE, Scenario, machine_memory, series_bytes
 
 #: Memory for the series of one batch in a worker of a Dask cluster [bytes], on a machine other than the local
 #: one (the batch engine steps members in chunks that fit).
@@ -107,7 +107,7 @@ def load(path: str | Path, runs: int | None = None, variants: list[str] | None =
     Raises:
         InputError: naming the campaign file and the field (a drawn value that is refused names its run).
     """
-    from ftc_mj.campaign.spec import load_campaign
+    from ftc_mj.campaign.schema import load_campaign
 
     path = Path(path)
     file = str(path)
@@ -396,7 +396,7 @@ def default_workers() -> int:
 
 def worker_memory(workers: int, scheduler: str | None = None) -> int:
     """Memory for the series of one batch in each of ``workers`` workers [bytes]: on the local machine, an equal part
-    of the share of its memory a run may take (:data:`~ftc_mj.spec.scenario.MEMORY_SHARE`); on the cluster at
+    of the share of its memory a run may take (:data:`~ftc_mj.scenario.definition.MEMORY_SHARE`); on the cluster at
     ``scheduler``, :data:`CLUSTER_WORKER_MEMORY`."""
     if scheduler is not None:
         return CLUSTER_WORKER_MEMORY
@@ -636,7 +636,7 @@ def _json_default(value: Any) -> Any:
 def find_run(directory: Path, run_id: str) -> tuple[dict[str, Any], Run]:
     """The campaign summary of a results directory and its run ``run_id``, rebuilt from the campaign as
     resolved when it ran (the campaign file may have changed since)."""
-    from ftc_mj.campaign.spec import CampaignSpec
+    from ftc_mj.campaign.schema import CampaignSpec
 
     info = directory / "campaign.json"
     if not info.is_file():

@@ -23,9 +23,9 @@ from typing import Any
 
 import numpy as np
 
-from ftc_mj.campaign.spec import CampaignSpec, CaseSpec
+from ftc_mj.campaign.schema import CampaignSpec, CaseSpec
 from ftc_mj.engine.batching import batchable
-from ftc_mj.spec.scenario import Scenario
+from ftc_mj.scenario.definition import Scenario
 
 
 @dataclass(frozen=True)

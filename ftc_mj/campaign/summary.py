@@ -26,7 +26,7 @@ import pyarrow.parquet as pq
 from ftc_mj.analysis.diagnosis import scale_tag
 from ftc_mj.analysis.metrics import unit
 from ftc_mj.campaign import statistics as st
-from ftc_mj.campaign.spec import CampaignSpec
+from ftc_mj.campaign.schema import CampaignSpec
 from ftc_mj.config.errors import InputError
 from ftc_mj.outputs.files import write_atomic
 from ftc_mj.outputs.palette import CAMPAIGN_LINE_STYLES, assign_colours

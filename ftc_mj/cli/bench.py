@@ -1,7 +1,7 @@
-"""The benchmark: ``ftc-mj bench [BENCH.yaml] [--tier quick|full] [--out DIR]`` (also ``python -m ftc_mj.bench``).
+"""The benchmark: ``ftc-mj bench [BENCH.yaml] [--tier quick|full] [--out DIR]`` (also ``python -m ftc_mj.ranking``).
 
 Scores every entry of the bench file (default: every built-in observer and pair,
-``ftc_mj/bench/suites/v1-entries.yaml``) on its suite, simulating only what ``DIR`` does not hold yet (an
+``ftc_mj/ranking/suites/v1-entries.yaml``) on its suite, simulating only what ``DIR`` does not hold yet (an
 entry already scored under the same protocol is not simulated again), and writes the leaderboard into
 ``DIR`` (default ``results/bench/<suite>-<tier>/``): ``leaderboard.md``, ``.csv``, ``.parquet``, figures and
 ``bench.json``.
@@ -54,8 +54,8 @@ def main(argv: Sequence[str] | None = None, prog: str = PROG) -> int:
     from ftc_mj.config.errors import InputError
 
     try:
-        from ftc_mj.bench import execute, leaderboard
-        from ftc_mj.bench.spec import load_bench
+        from ftc_mj.ranking import execute, leaderboard
+        from ftc_mj.ranking.entries import load_bench
 
         if args.workers is not None and args.workers < 1:
             raise InputError("command line", "--workers", f"must be at least 1, not {args.workers}")

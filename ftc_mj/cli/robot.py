@@ -22,7 +22,7 @@ from ftc_mj.cli.parser import ArgumentParser
 
 if TYPE_CHECKING:
     from ftc_mj.robot.check import RobotCheck
-    from ftc_mj.spec.scenario import Scenario
+    from ftc_mj.scenario.definition import Scenario
 
 PROG = "ftc-mj robot"
 #: At most this many reference samples go through the inverse dynamics.
@@ -58,7 +58,7 @@ def _check(target: str, overrides: Sequence[str]):
     from ftc_mj.robot.check import check_robot
 
     if target.endswith((".yaml", ".yml")):
-        from ftc_mj.spec.loading import load_scenario
+        from ftc_mj.scenario.loading import load_scenario
 
         return scenario_check(load_scenario(Path(target), overrides=list(overrides)))
     if overrides:

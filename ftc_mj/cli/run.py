@@ -31,7 +31,7 @@ if TYPE_CHECKING:
     from ftc_mj.engine.loop import ChunkCallback
     from ftc_mj.outputs.live import LiveRecording
     from ftc_mj.results import VariantResult
-    from ftc_mj.spec.scenario import Scenario
+    from ftc_mj.scenario.definition import Scenario
 
 PROG = "ftc-mj run"
 #: Rerun's default viewer address (``rerun`` listens there).
@@ -259,7 +259,7 @@ def main(argv: Sequence[str] | None = None, prog: str = PROG) -> int:
 
     from ftc_mj.config.errors import InputError
     from ftc_mj.outputs.files import check_output, write_atomic
-    from ftc_mj.spec.loading import load_scenario
+    from ftc_mj.scenario.loading import load_scenario
 
     file = str(args.scenario)
     try:

@@ -4,7 +4,7 @@ functions that compile them once the robot is known (per-joint arrays, joint ind
 raising :class:`~ftc_mj.config.errors.InputError` with the field's path.
 
 Each section's pydantic model and its compile function live in the module of its concept;
-:mod:`ftc_mj.spec.scenario` assembles them. Unions over a ``kind`` or ``shape`` key are discriminated with
+:mod:`ftc_mj.scenario.definition` assembles them. Unions over a ``kind`` or ``shape`` key are discriminated with
 tags written ``"<key>-<value>"``: :func:`ftc_mj.config.errors.validation_error` drops such tags from the field
 path it reports.
 """

@@ -54,7 +54,7 @@ from ftc_mj.engine.truths import Truths
 from ftc_mj.methods.controllers.base import Controller
 from ftc_mj.methods.observers.base import Observer
 from ftc_mj.robot.nominal import NEEDS, NominalBatch, SparseSolver, StepModel, at_rest, nominal_batch
-from ftc_mj.spec.scenario import Scenario
+from ftc_mj.scenario.definition import Scenario
 
 ProgressCallback = Callable[[int], None]
 #: Called every :data:`PROGRESS_EVERY` periods with the number of samples written so far (``stop``: samples

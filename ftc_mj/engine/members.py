@@ -13,7 +13,7 @@ axis first:
   ``mujoco.batch``'s per-simulation model fields);
 * every method's gains, per variant and monitor.
 
-Every member starts from the compiled scenario's values (its :class:`~ftc_mj.spec.scenario.Variant` configs,
+Every member starts from the compiled scenario's values (its :class:`~ftc_mj.scenario.definition.Variant` configs,
 q0, qd0, parameters, mass scales); nothing is compiled again. :func:`members_from_overrides` changes them by
 dotted paths, as ``--set`` takes them (``{"variants.proposed.controller.gains.mu": 2.0,
 "parameters.fault_scale": 0.5}``); each override is validated against the section it changes, as compiling
@@ -40,7 +40,7 @@ from ftc_mj.engine.batching import MemberField, member_field, stack, stack_selec
 from ftc_mj.methods.gains import GainConfig
 from ftc_mj.robot.model import PlantSpec
 from ftc_mj.robot.nominal import NominalSpec
-from ftc_mj.spec.scenario import (InitialState, ObserverInitial, Scenario, ScenarioSpec, joint_values,
+from ftc_mj.scenario.definition import (InitialState, ObserverInitial, Scenario, ScenarioSpec, joint_values,
                                   observer_estimates, rate_parameter_problem)
 
 

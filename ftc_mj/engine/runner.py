@@ -28,7 +28,7 @@ from ftc_mj.analysis.metrics import RecordedSeries, compute_metrics, onsets_per_
 from ftc_mj.engine.loop import BatchRun, ChunkCallback, ProgressCallback, simulate
 from ftc_mj.engine.members import Members, single
 from ftc_mj.results import VariantResult
-from ftc_mj.spec.scenario import Scenario, Variant, series_bytes
+from ftc_mj.scenario.definition import Scenario, Variant, series_bytes
 
 #: From this many rows (members x variants) a chunk on two or more threads is run as two interleaved halves
 #: (:func:`_interleaved`); below it the Python of the two halves would contend for the GIL more than their
@@ -60,7 +60,7 @@ def run_scenario(
     series and diagnosis, in the scenario's order; each variant's monitors follow it (``<variant>.<monitor>``).
 
     Args:
-        scenario: a compiled scenario (:func:`ftc_mj.spec.loading.load_scenario`).
+        scenario: a compiled scenario (:func:`ftc_mj.scenario.loading.load_scenario`).
         record_poses: keep the body poses of the first variant, for the recording's 3-D view.
         progress: progress display, e.g. the command line's bar; None: none.
         nthread: threads of the physics batches (0: as many as cores and rows allow).

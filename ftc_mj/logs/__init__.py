@@ -1,4 +1,4 @@
-"""Recorded robot logs as the plant of a run: the scenario's ``log`` section (:mod:`~ftc_mj.logs.spec`), the
+"""Recorded robot logs as the plant of a run: the scenario's ``log`` section (:mod:`~ftc_mj.logs.schema`), the
 readers of CSV, rosbag2 and MCAP files (:mod:`~ftc_mj.logs.readers`), the compiled trajectory on the observers'
 grid (:mod:`~ftc_mj.logs.trajectory`), the controller that is the log's torque (:mod:`~ftc_mj.logs.controller`)
 and the export of a simulated run as a log (:mod:`~ftc_mj.logs.export`).

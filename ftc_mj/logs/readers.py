@@ -18,7 +18,7 @@ from pathlib import Path
 import numpy as np
 
 from ftc_mj.config.errors import InputError
-from ftc_mj.logs.spec import ColumnRef, ColumnsSpec
+from ftc_mj.logs.schema import ColumnRef, ColumnsSpec
 
 #: The largest log read [bytes] (a bag folder: all its files).
 MAX_LOG_BYTES = 512 * 2**20

@@ -1,6 +1,6 @@
 """A log compiled for a run (:class:`Log`): its signals checked, scaled, in the robot's joint order and on
 the observers' grid (:func:`compile_log`, the ``log`` section's compile function; the section's fields and what
-resampling does: :mod:`ftc_mj.logs.spec`)."""
+resampling does: :mod:`ftc_mj.logs.schema`)."""
 
 from __future__ import annotations
 
@@ -13,7 +13,7 @@ import numpy as np
 from ftc_mj.config.errors import InputError
 from ftc_mj.config.types import per_joint
 from ftc_mj.logs.readers import SIGNALS, Recording, read_csv, read_joint_states
-from ftc_mj.logs.spec import LogSpec
+from ftc_mj.logs.schema import LogSpec
 
 
 @dataclass
@@ -101,7 +101,7 @@ def compile_log(spec: LogSpec, scenario_path: Path, robot_joints: list[str], dur
     if steps < 2:
         raise InputError(file, "log.steps.resample", f"the log spans {relative[-1]:g} s: less than two periods "
                          f"of {dt:g} s")
-    grid = np.arange(steps) * dt  # the run's time grid (ftc_mj.spec.scenario.time_grid)
+    grid = np.arange(steps) * dt  # the run's time grid (ftc_mj.scenario.definition.time_grid)
     differences = np.diff(times)
     return Log(path, grid, resample(grid, relative, signal("position")), _maybe(grid, relative, signal("velocity")),
                resample(grid, relative, signal("torque")), dt, float(times[0]),

@@ -23,7 +23,7 @@ from ftc_mj.config.errors import InputError
 from ftc_mj.config.types import FiniteFloat, JointSelection, NonNegativeFloat, Strict, joint_indices
 from ftc_mj.outputs.palette import assign_colours
 
-#: The scenario's validated spec (:class:`ftc_mj.spec.scenario.ScenarioSpec`, which assembles this module's
+#: The scenario's validated spec (:class:`ftc_mj.scenario.definition.ScenarioSpec`, which assembles this module's
 #: section): read for its variants, terms, metrics and diagnosis. Not imported, since the scenario is above.
 ScenarioSpec = Any
 

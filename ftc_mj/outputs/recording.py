@@ -131,7 +131,7 @@ def write_recording(
 ) -> None:
     """Write all ``results`` of ``scenario`` into one ``.rrd`` at ``path``, atomically.
 
-    ``figures`` (a scenario's, :attr:`ftc_mj.spec.scenario.Scenario.figures`) lay out the viewer and are stored
+    ``figures`` (a scenario's, :attr:`ftc_mj.scenario.definition.Scenario.figures`) lay out the viewer and are stored
     for ``ftc-mj figures``; without them, one figure per core quantity. ``colours`` (a scenario's,
     :func:`ftc_mj.outputs.palette.declared_colours`) colour the variants, the same whichever of them ran;
     without them, the palette's order over ``results``. ``sinks`` (``rr.GrpcSink``, ``rr.GrpcServerSink``: a

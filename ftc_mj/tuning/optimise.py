@@ -30,13 +30,13 @@ from cmaes import CMA
 
 from ftc_mj.campaign import execute
 from ftc_mj.campaign.population import Run, digest
-from ftc_mj.campaign.spec import load_campaign
+from ftc_mj.campaign.schema import load_campaign
 from ftc_mj.campaign.population import population_size
 from ftc_mj.engine.members import members_from_overrides
 from ftc_mj.config.errors import InputError
 from ftc_mj.outputs.files import parquet_bytes, write_atomic
-from ftc_mj.tuning.spec import TuningSpec, load_tuning
-from ftc_mj.spec.loading import UnknownVariant
+from ftc_mj.tuning.schema import TuningSpec, load_tuning
+from ftc_mj.scenario.loading import UnknownVariant
 
 #: A diverged condition's cost, as a multiple of the scenario's gains' cost (sum of the weights).
 DIVERGED_COST = 10.0
@@ -74,7 +74,7 @@ def prepare(path: Path, generations: int | None = None, fields: dict[str, Any] |
     """Read the tuning file and its campaign, pick the training and held-out conditions, and check that the
     gains exist, that the scenario's own lie within the bounds, and that the bounds' corners are valid gains.
 
-    ``fields`` override the tuning file's (:func:`~ftc_mj.tuning.spec.load_tuning`), ``assignments`` (scenario
+    ``fields`` override the tuning file's (:func:`~ftc_mj.tuning.schema.load_tuning`), ``assignments`` (scenario
     field -> value) join the campaign's ``set``: the command line's smoke-test options.
 
     Raises:

@@ -25,7 +25,7 @@ from ftc_mj.analysis.metrics import compute_metrics
 from ftc_mj.outputs.recording import read_series
 from ftc_mj.run import main
 from ftc_mj.config.expressions import StateFunction, parse, state_variables
-from ftc_mj.spec.loading import load_scenario
+from ftc_mj.scenario.loading import load_scenario
 
 DT = 1e-3
 T = np.arange(10000) * DT  # 10 s

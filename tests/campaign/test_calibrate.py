@@ -20,7 +20,7 @@ from ftc_mj.cli.main import main
 from ftc_mj.engine.members import members_from_overrides
 from ftc_mj.engine.runner import run_batch, run_scenario
 from ftc_mj.analysis.metrics import compute_metrics
-from ftc_mj.spec.loading import load_scenario
+from ftc_mj.scenario.loading import load_scenario
 
 ROOT = Path(__file__).resolve().parents[2]
 BIAS = ROOT / "scenarios" / "faults" / "puma_bias.yaml"

@@ -3,7 +3,7 @@
 from __future__ import annotations
 
 from ftc_mj.campaign.population import population
-from ftc_mj.campaign.spec import CampaignSpec
+from ftc_mj.campaign.schema import CampaignSpec
 
 
 def spec(**changes) -> CampaignSpec:

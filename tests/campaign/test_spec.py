@@ -7,7 +7,7 @@ import pytest
 
 import small_campaign
 from ftc_mj.cli.campaign import main
-from ftc_mj.campaign.spec import Distribution
+from ftc_mj.campaign.schema import Distribution
 
 SAMPLES = small_campaign.campaign()["samples"]
 

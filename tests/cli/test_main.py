@@ -78,14 +78,14 @@ def test_help_loads_no_engine():
             "for command in sys.argv[1:]:\n"
             "    with contextlib.redirect_stdout(io.StringIO()):\n"
             "        try:\n            main([command, '--help'])\n        except SystemExit:\n            pass\n"
-            "    loaded[command] = sorted(m for m in ('mujoco', 'rerun', 'ftc_mj.engine', 'ftc_mj.spec', 'numpy',"
+            "    loaded[command] = sorted(m for m in ('mujoco', 'rerun', 'ftc_mj.engine', 'ftc_mj.scenario', 'numpy',"
             " 'matplotlib') if m in sys.modules)\nprint(json.dumps(loaded))")
     light = [c for c in COMMANDS if c != "figures"]
     done = python("-c", code, *light, "figures")
     assert done.returncode == 0, done.stderr
     loaded = json.loads(done.stdout)
     assert all(loaded[c] == [] for c in light), loaded
-    assert not {"rerun", "ftc_mj.engine", "ftc_mj.spec"} & set(loaded["figures"]), loaded
+    assert not {"rerun", "ftc_mj.engine", "ftc_mj.scenario"} & set(loaded["figures"]), loaded
 
 
 def test_a_short_run_through_the_dispatcher(capsys):

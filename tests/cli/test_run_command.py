@@ -462,7 +462,7 @@ def test_regression_runtime_math_error_in_a_term_is_not_a_traceback(tmp_path, mo
 
 
 def test_regression_division_by_zero_in_an_expression_is_an_input_error(tmp_path, monkeypatch, capsys):
-    """Was a bug (ftc_mj/spec/expressions.py, parse): "1/0" raised ZeroDivisionError from SymPy, which was not
+    """Was a bug (ftc_mj/scenario/expressions.py, parse): "1/0" raised ZeroDivisionError from SymPy, which was not
     turned into an InputError: the command line printed a traceback instead of one line."""
     outcome = run_bug_case("division_by_zero_in_reference", tmp_path, monkeypatch, capsys)
     check_bad_input(BUGS["division_by_zero_in_reference"], outcome)

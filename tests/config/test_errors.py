@@ -9,7 +9,7 @@ import pytest
 import yaml
 
 from ftc_mj.config.errors import InputError
-from ftc_mj.spec.loading import load_scenario
+from ftc_mj.scenario.loading import load_scenario
 
 ROOT = Path(__file__).resolve().parents[2]
 BASE = ROOT / "scenarios" / "puma_fault.yaml"

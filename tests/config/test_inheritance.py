@@ -11,7 +11,7 @@ import yaml
 
 from ftc_mj.config.errors import InputError
 from ftc_mj.config.inheritance import MAX_DEPTH, Provenance, merge, resolve_bases
-from ftc_mj.spec.loading import load_scenario
+from ftc_mj.scenario.loading import load_scenario
 
 ROOT = Path(__file__).resolve().parents[2]
 PUMA_YAML = ROOT / "scenarios" / "puma_fault.yaml"

@@ -41,7 +41,7 @@ def test_generated_reference_follows_the_code(site: Path) -> None:
     from ftc_mj.cli.main import COMMANDS
     from ftc_mj.methods.controllers import BUILTIN as CONTROLLERS
     from ftc_mj.methods.observers import BUILTIN as OBSERVERS
-    from ftc_mj.spec.scenario import ScenarioSpec
+    from ftc_mj.scenario.definition import ScenarioSpec
 
     scenario = (site / "reference/scenario/index.html").read_text()
     for field in ScenarioSpec.model_fields:

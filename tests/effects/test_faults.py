@@ -16,7 +16,7 @@ from pydantic import TypeAdapter
 from ftc_mj.effects.faults import ActuatorFault, ActuatorFaults, ActuatorFaultSpec, compile_actuator_fault
 from ftc_mj.effects.profiles import Profile
 from ftc_mj.config.errors import InputError
-from ftc_mj.spec.loading import load_scenario
+from ftc_mj.scenario.loading import load_scenario
 
 N, NJ, DT = 1000, 3, 1e-3
 T = np.arange(N) * DT

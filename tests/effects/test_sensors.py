@@ -17,7 +17,7 @@ from ftc_mj.config.errors import InputError
 from ftc_mj.effects import randomness
 from ftc_mj.effects.sensors import Channel, ChannelSpec, EncoderSpec, Measurement, compile_channel
 from ftc_mj.engine.runner import simulate_variant
-from ftc_mj.spec.loading import load_scenario
+from ftc_mj.scenario.loading import load_scenario
 
 N, NJ, DT = 2000, 3, 1e-3
 T = np.arange(N) * DT

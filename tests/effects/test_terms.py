@@ -16,7 +16,7 @@ from ftc_mj.config.errors import InputError
 from ftc_mj.config.expressions import SCALAR_ROWS
 from ftc_mj.effects.terms import PlantTerms, TermSpec, active_term_sets, compile_terms
 from ftc_mj.engine.runner import simulate_variant
-from ftc_mj.spec.loading import load_scenario
+from ftc_mj.scenario.loading import load_scenario
 
 ROOT = Path(__file__).resolve().parents[2]
 NJ = 3

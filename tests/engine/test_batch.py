@@ -17,8 +17,8 @@ from ftc_mj.engine.loop import quiet_warnings, simulate
 from ftc_mj.engine.members import Members, members_from_overrides, replicates
 from ftc_mj.engine.runner import run_batch, variant_result
 from ftc_mj.config.errors import InputError
-from ftc_mj.spec.loading import load_scenario
-from ftc_mj.spec.scenario import Scenario
+from ftc_mj.scenario.loading import load_scenario
+from ftc_mj.scenario.definition import Scenario
 
 ROOT = Path(__file__).resolve().parents[2]
 PUMA = ROOT / "models" / "puma560.xml"

@@ -25,8 +25,8 @@ from ftc_mj.engine.runner import run_scenario
 from ftc_mj.methods import controllers, observers, registry
 from ftc_mj.methods.controllers.nftsmc import NFTSMC
 from ftc_mj.methods.observers.tosmo import HighSpeedTOSMO
-from ftc_mj.spec.loading import load_scenario
-from ftc_mj.spec.scenario import Scenario
+from ftc_mj.scenario.loading import load_scenario
+from ftc_mj.scenario.definition import Scenario
 
 ROOT = Path(__file__).resolve().parents[2]
 PUMA = ROOT / "models" / "puma560.xml"

@@ -16,7 +16,7 @@ from ftc_mj.engine.batching import (FIELD_KINDS, NOT_BATCHABLE, MemberField, bat
                                     stack_select, stack_states)
 from ftc_mj.engine.members import Members, members_from_overrides, replicates, single
 from ftc_mj.methods.controllers.nftsmc import NFTSMCConfig
-from ftc_mj.spec.loading import load_scenario
+from ftc_mj.scenario.loading import load_scenario
 
 ROOT = Path(__file__).resolve().parents[2]
 NFTSMC = {"beta1": 15.0, "beta2": 10.0, "beta3": 10.0, "beta4": 5.0, "gamma1": 0.5, "bound": 0.5, "mu": 0.5}

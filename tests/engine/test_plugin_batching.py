@@ -20,7 +20,7 @@ from ftc_mj.methods import observers, registry
 from ftc_mj.methods.gains import Exponent, GainConfig, PositiveFloat, PositiveJoints
 from ftc_mj.methods.observers.base import Observer
 from ftc_mj.methods.primitives import exp, signed_power
-from ftc_mj.spec.loading import load_scenario
+from ftc_mj.scenario.loading import load_scenario
 
 ROOT = Path(__file__).resolve().parents[2]
 

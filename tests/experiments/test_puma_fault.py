@@ -17,7 +17,7 @@ import pytest
 from ftc_mj.engine.runner import simulate_variant
 from ftc_mj.outputs.recording import read_series
 from ftc_mj.run import main
-from ftc_mj.spec.loading import load_scenario
+from ftc_mj.scenario.loading import load_scenario
 
 ROOT = Path(__file__).resolve().parents[2]
 SCENARIO = ROOT / "scenarios" / "puma_fault.yaml"

@@ -11,7 +11,7 @@ import pytest
 from log_files import joint_state, write_mcap
 
 from ftc_mj.config.errors import InputError
-from ftc_mj.logs.spec import LogSpec
+from ftc_mj.logs.schema import LogSpec
 from ftc_mj.logs.trajectory import compile_log
 
 ROBOT = ["joint1", "joint2"]

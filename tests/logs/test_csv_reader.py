@@ -14,7 +14,7 @@ from ftc_mj.config.errors import InputError
 from ftc_mj.logs import readers
 from ftc_mj.logs.export import csv_bytes
 from ftc_mj.logs.readers import read_csv
-from ftc_mj.logs.spec import ColumnsSpec
+from ftc_mj.logs.schema import ColumnsSpec
 
 COLUMNS = ColumnsSpec(time="t", position=["q1", "q2"], torque=["i1", "i2"])
 HEADER = "t,q1,q2,i1,i2"
@@ -98,7 +98,7 @@ def test_a_utf8_log_reads_alike_under_an_ascii_locale(tmp_path):
 
     path = _file(tmp_path, "t,q\u00e91,q2,i1,i2\n0,1,2,3,4\n0.1,5,6,7,8\n")
     code = ("import sys; from pathlib import Path; from ftc_mj.logs.readers import read_csv; "
-            "from ftc_mj.logs.spec import ColumnsSpec; "
+            "from ftc_mj.logs.schema import ColumnsSpec; "
             "columns = ColumnsSpec(time='t', position=['q\\u00e91', 'q2'], torque=['i1', 'i2']); "
             "print(read_csv(Path(sys.argv[1]), columns, ',').position.tolist())")
     env = {**os.environ, "LC_ALL": "C", "PYTHONCOERCECLOCALE": "0", "PYTHONIOENCODING": "ascii"}
@@ -130,7 +130,7 @@ def test_a_log_of_exactly_the_largest_size_is_read(tmp_path, monkeypatch):
 
 
 def _compile(path: Path, columns: dict):
-    from ftc_mj.logs.spec import LogSpec
+    from ftc_mj.logs.schema import LogSpec
     from ftc_mj.logs.trajectory import compile_log
 
     spec = LogSpec.model_validate({"file": str(path), "format": "csv", "columns": columns,

@@ -13,7 +13,7 @@ from ftc_mj import load_scenario, run_scenario
 from ftc_mj.cli.run import main
 from ftc_mj.logs.export import csv_log_section, variant_path
 from ftc_mj.logs.trajectory import joint_names
-from ftc_mj.spec.scenario import SIMULATION_ONLY
+from ftc_mj.scenario.definition import SIMULATION_ONLY
 
 ROOT = Path(__file__).resolve().parents[2]
 

@@ -14,7 +14,7 @@ from log_files import JOINT_STATE, joint_state, write_bag, write_mcap
 from ftc_mj.config.errors import InputError
 from ftc_mj.logs import readers
 from ftc_mj.logs.readers import read_joint_states
-from ftc_mj.logs.spec import LogSpec
+from ftc_mj.logs.schema import LogSpec
 from ftc_mj.logs.trajectory import compile_log
 
 pytest.importorskip("rosbags")

@@ -25,7 +25,7 @@ from ftc_mj.methods.gains import GainConfig, PositiveFloat
 from ftc_mj.methods.observers.base import Observer
 from ftc_mj.methods.observers.tosmo import TOSMO
 from ftc_mj.config.errors import InputError
-from ftc_mj.spec.loading import load_scenario
+from ftc_mj.scenario.loading import load_scenario
 
 ROOT = Path(__file__).resolve().parents[2]
 TWO_LINK = ROOT / "models" / "two_link.xml"

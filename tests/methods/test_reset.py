@@ -11,7 +11,7 @@ import numpy as np
 import pytest
 
 from ftc_mj.methods.observers.base import Observer
-from ftc_mj.spec.loading import load_scenario
+from ftc_mj.scenario.loading import load_scenario
 
 ROOT = Path(__file__).resolve().parents[2]
 #: Between them, every built-in observer and controller.

@@ -9,7 +9,7 @@ import pytest
 
 from ftc_mj.methods.plugin import Method
 from ftc_mj.methods.registry import controller_types, observer_types
-from ftc_mj.spec.loading import load_scenario
+from ftc_mj.scenario.loading import load_scenario
 
 ROOT = Path(__file__).resolve().parents[2]
 #: Between them, every built-in observer and controller.

@@ -10,7 +10,7 @@ import yaml
 
 from ftc_mj.outputs.layout import Layout, data_range, variant_styles
 from ftc_mj.config.errors import InputError
-from ftc_mj.spec.loading import load_scenario
+from ftc_mj.scenario.loading import load_scenario
 
 SCENARIO = Path(__file__).parents[2] / "scenarios" / "puma_fault.yaml"
 

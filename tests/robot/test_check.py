@@ -11,7 +11,7 @@ import numpy as np
 import pytest
 
 from ftc_mj.robot.check import SAMPLING_MARGIN, check_robot
-from ftc_mj.spec.loading import load_scenario
+from ftc_mj.scenario.loading import load_scenario
 
 ROOT = Path(__file__).resolve().parents[2]
 SHIPPED = sorted(str(p.relative_to(ROOT)) for p in (ROOT / "scenarios").rglob("*.yaml") if "bases" not in p.parts)

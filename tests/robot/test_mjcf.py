@@ -25,7 +25,7 @@ from ftc_mj.robot import mjcf
 from ftc_mj.robot.nominal import nominal_batch
 from ftc_mj.run import main
 from ftc_mj.config.errors import InputError
-from ftc_mj.spec.loading import load_scenario
+from ftc_mj.scenario.loading import load_scenario
 
 ROOT = Path(__file__).resolve().parents[2]
 MODELS = ROOT / "models"

@@ -35,7 +35,7 @@ from ftc_mj.engine.runner import simulate_variant
 from ftc_mj.robot.urdf import load_model, read_urdf, resolve_mesh
 from ftc_mj.run import main
 from ftc_mj.config.errors import InputError
-from ftc_mj.spec.loading import load_scenario
+from ftc_mj.scenario.loading import load_scenario
 
 ROOT = Path(__file__).resolve().parents[2]
 MODELS = ROOT / "models"

@@ -24,7 +24,7 @@ import yaml
 
 from ftc_mj.config.errors import InputError
 from ftc_mj.robot import urdf
-from ftc_mj.spec.loading import load_scenario
+from ftc_mj.scenario.loading import load_scenario
 
 ROOT = Path(__file__).resolve().parents[2]
 UR5E_XML = ROOT / "models" / "ur5e.xml"

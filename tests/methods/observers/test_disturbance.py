@@ -20,7 +20,7 @@ from double_integrator import DT, SLOW, FakeStepModel, simulate
 
 from ftc_mj.methods.observers import DisturbanceObserver
 from ftc_mj.config.errors import InputError
-from ftc_mj.spec.loading import load_scenario
+from ftc_mj.scenario.loading import load_scenario
 
 GAINS = {"k1": 8.0, "k2": 18.0, "p1": 10.0, "p2": 10.0}  # Table 2.2
 ROOT = Path(__file__).resolve().parents[3]

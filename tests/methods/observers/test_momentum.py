@@ -24,7 +24,7 @@ from ftc_mj.engine.members import members_from_overrides
 from ftc_mj.engine.runner import variant_result
 from ftc_mj.methods.observers import BUILTIN, LevantMomentumObserver, MomentumObserver
 from ftc_mj.robot.nominal import NEEDS
-from ftc_mj.spec.loading import load_scenario
+from ftc_mj.scenario.loading import load_scenario
 
 PUMA = Path(__file__).resolve().parents[3] / "models" / "puma560.xml"
 DT = 1e-3

@@ -7,7 +7,7 @@ import copy
 
 import pytest
 
-from ftc_mj.bench.spec import load_bench
+from ftc_mj.ranking.entries import load_bench
 from ftc_mj.cli.bench import main
 import tiny_suite
 

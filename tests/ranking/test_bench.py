@@ -13,8 +13,8 @@ import pyarrow.parquet as pq
 import pytest
 
 import tiny_suite
-from ftc_mj.bench import execute
-from ftc_mj.bench.spec import load_bench
+from ftc_mj.ranking import execute
+from ftc_mj.ranking.entries import load_bench
 from ftc_mj.cli.bench import main
 from ftc_mj.methods import observers, registry
 from ftc_mj.methods.gains import GainConfig, PositiveJoints

@@ -1,6 +1,6 @@
 """Reading a scenario file: :func:`load_scenario`, which reads a scenario and its bases
 (:mod:`ftc_mj.config.inheritance`), applies the overrides, validates
-(:class:`~ftc_mj.spec.scenario.ScenarioSpec`) and compiles (:func:`~ftc_mj.spec.scenario.compile_scenario`).
+(:class:`~ftc_mj.scenario.definition.ScenarioSpec`) and compiles (:func:`~ftc_mj.scenario.definition.compile_scenario`).
 
 A scenario is untrusted input. It is read with a ``yaml.SafeLoader``, checked against a strict pydantic schema
 (unknown keys are errors), its expressions are parsed by :mod:`ftc_mj.config.expressions` (never evaluated as
@@ -18,7 +18,7 @@ from typing import Any
 from ftc_mj.config.errors import InputError, validate
 from ftc_mj.config.inheritance import resolve_bases
 from ftc_mj.config.yaml import apply_override, set_path, unshared
-from ftc_mj.spec.scenario import Scenario, ScenarioSpec, compile_scenario
+from ftc_mj.scenario.definition import Scenario, ScenarioSpec, compile_scenario
 
 #: The scenario fields that hold a path relative to the scenario file (:func:`ftc_mj.robot.model.load_robot`):
 #: written in a base in another folder, they are rewritten to keep naming the same file.

@@ -1,4 +1,4 @@
-"""The benchmark's scores at their bounds (ftc_mj.bench.score): a run is detected or alarmed when its held
+"""The benchmark's scores at their bounds (ftc_mj.ranking.score): a run is detected or alarmed when its held
 level z exceeds the threshold, z > 1, not at z = 1 exactly, as the diagnoser's own comparison (residual >
 threshold) decides; healthy runs never armed count for no false-alarm rate; the ROC's first point and diverged
 runs; the bootstrap intervals step by step."""
@@ -8,7 +8,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from ftc_mj.bench import score as sc
+from ftc_mj.ranking import score as sc
 from ftc_mj.campaign import statistics as st
 
 

@@ -31,8 +31,8 @@ from typing import Any
 import pyarrow as pa
 import yaml
 
-from ftc_mj.bench.spec import Bench, Entry
-from ftc_mj.bench.suite import POPULATIONS, REFERENCE, TASKS
+from ftc_mj.ranking.entries import Bench, Entry
+from ftc_mj.ranking.suite import POPULATIONS, REFERENCE, TASKS
 from ftc_mj.campaign import execute as campaign_execute
 from ftc_mj.campaign.population import digest
 from ftc_mj.outputs.files import parquet_bytes, write_atomic

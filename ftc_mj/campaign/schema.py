@@ -38,7 +38,7 @@ from ftc_mj.analysis.metrics import METRICS
 from ftc_mj.config.errors import InputError, validate
 from ftc_mj.config.yaml import read_yaml_mapping
 from ftc_mj.config.types import FiniteFloat, PositiveFloat, Strict
-from ftc_mj.spec.scenario import MAX_SEED
+from ftc_mj.scenario.definition import MAX_SEED
 
 PositiveInt = Annotated[StrictInt, Field(gt=0)]
 NonNegativeInt = Annotated[StrictInt, Field(ge=0)]

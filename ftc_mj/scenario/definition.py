@@ -11,10 +11,10 @@ Each section's schema and compile function live beside its concept; this module 
 * ``variants.*.observer`` / ``.controller`` / ``.monitors``: :mod:`ftc_mj.methods.registry`;
 * ``metrics``: :mod:`ftc_mj.analysis.metrics`; ``diagnosis``: :mod:`ftc_mj.analysis.diagnosis`;
 * ``figures``: :mod:`ftc_mj.outputs.layout`;
-* ``log`` (a recorded trajectory instead of the simulated robot): :mod:`ftc_mj.logs.spec`, compiled by
+* ``log`` (a recorded trajectory instead of the simulated robot): :mod:`ftc_mj.logs.schema`, compiled by
   :func:`ftc_mj.logs.trajectory.compile_log`.
 
-Reading a file (YAML, ``--set``) is :mod:`ftc_mj.spec.loading`.
+Reading a file (YAML, ``--set``) is :mod:`ftc_mj.scenario.loading`.
 """
 
 from __future__ import annotations
@@ -50,7 +50,7 @@ from ftc_mj.effects.faults import (
 from ftc_mj.effects.sensors import Channel, SensorsSpec, compile_channel
 from ftc_mj.effects.terms import CompiledTerm, TermSpec, compile_terms, terms_function
 from ftc_mj.logs.controller import LogController
-from ftc_mj.logs.spec import LogSpec
+from ftc_mj.logs.schema import LogSpec
 from ftc_mj.logs.trajectory import Log, compile_log, joint_names
 from ftc_mj.methods.gains import GainConfig
 from ftc_mj.methods.registry import (
@@ -173,7 +173,7 @@ class ScenarioSpec(Strict):
         description="The figures of ``python -m ftc_mj.figures`` and the recording's layout; default: the core quantities.")
     output: str | None = Field(None, description="Recording path, relative to the working directory.")
     log: LogSpec | None = Field(None,
-        description="A recorded trajectory replayed instead of the simulated robot (:mod:`ftc_mj.logs.spec`).")
+        description="A recorded trajectory replayed instead of the simulated robot (:mod:`ftc_mj.logs.schema`).")
 
     @model_validator(mode="after")
     def _figures(self) -> "ScenarioSpec":

@@ -29,7 +29,7 @@ from typing import Annotated, Any, Literal
 from pydantic import Field, StrictBool, StrictInt, StrictStr, field_validator, model_validator
 
 from ftc_mj.analysis.metrics import METRICS
-from ftc_mj.campaign.spec import FieldPath, Name
+from ftc_mj.campaign.schema import FieldPath, Name
 from ftc_mj.engine.batching import batchable
 from ftc_mj.config.errors import InputError, validate
 from ftc_mj.config.yaml import read_yaml_mapping

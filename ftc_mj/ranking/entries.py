@@ -29,7 +29,7 @@ from typing import Annotated, Any, Literal
 
 from pydantic import Field, StrictStr
 
-from ftc_mj.bench.suite import Name, Suite, load_suite
+from ftc_mj.ranking.suite import Name, Suite, load_suite
 from ftc_mj.campaign.population import digest
 from ftc_mj.config.errors import InputError, validate
 from ftc_mj.config.types import Strict
@@ -72,7 +72,7 @@ class PairEntrySpec(Strict):
 
 
 class BenchSpec(Strict):
-    #: The versioned suite the entries are scored on (``ftc_mj/bench/suites/<suite>.yaml``).
+    #: The versioned suite the entries are scored on (``ftc_mj/ranking/suites/<suite>.yaml``).
     suite: StrictStr = "v1"
     #: Free text.
     description: str = ""

@@ -1,2 +1,2 @@
 """Scenario files to a validated, compiled scenario: the top-level schema that assembles every concept's own
-section, its compilation, and :func:`~ftc_mj.spec.loading.load_scenario`."""
+section, its compilation, and :func:`~ftc_mj.scenario.loading.load_scenario`."""

@@ -1,4 +1,4 @@
-"""The leaderboard: every entry's scores per task and robot (:mod:`ftc_mj.bench.score`) from its campaigns'
+"""The leaderboard: every entry's scores per task and robot (:mod:`ftc_mj.ranking.score`) from its campaigns'
 rows, as ``leaderboard.md`` (one table per task and robot, ranked), ``leaderboard.csv`` and
 ``leaderboard.parquet`` (one row per task, robot, entry and score, with its interval), figures (the ROC per
 robot, the ranked scores with their intervals) and ``bench.json`` (the suite's version, the tier, the
@@ -19,9 +19,9 @@ import pyarrow as pa
 import pyarrow.parquet as pq
 from matplotlib.figure import Figure
 
-from ftc_mj.bench import score as sc
-from ftc_mj.bench.execute import Found
-from ftc_mj.bench.spec import Bench
+from ftc_mj.ranking import score as sc
+from ftc_mj.ranking.execute import Found
+from ftc_mj.ranking.entries import Bench
 from ftc_mj.outputs.files import parquet_bytes, write_atomic
 from ftc_mj.outputs.palette import CAMPAIGN_LINE_STYLES, ORDER, assign_colours
 
@@ -136,7 +136,7 @@ def markdown(bench: Bench, tier: str, rows: list[dict[str, Any]], info: dict[str
              f"- {info['simulated_runs']} runs simulated this time ({info['simulated_members']} members) in "
              f"{info['wall_time']:.0f} s on {info['workers']} worker(s); the rest reused", "",
              "Scores with 95% intervals (Wilson for proportions, bootstrap otherwise), ranked by the AUC for "
-             "diagnosis and by the faulty runs' RMS error for tracking. Definitions: `ftc_mj/bench/score.py`.", ""]
+             "diagnosis and by the faulty runs' RMS error for tracking. Definitions: `ftc_mj/ranking/score.py`.", ""]
     for task in ("diagnosis", "tracking"):
         entries = {e.name: e for e in bench.of(task)}
         if not entries:

@@ -1,4 +1,4 @@
-"""``python -m ftc_mj.bench``: the command ``ftc-mj bench`` (:mod:`ftc_mj.cli.bench`).
+"""``python -m ftc_mj.ranking``: the command ``ftc-mj bench`` (:mod:`ftc_mj.cli.bench`).
 
 A script only (nothing imports it): it reaches the command line by name, so that the bench package holds no
 import of the layer above it.
@@ -8,4 +8,4 @@ import importlib
 import sys
 
 if __name__ == "__main__":
-    sys.exit(importlib.import_module("ftc_mj.cli.bench").main(prog="python -m ftc_mj.bench"))
+    sys.exit(importlib.import_module("ftc_mj.cli.bench").main(prog="python -m ftc_mj.ranking"))

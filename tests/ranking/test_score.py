@@ -6,7 +6,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from ftc_mj.bench import score as sc
+from ftc_mj.ranking import score as sc
 
 NAN = np.nan
 

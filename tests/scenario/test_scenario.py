@@ -1,4 +1,4 @@
-"""Scenario files (ftc_mj.spec.scenario): the reference scenario compiled, ``--set`` overrides, variant filtering,
+"""Scenario files (ftc_mj.scenario.definition): the reference scenario compiled, ``--set`` overrides, variant filtering,
 Remark 5.3 gains, and invalid files, each rejected with an InputError naming the file and the field path.
 
 Invalid files are written to tmp_path from the reference scenario (scenarios/puma_fault.yaml) with one
@@ -20,7 +20,7 @@ import yaml
 
 from ftc_mj.config.errors import InputError
 from ftc_mj.config.expressions import ExpressionError
-from ftc_mj.spec.loading import load_scenario
+from ftc_mj.scenario.loading import load_scenario
 
 ROOT = Path(__file__).resolve().parents[2]
 PUMA_YAML = ROOT / "scenarios" / "puma_fault.yaml"
