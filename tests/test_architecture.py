@@ -24,7 +24,7 @@ PACKAGE = ROOT / "ftc_mj"
 #: Every part's layer, bottom to top: a part may import its own layer's parts only when no cycle results, and
 #: lower layers freely; never a higher one. A new part must be placed here.
 LAYERS: dict[str, int] = {
-    "config": 0, "results": 0,
+    "config": 0, "results": 0, "fast": 0,
     "robot": 1,
     "effects": 2, "methods": 2,
     "analysis": 3, "logs": 3,

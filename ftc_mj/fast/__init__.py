@@ -1,0 +1,49 @@
+"""Where speed lives: every compiled (Numba) kernel of the package, behind one boundary and one switch.
+
+**The guarantee.** Every function here is an accelerator of a NumPy definition that lives with its concept
+(a method's law in ``ftc_mj.methods``, a metric or a diagnosis step in ``ftc_mj.analysis``, a plant term in
+``ftc_mj.effects``, the rigid-body algorithms' reference in ``ftc_mj.robot``): called on the same inputs it
+returns what the definition returns to the tolerance its conformance test states, and it checks what it
+trusts (dtype, contiguity, shape) at its boundary instead of trusting types. Each accelerator has one
+conformance test against its definition (random and edge-case inputs) in ``tests/fast/``.
+
+**The switch.** ``FTC_MJ_FAST=0`` in the environment (read once, at import), or :func:`set_enabled` (False)
+before a run is built, runs everything on the NumPy definitions: the fast paths are never compiled or called.
+
+This module is the only one that sets Numba's process options: importing it sets ``NUMBA_DISABLE_INTEL_SVML=1``
+(unless already set) before Numba is imported anywhere in the package, so that compiled loops round as the
+scalar C library does (Intel's SVML, where installed, differs in the last bit for some values). A program that
+imports Numba before ftc_mj must set the variable itself.
+"""
+
+from __future__ import annotations
+
+import os
+import sys
+
+os.environ.setdefault("NUMBA_DISABLE_INTEL_SVML", "1")  # before Numba is imported: the module docstring
+
+_enabled = os.environ.get("FTC_MJ_FAST", "1").strip().lower() not in {"0", "false", "no", "off"}
+_announced: set[str] = set()
+
+
+def enabled() -> bool:
+    """Whether the fast paths are used (``FTC_MJ_FAST`` unset or not ``0``; :func:`set_enabled`)."""
+    return _enabled
+
+
+def set_enabled(value: bool) -> None:
+    """Use the fast paths (True) or the NumPy definitions only (False) in what is built from now on."""
+    global _enabled
+    _enabled = bool(value)
+
+
+def announce_compilation(what: str, cold: bool, where: str = "Numba's cache") -> None:
+    """One line on stderr, once per ``what`` and process, when ``what``'s kernels are about to compile
+    (``cold``: the first run on a machine, or after an update), so that the wait is explained and happens once."""
+    if what in _announced:
+        return
+    _announced.add(what)
+    if cold:
+        print(f"compiling {what} (first run on this machine, some seconds; cached in {where})",
+              file=sys.stderr, flush=True)
