@@ -1,14 +1,20 @@
-"""The documentation site builds in strict mode: a broken link, anchor, cross-reference or missing page of
-``mkdocs.yml``'s nav fails the build, and so does a generated reference page that no longer matches the code
-(a metric without a definition)."""
+"""The documentation site builds as the README says (``mkdocs build``, strict mode, nothing hidden): any warning
+fails the test (a broken link, anchor or cross-reference, a page missing from ``mkdocs.yml``'s nav, a generated
+reference page that no longer matches the code), and every relative link of every built page resolves on the
+built site, not only in the source tree.
+
+``--quiet`` is not passed: with mkdocs 1.6 it keeps warnings from reaching strict mode's count, so a site with
+warnings would build; the log is read here as well, so that a warning fails the test whatever mkdocs counts."""
 
 from __future__ import annotations
 
 import os
 import re
+from html.parser import HTMLParser
 import subprocess
 import sys
 from pathlib import Path
+from urllib.parse import unquote, urlsplit
 
 import pytest
 
@@ -23,9 +29,12 @@ pytest.importorskip("mkdocstrings_handlers.python")
 def site(tmp_path_factory: pytest.TempPathFactory) -> Path:
     out = tmp_path_factory.mktemp("site")
     env = {**os.environ, "NO_MKDOCS_2_WARNING": "1", "PYTHONPATH": str(ROOT)}
-    done = subprocess.run([sys.executable, "-m", "mkdocs", "build", "--strict", "--quiet", "--site-dir", str(out)],
+    done = subprocess.run([sys.executable, "-m", "mkdocs", "build", "--strict", "--site-dir", str(out)],
                           cwd=ROOT, env=env, capture_output=True, text=True, timeout=300)
-    assert done.returncode == 0, done.stdout + done.stderr
+    log = done.stdout + done.stderr
+    assert done.returncode == 0, log
+    warnings = [line for line in log.splitlines() if line.startswith(("WARNING", "ERROR"))]
+    assert not warnings, "\n".join(warnings)
     return out
 
 
@@ -87,3 +96,92 @@ def test_the_readme_links_resolve() -> None:
         if anchor:
             headings = re.findall(r"^#+ (.+)$", target.read_text(), re.MULTILINE)
             assert anchor in {_slug(heading) for heading in headings}, link
+
+
+class _Links(HTMLParser):
+    """The ``href``/``src`` targets and the element ids of one HTML page, and Markdown link syntax left as
+    text outside code (a link that did not render, such as ``[text]](page.md)``)."""
+
+    def __init__(self) -> None:
+        super().__init__()
+        self.targets: list[str] = []
+        self.ids: set[str] = set()
+        self.unrendered: list[str] = []
+        self._code = 0
+
+    def handle_endtag(self, tag: str) -> None:
+        if tag in ("code", "pre", "script", "style", "textarea"):
+            self._code = max(0, self._code - 1)
+
+    def handle_data(self, data: str) -> None:
+        if not self._code and re.search(r"\]\(\S+\)", data):
+            self.unrendered.append(data.strip()[:80])
+
+    def handle_starttag(self, tag: str, attrs: list[tuple[str, str | None]]) -> None:
+        if tag in ("code", "pre", "script", "style", "textarea"):
+            self._code += 1
+        for name, value in attrs:
+            if name in ("href", "src") and value:
+                self.targets.append(value)
+            elif name in ("id", "name") and value:
+                self.ids.add(value)
+
+
+def _parse(page: Path) -> _Links:
+    links = _Links()
+    links.feed(page.read_text(encoding="utf-8"))
+    return links
+
+
+def _resolve(site: Path, page: Path, target: str) -> tuple[Path | None, str]:
+    """The built file a relative link of ``page`` names (a folder means its index.html), and its anchor;
+    (None, "") for a link that leaves the site (a scheme, a protocol-relative or an absolute path)."""
+    parts = urlsplit(target)
+    if parts.scheme or parts.netloc or target.startswith(("/", "mailto:", "javascript:")):
+        return None, ""
+    if not parts.path:
+        return page, unquote(parts.fragment)
+    path = (page.parent / unquote(parts.path)).resolve()
+    if path.is_dir() or parts.path.endswith("/"):
+        path = path / "index.html"
+    return path, unquote(parts.fragment)
+
+
+def test_every_relative_link_resolves_on_the_built_site(site: Path) -> None:
+    pages = sorted(site.rglob("*.html"))
+    assert len(pages) > 30
+    parsed = {page: _parse(page) for page in pages}
+    broken, checked = [], 0
+    for page, links in parsed.items():
+        for target in links.targets:
+            path, anchor = _resolve(site, page, target)
+            if path is None:
+                continue
+            checked += 1
+            where = f"{page.relative_to(site)}: {target}"
+            if not path.is_relative_to(site.resolve()) or not path.is_file():
+                broken.append(where)
+            elif anchor and path.suffix == ".html":
+                ids = parsed[path].ids if path in parsed else _parse(path).ids
+                if anchor not in ids:
+                    broken.append(where + " (no such anchor)")
+    assert checked > 500
+    assert not broken, "\n".join(broken[:40])
+    unrendered = [f"{page.relative_to(site)}: {text}" for page, links in parsed.items() for text in links.unrendered]
+    assert not unrendered, "\n".join(unrendered)
+
+
+def test_the_link_check_finds_a_dead_link(tmp_path: Path) -> None:
+    """The check above on a two-page site: a folder link with no index page and a missing anchor are dead."""
+    (tmp_path / "a").mkdir()
+    (tmp_path / "results").mkdir()
+    page = tmp_path / "a" / "index.html"
+    page.write_text('<h1 id="top">a</h1><a href="../results/">x</a><a href="#top">y</a><a href="#nope">z</a>')
+    links = _parse(page)
+    resolved = [_resolve(tmp_path, page.resolve(), t) for t in links.targets]
+    assert not resolved[0][0].is_file()
+    assert resolved[1] == (page.resolve(), "top") and "top" in links.ids
+    assert resolved[2][1] not in links.ids
+    broken = _Links()
+    broken.feed('<p>see [the logs]](../results/real-logs.md)</p><pre><code>x = [a](b)</code></pre>')
+    assert broken.unrendered == ["see [the logs]](../results/real-logs.md)"]
