@@ -90,7 +90,7 @@ def scenario_check(scenario: Scenario) -> RobotCheck:
               for v in scenario.variants if getattr(v.observer_config, "D", None) is not None]
     return check_robot(scenario.model, q0=scenario.q0, reference=reference, reference_times=times,
                        control_dt=scenario.spec.control_dt, observer_rate_bounds=bounds,
-                       mass_scale=scenario.spec.nominal.mass_scale)
+                       mass_scale=scenario.spec.nominal.mass_scale, friction=scenario.spec.nominal.friction)
 
 
 def short_warning(warning: str) -> str:
@@ -119,6 +119,7 @@ def format_report(target: str, report) -> str:
     lines = [f"{target}: {len(report.joints)} joints (units: rad, N m, kg m^2, N m s/rad)"]
     lines += ["  ".join(cell.ljust(w) for cell, w in zip(row, widths)).rstrip() for row in rows]
     lines.append(f"smallest eigenvalue of M(q0): {report.min_eigenvalue:.3g} kg m^2")
+    lines += [f"nominal model: {line}" if not line.startswith("  ") else line for line in report.nominal_terms]
     lines += [f"warning: {w}" for w in report.warnings] or ["no warnings"]
     return "\n".join(lines)
 

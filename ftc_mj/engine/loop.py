@@ -53,6 +53,7 @@ from ftc_mj.engine.series import BatchRun, BlockSeries, Series
 from ftc_mj.engine.truths import Truths
 from ftc_mj.methods.controllers.base import Controller
 from ftc_mj.methods.observers.base import Observer
+from ftc_mj.robot.friction import NominalFriction, nominal_friction
 from ftc_mj.robot.nominal import NEEDS, NominalBatch, SparseSolver, StepModel, at_rest, nominal_batch
 from ftc_mj.scenario.definition import Scenario
 
@@ -255,6 +256,8 @@ class _Run:
     #: None where the plant has no truth (a log).
     truths: Truths | None
     stops: Stops
+    #: The nominal model's joint friction (:mod:`ftc_mj.robot.friction`), or None where it has none.
+    friction: NominalFriction | None = None
 
     @property
     def steps(self) -> int:
@@ -283,6 +286,8 @@ class _Run:
                                 per_row(members.plant_mass_scale), scenario.position_sensor is not None, threads)
         solver = SparseSolver(scenario.model)
         readings = _readings(scenario, members, layout)
+        friction = nominal_friction(scenario.model, spec.nominal.friction, nominal, layout.points,
+                                    readings.qd_meas, layout.point_rows, str(scenario.path))
         tau, command_acceleration = np.zeros((rows, n)), np.zeros((rows, n))
         blocks = []
         for v, (variant, block) in enumerate(zip(variants, layout.blocks)):
@@ -297,6 +302,7 @@ class _Run:
                                  psi_control=None if control is None else nominal.qacc[control],
                                  qd_measured=None if control is None else readings.qd_meas[rows_b],
                                  command=command_acceleration[rows_b],
+                                 friction=None if friction is None else friction.torque[points],
                                  **{name: getattr(nominal, name)[points] for name in quantities})
 
             observer = variant.observer_type(config.observer, n, dt, members=count)
@@ -340,11 +346,12 @@ class _Run:
             truths = Truths.allocate(solver, plant,
                                      per_row(members.nominal_mass_scale) / per_row(members.plant_mass_scale), tau,
                                      rows_series["luaf_true"], rows_series["fault_torque"],
-                                     rows_series["fault_acceleration"])
+                                     rows_series["fault_acceleration"],
+                                     bias=None if friction is None else np.zeros((rows, n)))
         solve_commands = solver.bound(mass.factor, mass.diagonal_inverse, tau, command_acceleration)
         return cls(times, layout, plant, readings, nominal, mass, solver, tau, command_acceleration, solve_commands,
                    blocks, copies, inputs, reference, series, poses, truths,
-                   Stops(np.full(rows, steps), np.full(rows, np.nan)))
+                   Stops(np.full(rows, steps), np.full(rows, np.nan)), friction)
 
     def stop(self, stopped: np.ndarray | None, k: int) -> None:
         """Rows stopped at sample k (a mask, or None): their recording ends before it."""
@@ -380,6 +387,8 @@ class _Run:
         if stops.rows is not None:  # stopped rows may hold NaN or inf: evaluate them at rest instead
             at_rest(nominal, stops.points)  # the Psi points alone
         self.mass.prepare(self.readings.q_meas, stops.rows)
+        if self.friction is not None:  # the nominal joint friction: applied = -F(qd) at every Psi point
+            self.friction.apply()
         nominal.evaluate()
         self.mass.evaluate()
 
@@ -441,6 +450,8 @@ class _Run:
             series["fault_torque"][k] = terms.fault_force
         truths = self.truths
         if truths is not None:  # M(q)^-1 (tau / c - C qd - G) at the sample instant; the fault's M(q)^-1 f
+            if self.friction is not None:  # the nominal friction at the true state: bias + F / c
+                np.add(plant.bias, self.friction.at_true_state(plant.qvel, truths.scale), out=truths.bias)
             truths.record(k, fault_torque and inputs.fault_on[k])
 
     def advance(self, k: int) -> None:

@@ -39,6 +39,9 @@ class Truths:
     force: np.ndarray
     #: c per row, ``(rows, 1)``, or None where c = 1 for every row.
     scale: np.ndarray | None
+    #: C qd + G of the right-hand side: the plant's ``bias`` itself, or a buffer its caller fills each period
+    #: (C qd + G + F / c, with the nominal model's joint friction F, :mod:`ftc_mj.robot.friction`).
+    bias: np.ndarray
     #: The solve of a sample k (:meth:`record`), past Numba's dispatcher, and its arguments after k and the
     #: fault flag.
     _solve: Callable[..., None]
@@ -46,16 +49,19 @@ class Truths:
 
     @classmethod
     def allocate(cls, solver: SparseSolver, plant: Plant, scale: np.ndarray, tau: np.ndarray,
-                 luaf_true: np.ndarray, fault_torque: np.ndarray, fault_acceleration: np.ndarray) -> Truths:
+                 luaf_true: np.ndarray, fault_torque: np.ndarray, fault_acceleration: np.ndarray,
+                 bias: np.ndarray | None = None) -> Truths:
         """For ``plant``'s rows; ``scale``: c of each row, ``(rows,)``; ``tau``: the loop's command buffer; the
         series ``(steps, rows, n)`` the solves go to (the LUaF's, until :meth:`finish`; the fault's
-        acceleration) and the one the fault torque is read from."""
+        acceleration) and the one the fault torque is read from. ``bias``: a ``(rows, n)`` buffer the caller fills
+        with C qd + G plus the nominal friction before each :meth:`record`; None: the plant's C qd + G."""
         force = np.zeros(plant.qpos.shape)
         unit = bool(np.all(scale == 1.0))
         row_scale = np.ascontiguousarray(scale, dtype=float)[:, None]  # not read where every c is 1
-        arguments = (plant.factor, plant.diagonal_inverse, tau, plant.bias, row_scale, not unit, force, luaf_true,
+        bias = plant.bias if bias is None else bias
+        arguments = (plant.factor, plant.diagonal_inverse, tau, bias, row_scale, not unit, force, luaf_true,
                      fault_torque, fault_acceleration, *solver.structure)
-        return cls(force, None if unit else row_scale, direct(_record, 0, False, *arguments), arguments)
+        return cls(force, None if unit else row_scale, bias, direct(_record, 0, False, *arguments), arguments)
 
     def record(self, k: int, fault: bool) -> None:
         """At sample k's instant: M(q)^-1 (tau / c - C qd - G) of the plant for the command into the LUaF

@@ -23,7 +23,8 @@ The warnings (heuristics, not proofs):
   -alpha_j leaves the unit circle). Warned from alpha_j > 0.5, a margin for the observer's own lag; the
   armature that brings it to 0.5 is 2 d_j dt - M_jj.
 * **the observer's rate bound.** The TOSMOs (3.11), (5.6) assume |dDelta/dt| <= D. The damping alone makes
-  the rate (d_j / M_jj) |qdd_j|, at least (d_j / M_jj) max |qdd_r|: warned where that exceeds the observer's D.
+  the rate (d_j / M_jj) |qdd_j|, at least (d_j / M_jj) max |qdd_r|: warned where that exceeds the observer's D,
+  unless the nominal model holds the damping (``nominal.friction.from_model.damping``, the default).
 * **friction loss against the rate bound.** A friction loss f_j steps Delta_j by 2 f_j / M_jj at each
   velocity reversal; an observer whose estimate moves at most about D per second needs 2 f_j / (M_jj D)
   seconds to follow: warned above 1 s.
@@ -47,6 +48,7 @@ from dataclasses import dataclass, field
 import mujoco
 import numpy as np
 
+from ftc_mj.robot.friction import FrictionSpec, JointFriction
 from ftc_mj.robot.nominal import nominal_batch
 
 #: alpha = d dt / M above which the sampling warning is given (the delayed cancellation diverges at 1).
@@ -83,6 +85,8 @@ class RobotCheck:
     min_eigenvalue: float  # of M(q0)
     control_dt: float | None
     warnings: list[str] = field(default_factory=list)
+    #: What the nominal model takes of the model file's joint terms and its own friction (one line each).
+    nominal_terms: list[str] = field(default_factory=list)
 
 
 def check_robot(
@@ -94,6 +98,7 @@ def check_robot(
     control_dt: float | None = None,
     observer_rate_bounds: Sequence[tuple[str, np.ndarray]] = (),
     mass_scale: float = 1.0,
+    friction: FrictionSpec | None = None,
 ) -> RobotCheck:
     """The check of a testbed robot (one motor per joint), see the module docstring.
 
@@ -104,8 +109,11 @@ def check_robot(
         observer_rate_bounds: (variant name, the observer's D per joint) for each variant whose observer
             assumes a bound on the uncertainty's rate.
         mass_scale: the nominal model's mass scale (``nominal.mass_scale``).
+        friction: the nominal model's joint friction (``nominal.friction``); None: its default, the model
+            file's damping and friction loss.
     """
     n = model.nv
+    friction = FrictionSpec() if friction is None else friction
     q0 = np.array(model.qpos0 if q0 is None else q0, dtype=float)
     M0, psi0 = _nominal(model, mass_scale, q0[None], np.zeros((1, n)))
     M0 = M0[0]
@@ -150,7 +158,7 @@ def check_robot(
                                 f"{2 * c.frictionloss / c.mass_diagonal:.3g} rad/s^2 at each velocity reversal; "
                                 f"the observer of variant {variant!r} (D = {bound[j]:g}) needs about "
                                 f"{catch_up:.2g} s to follow it (heuristic: 2 f / (M_jj D))")
-        if reference is not None and c.damping > 0:
+        if reference is not None and c.damping > 0 and not friction.from_model.damping:
             rate = c.damping / c.mass_diagonal * float(np.abs(qdd_r[:, j]).max())
             for variant, bound in observer_rate_bounds:
                 if rate > bound[j]:
@@ -182,7 +190,27 @@ def check_robot(
     warnings += _unit_warnings(model)
     eigenvalues = np.linalg.eigvalsh(0.5 * (M0 + M0.T))
     return RobotCheck(joints=joints, min_eigenvalue=float(eigenvalues[0]), control_dt=control_dt,
-                      warnings=warnings)
+                      warnings=warnings, nominal_terms=nominal_terms(model, friction))
+
+
+def nominal_terms(model: mujoco.MjModel, friction: FrictionSpec) -> list[str]:
+    """Which of the model file's joint terms the nominal model uses, and its friction per joint
+    (:mod:`ftc_mj.robot.friction`)."""
+    used = {True: "used", False: "not used (nominal.friction.from_model)"}
+    lines = [f"armature {'present' if model.dof_armature.any() else 'none'} in the model file: used (in M(q))",
+             f"damping {'present' if model.dof_damping.any() else 'none'} in the model file: "
+             f"{used[friction.from_model.damping]}",
+             f"frictionloss {'present' if model.dof_frictionloss.any() else 'none'} in the model file: "
+             f"{used[friction.from_model.frictionloss]}"]
+    joint_friction = JointFriction.of(friction, model)
+    if joint_friction.is_zero:
+        return lines + ["nominal friction F(qd): none (the rigid-body model alone)"]
+    lines.append(f"nominal friction F(qd) = b qd + c s(qd) + o, s = tanh(qd / {friction.velocity_scale:g})"
+                 + (f" with a deadband of {friction.deadband:g} rad/s" if friction.deadband else "")
+                 + f", at the {friction.velocity} velocity:")
+    names = [model.joint(int(model.dof_jntid[j])).name for j in range(model.nv)]
+    lines += [f"  {name}: {line}" for name, line in zip(names, joint_friction.describe())]
+    return lines
 
 
 def _nominal(model: mujoco.MjModel, mass_scale: float, q: np.ndarray, qd: np.ndarray

@@ -24,6 +24,7 @@ from mujoco.batch import Batch
 
 from ftc_mj.config.kernels import WITHOUT_RUNTIME, bound, direct
 from ftc_mj.config.types import PositiveFloat, Strict
+from ftc_mj.robot.friction import FrictionSpec
 from ftc_mj.robot.rigid import RigidTree, evaluation, solve_factored
 
 
@@ -125,6 +126,8 @@ NEEDS = frozenset({"coriolis_transpose", "gravity"})
 class NominalSpec(Strict):
     #: Scales masses, inertias and armature of the controller's model (1 = exact model).
     mass_scale: PositiveFloat = 1.0
+    #: Joint friction and damping, the model file's own by default (:mod:`ftc_mj.robot.friction`).
+    friction: FrictionSpec = FrictionSpec()
 
 
 class StepModel:
@@ -143,12 +146,15 @@ class StepModel:
             ``(members, n)``, with C the Coriolis matrix for which Mdot - 2C is skew-symmetric; only for an
             observer that declares it in ``needs`` (:data:`NEEDS`), else None.
         gravity: G(q) at the observer's estimate, ``(members, n)``; only where declared in ``needs``, else None.
+        friction: the nominal joint friction F(qd) at the observer's point (:mod:`ftc_mj.robot.friction`),
+            ``(members, n)``, already inside ``psi_hat``; None where the nominal model has none.
     """
 
     def __init__(self, M: np.ndarray, factor: np.ndarray, diagonal_inverse: np.ndarray, psi_hat: np.ndarray,
                  solver: SparseSolver, psi_control: np.ndarray | None = None,
                  qd_measured: np.ndarray | None = None, command: np.ndarray | None = None,
-                 coriolis_transpose: np.ndarray | None = None, gravity: np.ndarray | None = None):
+                 coriolis_transpose: np.ndarray | None = None, gravity: np.ndarray | None = None,
+                 friction: np.ndarray | None = None):
         """``command``: where the engine puts M(x1)^-1 tau of the period's command once the controllers have
         run, solved for every row of its batch at once (see :meth:`command_acceleration`); None: solved on
         demand. ``coriolis_transpose``, ``gravity``: the nominal batch's rows of these quantities at the
@@ -157,6 +163,7 @@ class StepModel:
         self.psi_control = psi_hat if psi_control is None else psi_control
         self.qd_measured = qd_measured
         self.coriolis_transpose, self.gravity = coriolis_transpose, gravity
+        self.friction = friction
         self._factor, self._diagonal_inverse, self._solver = factor, diagonal_inverse, solver
         self._solution = np.zeros(psi_hat.shape)
         self._command = command

@@ -28,9 +28,11 @@ def test_ur5e_tracks_estimates_and_diagnoses(ur5e):
     proposed, plain = ur5e["proposed"], ur5e["nftsmc"]
     assert np.all(proposed["rms_error_converged"] < 3e-4)  # measured 5.0e-5 - 1.4e-4 rad (encoder noise 1e-5)
     assert np.all(plain["rms_error_converged"][:3] > 10 * proposed["rms_error_converged"][:3])  # 2.5e-3 - 3e-2
-    assert np.all(proposed["rms_luaf_error"] < 5.0)  # 0.47 - 3.2 rad/s^2, against |LUaF| up to 155
-    assert np.all(proposed["chattering"] < 0.1 * plain["chattering"])  # 480 - 7900 against 2.6e4 - 3.8e5
-    assert not proposed["saturation_time"].any()  # never clipped; the uncompensated NFTSMC is:
+    assert np.all(proposed["rms_luaf_error"] < 5.0)  # against |LUaF| up to 29 (the damping in the nominal model)
+    assert np.all(proposed["chattering"] < 0.1 * plain["chattering"])
+    # Clipped only in the start's transient (0.04-0.15 s: the nominal damping at the observer's velocity estimate,
+    # 0.2 rad/s off at first): 0.0062 and 0.0094 of the run on joints 1-2; the uncompensated NFTSMC is clipped:
+    assert np.all(proposed["saturation_time"] < 0.02)
     assert plain["saturation_time"][1] > 0.5  # 0.81 of the run on the shoulder lift
     assert proposed["detection_delay"][1] < 0.5  # joint 2: 0.14 s
     assert np.all(np.isnan(np.delete(proposed["detection_delay"], 1)))

@@ -8,6 +8,8 @@ With x2 the measured velocity and x2~ = x2 - x2_hat:
 
 a super-twisting observer on the velocity error with added linear terms (Remark 2.2: they speed up the
 convergence far from the origin). zeta_hat contains the integral z, so it needs no filter (Remark 2.3).
+H(x) is the nominal model's Psi, which holds its joint friction F where it has one
+(:mod:`ftc_mj.robot.friction`): H = -D^-1 (C x2 + G + F), so F is subtracted there.
 
 Chapter 2's controllers use measured states: this observer passes the tachometer and encoder readings on as
 ``q_hat`` and ``qd_hat`` (so Psi is H(x) of the measured state and e_dot the measured error), keeps its own

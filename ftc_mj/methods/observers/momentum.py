@@ -2,10 +2,11 @@
 force/motion control", ICRA 2005; Haddadin, De Luca and Albu-Schaeffer, "Robot collisions: a survey on
 detection, isolation, and identification", IEEE T-RO 33(6), 2017, its momentum-based residual).
 
-For M(q) qdd + C(q, qd) qd + G(q) = tau + tau_f (tau_f a fault or external torque), the generalized momentum
-p = M(q) qd obeys dp/dt = tau + tau_f + C^T(q, qd) qd - G(q) (from Mdot = C + C^T), and the residual
+For M(q) qdd + C(q, qd) qd + G(q) + F(qd) = tau + tau_f (tau_f a fault or external torque, F the nominal
+model's joint friction, :mod:`ftc_mj.robot.friction`, zero where it has none), the generalized momentum
+p = M(q) qd obeys dp/dt = tau + tau_f + C^T(q, qd) qd - G(q) - F(qd) (from Mdot = C + C^T), and the residual
 
-    r(t) = K_I (p(t) - p(0) - integral_0^t (tau + C^T qd - G + r) ds)
+    r(t) = K_I (p(t) - p(0) - integral_0^t (tau + C^T qd - G - F + r) ds)
 
 follows the fault torque as a first-order filter per joint, dr/dt = K_I (tau_f - r): r_j tracks a step of
 tau_f,j with the time constant 1 / K_I,j, decoupled from the other joints, with no acceleration measured and no
@@ -13,7 +14,7 @@ M^-1 in the loop. K_I (the gain ``K``, 1/s) is diagonal.
 
 **Discrete time.** At the control period T, with the state z = p(0) + integral (z starts at the first p):
 
-    r_k = K_I (p_k - z_k),   z_(k+1) = z_k + T (tau_k + r_k) + T/2 (C^T qd - G)_k + T/2 (C^T qd - G)_(k+1)
+    r_k = K_I (p_k - z_k),   z_(k+1) = z_k + T (tau_k + r_k) + T/2 (C^T qd - G - F)_k + T/2 (C^T qd - G - F)_(k+1)
 
 the command by the rectangle rule (it is held over the period, so that is exact), the residual by explicit
 Euler (the filter's own discretisation), and the model terms, smooth functions of the sampled state, by the
@@ -24,7 +25,8 @@ within K_I T / (2e) of the step of the continuous filter.
 
 **What the testbed hands it.** ``M`` at the measured position, and C^T qd and G at the observer's estimate
 (the nominal model's ``coriolis_transpose`` and ``gravity``, which the engine evaluates for an observer that
-declares them in :attr:`needs`; MuJoCo gives only C qd + G). The residual r, a torque, is the signal
+declares them in :attr:`needs`; MuJoCo gives only C qd + G), and F at the same point (its ``friction``).
+The residual r, a torque, is the signal
 ``residual``; the LUaF estimate is the residual in the testbed's acceleration units, ``luaf_hat`` = M(x1)^-1 r
 (qdd = Psi + M^-1 tau + LUaF: tau_f = M LUaF), and so is ``injection``: the observer has no velocity equation
 of its own a controller could cancel beyond its estimate.
@@ -104,6 +106,9 @@ class MomentumObserver(Observer):
                              "coriolis_transpose and gravity (the engine gives them for Observer.needs)")
         momentum = model.apply_M(self.qd_hat, out=self._momentum)
         half = np.subtract(model.coriolis_transpose, model.gravity, out=self._model_terms)
+        friction = getattr(model, "friction", None)
+        if friction is not None:  # the nominal joint friction: dp/dt = tau + C^T qd - G - F
+            half -= friction
         half *= self._half_dt
         if self._started:  # + T/2 (C^T qd - G) at this end of the period
             self._integral += half
