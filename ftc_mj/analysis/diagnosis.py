@@ -58,23 +58,19 @@ with no armed fault-free sample.
 from __future__ import annotations
 
 import math
-import os
 from dataclasses import dataclass
 from typing import Annotated, Literal
 
-# As in ftc_mj.robot.rigid (whichever imports Numba first): no SVML, so a compiled loop rounds as the scalar code.
-os.environ.setdefault("NUMBA_DISABLE_INTEL_SVML", "1")
+import numpy as np
+from pydantic import Field, StrictInt, model_validator
 
-import numba  # noqa: E402
-import numpy as np  # noqa: E402
-from pydantic import Field, StrictInt, model_validator  # noqa: E402
-
-from ftc_mj.config.errors import InputError  # noqa: E402
-from ftc_mj.config.kernels import WITHOUT_RUNTIME, for_any_layout  # noqa: E402
-from ftc_mj.config.expressions import StateFunction, state_variables  # noqa: E402
-from ftc_mj.results import Diagnosis, VariantResult  # noqa: E402
-from ftc_mj.config.types import (  # noqa: E402
+from ftc_mj import fast
+from ftc_mj.analysis.causal import CausalDiagnoser, run_causal
+from ftc_mj.config.errors import InputError
+from ftc_mj.config.expressions import StateFunction, state_variables
+from ftc_mj.config.types import (
     ExpressionText, NonNegativeFloat, PositiveFloat, Strict, parse_expression, per_joint)
+from ftc_mj.results import Diagnosis, VariantResult
 
 
 #: The diagnosis metrics, in the order of :data:`ftc_mj.analysis.metrics.METRICS` (they close it).
@@ -207,146 +203,41 @@ class Diagnoser:
     def diagnose(
         self, t: np.ndarray, estimate: np.ndarray, q_meas: np.ndarray, qd_hat: np.ndarray, injected: np.ndarray
     ) -> Diagnosis:
-        """Diagnose one run from its recorded arrays: ``estimate`` is the LUaF estimate in this diagnoser's
-        space (M(q_meas) luaf_hat in torque space), ``injected`` the true fault in the same space; ``t``
-        increasing.
+        """Diagnose one run from its recorded ``(T, n)`` arrays: ``estimate`` is the LUaF estimate in this
+        diagnoser's space (M(q_meas) luaf_hat in torque space), ``injected`` the true fault in the same space;
+        ``t`` increasing. The causal component run over them (:meth:`diagnose_rows`)."""
+        def rows(values: np.ndarray) -> np.ndarray:
+            return np.asarray(values, dtype=float)[:, None, :]
 
-        The bound's expressions (on every sample at once) and the low-pass filter in NumPy and SciPy, the rest
-        in one compiled pass (:func:`_diagnose_pass`) with NumPy's bits: the baseline's mean and standard
-        deviation summed as NumPy sums ``(K, n)`` along time (in time order, pairwise for one joint), the
-        CUSUM and the debounce as :func:`cusum` and :func:`persistent`."""
-        steps, n = estimate.shape
-        signal = np.empty((steps, n))
-        source = estimate
-        if self.filter_time_constant > 0 and steps:
-            source = low_pass(np.array(estimate, dtype=float), self.dt, self.filter_time_constant)
-        bound = np.zeros((0, n))
-        if self.bound is not None:
-            bound = np.empty((steps, n))
-            for j, column in enumerate(self.bound(t, q_meas.T, qd_hat.T)):  # every sample at once
-                bound[:, j] = column
-        # The baseline: 0 none (mean and deviation 0), 1 learned over samples [first, first + count), 2 not
-        # learned (a run that ended or diverged before the window's end: NaN, so no alarm).
-        baseline, first, count = 0, 0, 0
-        if self.baseline is not None:
-            baseline = 1 if steps and t[-1] + self.dt >= self.baseline[1] - 1e-9 else 2
-            first, stop = np.searchsorted(t, self.baseline, side="left").tolist()  # t >= start, t < end
-            count = stop - first
-        fault_estimate, residual, threshold = np.empty((steps, n)), np.empty((steps, n)), np.empty((steps, n))
-        alarm, armed = np.empty((steps, n), dtype=bool), np.empty(steps, dtype=bool)
-        mean, std = np.empty(n), np.empty(n)
-        arguments = (np.asarray(t, dtype=float), np.asarray(source, dtype=float), bound,
-                     np.asarray(self.fixed, dtype=float), float(self.k), float(self.start), first, count, baseline,
-                     self.rule == "cusum", float(self.drift), float(self.h), max(1, self.persistence), signal,
-                     fault_estimate, residual, threshold, alarm, armed, mean, std)
-        for_any_layout(_diagnose_pass, *arguments)(*arguments)
-        return Diagnosis(space=self.space, t=t, signal=signal, fault_estimate=fault_estimate, residual=residual,
-                         threshold=threshold, alarm=alarm, armed=armed, mean=mean, std=std,
-                         injected=np.asarray(injected, dtype=float))
+        series = self.diagnose_rows(t, rows(estimate), rows(q_meas), rows(qd_hat))
+        return series.of_row(0, self.space, t, np.asarray(injected, dtype=float))
 
+    def diagnose_rows(self, t: np.ndarray, estimate: np.ndarray, q_meas: np.ndarray,
+                      qd_hat: np.ndarray) -> "DiagnosisSeries":
+        """The causal component (:class:`~ftc_mj.analysis.causal.CausalDiagnoser`) over ``(T, rows, n)``
+        recorded arrays, every row its own diagnoser: stepped sample by sample (the definition), or its
+        accelerator (:func:`ftc_mj.fast.analysis_diagnosis.causal_pass`, the same bits) where the fast paths
+        are on."""
+        t = np.asarray(t, dtype=float)
+        if not fast.enabled() or (t.size > 1 and not np.all(t[1:] > t[:-1])):
+            return run_causal(self, t, estimate, q_meas, qd_hat)
+        from ftc_mj.analysis.causal import DiagnosisSeries
+        from ftc_mj.fast.analysis_diagnosis import causal_pass
 
-@numba.njit(cache=True, nogil=True, error_model="numpy")
-def _diagnose_pass(t, estimate, bound, fixed, k, start, first, count, baseline, cusum_rule, drift, h, samples,
-                   signal, fault_estimate, residual, threshold, alarm, armed, mean,
-                   std):  # pragma: no cover - compiled
-    """:meth:`Diagnoser.diagnose` from the (filtered) estimate on: every output array filled in place, column
-    by column in time order. ``bound`` ``(T, n)`` is added to the threshold, or ``(0, n)``: none."""
-    steps, n = estimate.shape
-    for i in range(steps):
-        armed[i] = t[i] >= start
-        for j in range(n):
-            signal[i, j] = estimate[i, j]
-    for j in range(n):
-        if baseline == 0:
-            mean[j], std[j] = 0.0, 0.0
-        elif baseline == 2:
-            mean[j], std[j] = np.nan, np.nan
-        else:  # NumPy's mean and std over the window: its sum along time, then the squares about the mean
-            centre = _time_sum(signal, signal, 0.0, _PLAIN, first, count, j) / count
-            mean[j] = centre
-            std[j] = np.sqrt(_time_sum(signal, signal, centre, _SQUARED_FROM, first, count, j) / count)
-    with_bound = bound.shape[0] > 0
-    for j in range(n):
-        level = fixed[j] + k * std[j]
-        g, state, run, previous = 0.0, False, 0, False
-        for i in range(steps):
-            estimate_ij = signal[i, j] - mean[j]
-            fault_estimate[i, j] = estimate_ij
-            r = abs(estimate_ij)
-            limit = np.nan  # no threshold before the diagnoser is armed (also in the plots)
-            if armed[i]:
-                limit = level + bound[i, j] if with_bound else level
-            if cusum_rule:  # the residual becomes Page's statistic on r / threshold, the threshold h
-                g, r = _cusum_step(g, r / limit, drift)
-                limit = h if armed[i] else np.nan
-            residual[i, j], threshold[i, j] = r, limit
-            value = r > limit  # NaN compares False: no alarm
-            run, state = _debounce_step(value, previous, run, state, samples)
-            previous = value
-            alarm[i, j] = state
+        steps, rows, n = estimate.shape
+        bound = None
+        if self.bound is not None and steps:
+            bound = np.empty((steps, rows, n))
+            # Every sample at once: per joint a (rows, T) column, times broadcast along the rows.
+            for j, column in enumerate(self.bound(t, q_meas.transpose(2, 1, 0), qd_hat.transpose(2, 1, 0))):
+                bound[:, :, j] = np.broadcast_to(column, (rows, steps)).T
+        a = math.exp(-self.dt / self.filter_time_constant) if self.filter_time_constant > 0 else 0.0
+        return DiagnosisSeries(*causal_pass(t, estimate, bound, self.fixed, self.k, self.start, self.baseline, self.dt, a,
+                                            self.rule == "cusum", self.drift, self.h, self.persistence))
 
-
-#: What :func:`_time_sum` sums: the values, their squares about a centre, the squares of their differences.
-_PLAIN, _SQUARED_FROM, _SQUARED_DIFFERENCE = 0, 1, 2
-
-
-@numba.njit(cache=True, nogil=True, inline="always")
-def _term(a, b, centre, kind, i, j):  # pragma: no cover - compiled
-    """Sample ``i`` of column ``j`` as :func:`_time_sum` sums it."""
-    if kind == _PLAIN:
-        return a[i, j]
-    d = a[i, j] - (centre if kind == _SQUARED_FROM else b[i, j])
-    return d * d
-
-
-@numba.njit(cache=True, nogil=True)
-def _time_sum(a, b, centre, kind, first, count, j):  # pragma: no cover - compiled
-    """NumPy's sum along time of samples [first, first + count) of column ``j`` of ``(T, n)`` ``a`` (``kind``:
-    the values, or (a - centre)^2, or (a - b)^2): in time order from 0 for n >= 2 (a reduction over the slow
-    axis), pairwise for one column (:func:`_pairwise_sum`, a contiguous reduction)."""
-    if a.shape[1] == 1:
-        return 0.0 + _pairwise_sum(a, b, centre, kind, first, count, j)
-    total = 0.0
-    for i in range(first, first + count):
-        total += _term(a, b, centre, kind, i, j)
-    return total
-
-
-@numba.njit(cache=True, nogil=True)
-def _pairwise_sum(a, b, centre, kind, first, count, j):  # pragma: no cover - compiled
-    """NumPy's pairwise summation of a contiguous run of ``count`` terms (its ``pairwise_sum``): blocks of at most
-    128 terms summed in eight interleaved partial sums, halves of a larger run (at a multiple of 8) summed
-    apart. The terms those of :func:`_term`."""
-    if count < 8:
-        total = -0.0
-        for i in range(first, first + count):
-            total += _term(a, b, centre, kind, i, j)
-        return total
-    if count <= 128:
-        r0, r1 = _term(a, b, centre, kind, first, j), _term(a, b, centre, kind, first + 1, j)
-        r2, r3 = _term(a, b, centre, kind, first + 2, j), _term(a, b, centre, kind, first + 3, j)
-        r4, r5 = _term(a, b, centre, kind, first + 4, j), _term(a, b, centre, kind, first + 5, j)
-        r6, r7 = _term(a, b, centre, kind, first + 6, j), _term(a, b, centre, kind, first + 7, j)
-        i = 8
-        while i < count - count % 8:
-            r0 += _term(a, b, centre, kind, first + i, j)
-            r1 += _term(a, b, centre, kind, first + i + 1, j)
-            r2 += _term(a, b, centre, kind, first + i + 2, j)
-            r3 += _term(a, b, centre, kind, first + i + 3, j)
-            r4 += _term(a, b, centre, kind, first + i + 4, j)
-            r5 += _term(a, b, centre, kind, first + i + 5, j)
-            r6 += _term(a, b, centre, kind, first + i + 6, j)
-            r7 += _term(a, b, centre, kind, first + i + 7, j)
-            i += 8
-        total = ((r0 + r1) + (r2 + r3)) + ((r4 + r5) + (r6 + r7))
-        while i < count:
-            total += _term(a, b, centre, kind, first + i, j)
-            i += 1
-        return total
-    half = count // 2
-    half -= half % 8
-    return (_pairwise_sum(a, b, centre, kind, first, half, j)
-            + _pairwise_sum(a, b, centre, kind, first + half, count - half, j))
+    def causal(self, rows: int = 1) -> CausalDiagnoser:
+        """This diagnoser as a causal component over ``rows`` rows, to step one sample at a time."""
+        return CausalDiagnoser(self, rows)
 
 
 def compile_diagnoser(spec: DiagnosisSpec, dt: float, estimation_window_start: float, file: str, n: int,
@@ -399,145 +290,77 @@ def low_pass(x: np.ndarray, dt: float, time_constant: float) -> np.ndarray:
     a = math.exp(-dt / time_constant)
     return lfilter([1.0 - a], [1.0, -a], x, axis=0, zi=a * x[:1])[0]
 
-
 def cusum(z: np.ndarray, drift: float) -> np.ndarray:
     """Page's one-sided CUSUM along axis 0 of ``(N, ...)``, every other column at once: g_k = max(0, g_(k-1) +
     z_k - drift) from g_(-1) = 0; where z_k is NaN, g_k is NaN and the sum restarts from 0 after it. Causal:
-    g_k uses z_0..z_k only. The recursion itself (compiled), so g is what an online CUSUM computes, bit for bit."""
+    g_k uses z_0..z_k only (the recursion the causal diagnoser steps)."""
     z = np.asarray(z, dtype=float)
-    columns = np.ascontiguousarray(z.reshape(len(z), -1))
-    out = np.empty_like(columns)
-    _cusum(columns, float(drift), out)
-    return out.reshape(z.shape)
-
-
-@numba.njit(cache=True, nogil=True)
-def _cusum(z: np.ndarray, drift: float, out: np.ndarray) -> None:  # pragma: no cover - compiled
-    g = np.zeros(z.shape[1])
-    for k in range(z.shape[0]):
-        for j in range(z.shape[1]):
-            g[j], out[k, j] = _cusum_step(g[j], z[k, j], drift)
-
-
-@numba.njit(cache=True, nogil=True, inline="always")
-def _cusum_step(g: float, z: float, drift: float) -> tuple[float, float]:
-    """One sample of Page's CUSUM: the sum carried on and the output, max(0, g + z - drift) for both, or (0,
-    NaN) where z is NaN (the sum restarts)."""
-    if np.isnan(z):
-        return 0.0, np.nan
-    g = max(0.0, g + z - drift)
-    return g, g
+    out = np.empty_like(z)
+    g = np.zeros(z.shape[1:])
+    for k in range(len(z)):
+        out[k] = np.maximum(g + z[k] - drift, 0.0)  # NaN stays NaN
+        g = np.where(np.isnan(out[k]), 0.0, out[k])
+    return out
 
 
 def persistent(exceeded: np.ndarray, samples: int, axis: int = 0) -> np.ndarray:
     """Debounce along ``axis`` (time), every other column at once: on from the ``samples``-th consecutive True,
-    off from the ``samples``-th consecutive False; starts off."""
-    exceeded = np.asarray(exceeded, dtype=bool)
+    off from the ``samples``-th consecutive False; starts off. The causal diagnoser's debounce over whole
+    arrays: the alarm at sample i is the value of the last run of ``samples`` equal values ending at or before
+    i (a window of ``samples`` all True or all False, counted exactly in integers)."""
+    exceeded = np.moveaxis(np.asarray(exceeded, dtype=bool), axis, 0)
     if samples <= 1 or exceeded.size == 0:
-        return exceeded.copy()
-    # Time last and contiguous: the compiled state machine runs along rows.
-    series = np.ascontiguousarray(np.moveaxis(exceeded, axis, -1))
-    alarm = np.zeros_like(series)
-    _debounce_rows(series.reshape(-1, series.shape[-1]), samples, alarm.reshape(-1, series.shape[-1]))
-    return np.ascontiguousarray(np.moveaxis(alarm, -1, axis))
-
-
-@numba.njit(cache=True, nogil=True, inline="always")
-def _debounce_step(value: bool, previous: bool, run: int, state: bool, samples: int) -> tuple[int, bool]:
-    """One sample of the debounce: the run of equal samples ending here (``run`` 0 before the first sample) and
-    the alarm, the value of the last run of ``samples`` equal samples that ends at or before it (off before
-    any): the alarm switches at the ``samples``-th consecutive sample of a value."""
-    run = run + 1 if run > 0 and value == previous else 1
-    return run, value if run >= samples else state
-
-
-@numba.njit(cache=True, nogil=True, **WITHOUT_RUNTIME)
-def _debounce_rows(series: np.ndarray, samples: int, alarm: np.ndarray) -> None:  # pragma: no cover - compiled
-    """Each row's alarm in one pass (:func:`_debounce_step`)."""
-    for r in range(series.shape[0]):
-        state, run, previous = False, 0, False
-        for i in range(series.shape[1]):
-            value = series[r, i]
-            run, state = _debounce_step(value, previous, run, state, samples)
-            previous = value
-            alarm[r, i] = state
+        return np.moveaxis(exceeded.copy(), 0, axis)
+    steps = len(exceeded)
+    counts = np.cumsum(exceeded, axis=0, dtype=np.int64)
+    if steps < samples:
+        return np.moveaxis(np.zeros_like(exceeded), 0, axis)
+    trues = counts[samples - 1:].copy()
+    trues[1:] -= counts[:steps - samples]
+    complete = (trues == samples) | (trues == 0)  # the window ending at sample samples - 1 + i is one value
+    index = np.where(complete, np.arange(samples - 1, steps).reshape((-1,) + (1,) * (exceeded.ndim - 1)), -1)
+    last = np.maximum.accumulate(index, axis=0)  # the last completed window's end
+    alarm = np.zeros_like(exceeded)
+    alarm[samples - 1:] = np.where(last >= 0, np.take_along_axis(exceeded, np.maximum(last, 0), axis=0), False)
+    return np.moveaxis(alarm, 0, axis)
 
 
 def diagnosis_metrics(
     diagnosis: Diagnosis | None, joint_onsets: np.ndarray, first_fault: float, n: int
 ) -> dict[str, np.ndarray]:
-    """The diagnosis metrics per joint (see the module docstring); NaN everywhere without a diagnosis. One
-    compiled pass over the alarms (:func:`_diagnosis_metrics_pass`)."""
-    out = np.full((len(DIAGNOSIS_METRICS), n), np.nan)
-    if diagnosis is not None and diagnosis.t.size:
-        faulty = np.isfinite(joint_onsets)
-        arguments = (np.asarray(diagnosis.t, dtype=float), np.asarray(diagnosis.alarm, dtype=bool),
-                     np.asarray(diagnosis.armed, dtype=bool), np.asarray(diagnosis.fault_estimate, dtype=float),
-                     np.asarray(diagnosis.injected, dtype=float), np.where(faulty, joint_onsets, np.inf), faulty,
-                     float(first_fault), out)
-        for_any_layout(_diagnosis_metrics_pass, *arguments)(*arguments)
-    return dict(zip(DIAGNOSIS_METRICS, out))
-
-
-@numba.njit(cache=True, nogil=True, error_model="numpy")
-def _diagnosis_metrics_pass(t, alarm, armed, fault_estimate, injected, onsets, faulty, first_fault,
-                            out):  # pragma: no cover - compiled
-    """:data:`DIAGNOSIS_METRICS` into ``out[metric, j]`` (NaN where undefined, as the caller fills it), one
-    pass along each joint's alarms. A window with no armed sample (the run ends before the onset or before
-    the diagnoser is armed) leaves its metrics undefined: a fault that never acted within the run is neither
-    detected nor missed. The estimate's RMS from detection on is NumPy's mean of the squared errors (pairwise)."""
-    steps, n = alarm.shape
-    dt = t[1] - t[0] if steps > 1 else 0.0
-    isolation_window = _any_armed_since(t, armed, first_fault)
-    for j in range(n):
-        onset = onsets[j]
-        fault_free, raised, observed, detected = 0, 0, False, -1
-        for i in range(steps):
-            on = alarm[i, j]
-            if armed[i] and t[i] < onset:
-                fault_free += 1
-                if on and not (i > 0 and alarm[i - 1, j]):
-                    raised += 1
-            elif armed[i]:
-                observed = True
-            if on and detected < 0 and t[i] >= onset:
-                detected = i
-        if fault_free:
-            out[2, j] = raised
-            out[3, j] = raised / (fault_free * dt) if dt > 0 else np.nan
-        if not isolation_window or (faulty[j] and not observed):
+    """The diagnosis metrics per joint (see the module docstring); NaN everywhere without a diagnosis."""
+    out = {name: np.full(n, np.nan) for name in DIAGNOSIS_METRICS}
+    if diagnosis is None or diagnosis.t.size == 0:
+        return out
+    t, alarm, armed = diagnosis.t, diagnosis.alarm, diagnosis.armed
+    dt = t[1] - t[0] if t.size > 1 else 0.0
+    raised = diagnosis.raised
+    faulty = np.isfinite(joint_onsets)
+    isolated = diagnosis.isolated(first_fault)
+    # A window with no armed sample (the run ends before the onset or before the diagnoser is armed) leaves its
+    # metrics undefined: a fault that never acted within the run is neither detected nor missed.
+    isolation_window = armed & (t >= first_fault) if math.isfinite(first_fault) else armed
+    for joint in range(n):
+        onset = joint_onsets[joint] if faulty[joint] else np.inf
+        fault_free = armed & (t < onset)
+        if fault_free.any():
+            out["false_alarms"][joint] = raised[fault_free, joint].sum()
+            out["false_alarm_rate"][joint] = (out["false_alarms"][joint] / (fault_free.sum() * dt) if dt > 0
+                                              else np.nan)
+        observed = armed & (t >= onset)
+        if not isolation_window.any() or (faulty[joint] and not observed.any()):
             continue
-        out[4, j] = 1.0 if _isolated(t, alarm, armed, first_fault, j) == faulty[j] else 0.0
-        if not faulty[j]:
+        out["isolation_correct"][joint] = float(isolated[joint] == faulty[joint])
+        if not faulty[joint]:
             continue
-        out[1, j] = 1.0 if detected < 0 else 0.0
-        if detected >= 0:
-            out[0, j] = t[detected] - onset
-            after = steps - detected
-            squares = 0.0 + _pairwise_sum(fault_estimate, injected, 0.0, _SQUARED_DIFFERENCE, detected, after, j)
-            out[5, j] = np.sqrt(squares / after)
-
-
-@numba.njit(cache=True, nogil=True, inline="always")
-def _any_armed_since(t, armed, first_fault):  # pragma: no cover - compiled
-    """Whether the isolation window holds an armed sample: at or after the first fault onset, or anywhere in
-    a run without faults (``first_fault`` inf)."""
-    since_fault = np.isfinite(first_fault)
-    for i in range(t.shape[0]):
-        if armed[i] and (t[i] >= first_fault or not since_fault):
-            return True
-    return False
-
-
-@numba.njit(cache=True, nogil=True, inline="always")
-def _isolated(t, alarm, armed, first_fault, j):  # pragma: no cover - compiled
-    """:meth:`~ftc_mj.results.Diagnosis.isolated` of joint ``j``: an alarm at or after the first onset (at
-    any armed sample without faults)."""
-    since_fault = np.isfinite(first_fault)
-    for i in range(t.shape[0]):
-        if alarm[i, j] and (t[i] >= first_fault if since_fault else armed[i]):
-            return True
-    return False
+        detected = np.flatnonzero(alarm[:, joint] & (t >= onset))
+        out["missed_detection"][joint] = float(detected.size == 0)
+        if detected.size:
+            first = detected[0]
+            out["detection_delay"][joint] = t[first] - onset
+            error = diagnosis.fault_estimate[first:, joint] - diagnosis.injected[first:, joint]
+            out["fault_estimate_rms"][joint] = np.sqrt(np.mean(error**2))
+    return out
 
 
 def scale_tag(scale: float) -> str:
@@ -558,35 +381,42 @@ def detection_statistics(
     * ``healthy_time``: armed fault-free seconds (for false alarms per hour);
     * per scale c of ``scales`` (tag :func:`scale_tag`): ``false_alarms_<tag>`` (alarms raised while armed and
       fault-free at c times the threshold) and ``detection_delay_<tag>`` (first alarm at or after the onset
-      minus the onset; NaN if missed or healthy): the scenario's own diagnoser with a scaled threshold, so at
-      c = 1 they equal ``false_alarms`` and ``detection_delay``;
+      minus the onset; NaN if missed or healthy): the scenario's own diagnoser with a scaled threshold
+      (``residual > c * threshold``, debounced by :func:`persistent`), so at c = 1 they equal ``false_alarms``
+      and ``detection_delay``;
     * ``isolated``: 1 where the diagnoser names the joint faulty (at the scenario's threshold), else 0; NaN
       when no armed sample lies at or after the first onset (the run ends first).
 
-    All NaN without a diagnosis. One compiled pass along each joint (:func:`_detection_pass`)."""
+    All NaN without a diagnosis. Where the fast paths are on, the held levels and the scaled alarms are
+    computed by their accelerator (:mod:`ftc_mj.fast.analysis_detection`, the same numbers)."""
     names = ["residual_peak_healthy", "residual_peak_fault", "healthy_time", "isolated"]
     names += [f"{kind}_{scale_tag(c)}" for c in scales for kind in ("false_alarms", "detection_delay")]
     out = {name: np.full(n, np.nan) for name in names}
     if diagnosis is None or diagnosis.t.size == 0:
         return out
     t = np.asarray(diagnosis.t, dtype=float)
+    residual, threshold = np.asarray(diagnosis.residual, dtype=float), np.asarray(diagnosis.threshold, dtype=float)
+    armed = np.asarray(diagnosis.armed, dtype=bool)
+    dt = t[1] - t[0] if t.size > 1 else 0.0
+    p = max(1, persistence)
     faulty = np.isfinite(joint_onsets)
     onsets = np.where(faulty, joint_onsets, np.inf)
     first_fault = float(np.nanmin(joint_onsets)) if faulty.any() else np.inf
-    p = max(1, persistence)
-    ordered = np.sort(np.asarray(scales, dtype=float))  # the pass wants them sorted (the columns are named)
-    levels = np.full((4, n), np.nan)
-    # Filled by the pass, which starts each joint's counts and scale states itself.
-    false_alarms = np.empty((len(scales), n), dtype=np.int64)
-    first = np.empty((len(scales), n), dtype=np.int64)
-    scale_state = np.empty((3, len(scales)), dtype=np.int64)  # per scale: the alarm, the run, the last value
-    window = np.empty((2, p + 1))  # the level's minimum over the last p samples: values and their samples
-    arguments = (t, np.asarray(diagnosis.residual, dtype=float), np.asarray(diagnosis.threshold, dtype=float),
-                 np.asarray(diagnosis.alarm, dtype=bool), np.asarray(diagnosis.armed, dtype=bool), onsets, faulty,
-                 first_fault, p, ordered, levels, false_alarms, first, scale_state, window)
-    for_any_layout(_detection_pass, *arguments)(*arguments)
-    for name, values in zip(names[:4], levels):
-        out[name] = values
+    window = armed & (t >= first_fault) if math.isfinite(first_fault) else armed
+    if window.any():  # else undefined: the run ends before the first onset or before the diagnoser is armed
+        out["isolated"] = diagnosis.isolated(first_fault).astype(float)
+    for j in range(n):
+        out["healthy_time"][j] = (armed & (t < onsets[j])).sum() * dt
+    ordered = np.asarray(scales, dtype=float)
+    if fast.enabled():
+        from ftc_mj.fast.analysis_detection import detection_pass
+
+        peaks, false_alarms, first = detection_pass(t, residual, threshold, armed, onsets, p, ordered)
+    else:
+        peaks, false_alarms, first = _held_peaks(t, residual, threshold, armed, onsets, p), \
+            *_scaled_alarms(t, residual, threshold, armed, onsets, p, ordered)
+    out["residual_peak_healthy"] = peaks[0]
+    out["residual_peak_fault"] = np.where(faulty, peaks[1], np.nan)
     delay = np.where((first >= 0) & faulty, t[np.maximum(first, 0)] - onsets, np.nan)
     for s, c in enumerate(ordered.tolist()):
         tag = scale_tag(c)
@@ -595,118 +425,60 @@ def detection_statistics(
     return out
 
 
-@numba.njit(cache=True, nogil=True, error_model="numpy")
-def _detection_pass(t, residual, threshold, alarm, armed, onsets, faulty, first_fault, p, scales, levels,
-                    false_alarms, first, scale_state, window):  # pragma: no cover - compiled
-    """:func:`detection_statistics`, one pass along each joint: into ``levels`` (NaN where undefined, as the
-    caller fills it) the two peaks, the healthy time and the isolation; per scale, the false alarms and the
-    first alarmed sample at or after the onset (-1: none) of :func:`_scaled_alarms`.
-
-    The level z = residual / threshold (NaN unarmed) held over a window of ``p`` samples is its minimum there,
-    NaN if one is NaN (NumPy's ``minimum``), kept by a monotone queue in ``window`` (``p + 1`` slots); a peak
-    is the largest held level, NaN when none is finite (so a peak of inf alone is NaN)."""
-    steps, n = residual.shape
-    dt = t[1] - t[0] if steps > 1 else 0.0
-    isolation_window = _any_armed_since(t, armed, first_fault)
-    slots = window.shape[1]
+def _held_peaks(t: np.ndarray, residual: np.ndarray, threshold: np.ndarray, armed: np.ndarray, onsets: np.ndarray,
+                p: int) -> np.ndarray:
+    """``(2, n)``: per joint the largest level z = residual / threshold (NaN unarmed) held over ``p``
+    consecutive samples (its minimum there, NaN if one is NaN), before the joint's onset and from it on; NaN
+    where no held level is finite."""
+    n = residual.shape[1]
+    with np.errstate(invalid="ignore", divide="ignore"):
+        level = np.where(armed[:, None], residual / threshold, np.nan)
+    peaks = np.full((2, n), np.nan)
+    if len(t) < p:
+        return peaks
+    held = _window(level, p, np.minimum)  # dated by the window's last sample
+    held_t = t[p - 1:]
     for j in range(n):
-        onset = onsets[j]
-        healthy, head, size, last_nan = 0, 0, 0, -1
-        peak_healthy, peak_fault, finite_healthy, finite_fault = -np.inf, -np.inf, False, False
-        for i in range(steps):
-            if armed[i] and t[i] < onset:
-                healthy += 1
-            level = residual[i, j] / threshold[i, j] if armed[i] else np.nan
-            if level != level:
-                last_nan, size = i, 0  # no window holding this sample has a minimum; older samples leave with it
-            else:
-                while size > 0 and window[0, _slot(head + size - 1, slots)] >= level:
-                    size -= 1
-                back = _slot(head + size, slots)
-                window[0, back], window[1, back] = level, i
-                size += 1
-            oldest = i - p + 1
-            if oldest < 0:
-                continue
-            while size > 0 and window[1, head] < oldest:
-                head, size = _slot(head + 1, slots), size - 1
-            if last_nan >= oldest:
-                continue  # the held level is NaN: no peak
-            held = window[0, head]
-            if t[i] < onset:
-                peak_healthy = max(peak_healthy, held)
-                finite_healthy = finite_healthy or np.isfinite(held)
-            else:
-                peak_fault = max(peak_fault, held)
-                finite_fault = finite_fault or np.isfinite(held)
-        levels[0, j] = peak_healthy if finite_healthy else np.nan
-        if faulty[j]:
-            levels[1, j] = peak_fault if finite_fault else np.nan
-        levels[2, j] = healthy * dt
-        if isolation_window:
-            levels[3, j] = 1.0 if _isolated(t, alarm, armed, first_fault, j) else 0.0
-        _scaled_alarms(residual, threshold, scales, p, armed, t, onset, j, false_alarms, first, scale_state)
+        for side, values in enumerate((held[held_t < onsets[j], j], held[held_t >= onsets[j], j])):
+            if np.isfinite(values).any():
+                peaks[side, j] = np.nanmax(values)
+    return peaks
 
 
-@numba.njit(cache=True, nogil=True, inline="always")
-def _slot(position, slots):  # pragma: no cover - compiled
-    """A position of a ring of ``slots``, ``position`` at most one turn past its end."""
-    return position - slots if position >= slots else position
+def _scaled_alarms(t: np.ndarray, residual: np.ndarray, threshold: np.ndarray, armed: np.ndarray,
+                   onsets: np.ndarray, p: int, scales: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Per scale c and joint, the diagnoser at c times its threshold (``residual > c * threshold``, debounced
+    by :func:`persistent`): the alarms raised while armed before the joint's onset ``(S, n)`` and the first
+    sample alarmed at or after it ``(S, n)`` (-1: none)."""
+    with np.errstate(invalid="ignore"):
+        exceeded = residual[None] > scales[:, None, None] * threshold[None]
+    alarm = persistent(exceeded, p, axis=1)
+    before = np.zeros_like(alarm)
+    before[:, 1:] = alarm[:, :-1]
+    raised = alarm & ~before
+    healthy = armed[:, None] & (t[:, None] < onsets[None, :])
+    false_alarms = (raised & healthy[None]).sum(axis=1)
+    after = alarm & (t[:, None] >= onsets[None, :])[None]
+    first = np.where(after.any(axis=1), after.argmax(axis=1), -1)
+    return false_alarms, first
 
 
-@numba.njit(cache=True, nogil=True)
-def _scaled_alarms(residual, threshold, scales, samples, armed, t, onset, j, false_alarms, first,
-                   state):  # pragma: no cover - compiled
-    """Joint ``j``'s diagnoser at c times its threshold for every scale c (sorted; ``residual > c * threshold``,
-    NaN never above), debounced by :func:`_debounce_step`: the alarms raised while armed before the onset
-    into ``false_alarms[s, j]``, the first sample alarmed at or after the onset into ``first[s, j]`` (-1: none).
-
-    Every scale's state machine is the plain one, but a sample steps only the scales it can change. With a
-    threshold >= 0 the scales exceeded are the first few (rounding is monotone: c * threshold grows with c).
-    A scale settled off (off for ``samples`` samples in a row: its alarm off, and a step off changes nothing)
-    has every scale above it settled off too, and a scale settled on every scale below it: so from the first
-    scale not exceeded upwards, the steps stop at the first scale settled off, and from the last exceeded
-    downwards at the first settled on. Where a threshold is negative (the order reverses) every scale is
-    stepped, and for ``samples`` samples after it (until the order holds over a whole run of them again), as
-    for the first ``samples`` samples and at the first sample at or after the onset (where a scale that is
-    on takes its first alarm)."""
-    count = scales.shape[0]
-    for s in range(count):
-        state[0, s], state[1, s], state[2, s] = 0, 0, 0
-        false_alarms[s, j], first[s, j] = 0, -1
-    step_all_until, crossed = samples, False
-    for i in range(residual.shape[0]):
-        r, limit = residual[i, j], threshold[i, j]
-        if limit < 0:
-            step_all_until = i + samples + 1
-        if not crossed and t[i] >= onset:
-            crossed = True
-            step_all_until = max(step_all_until, i + 1)
-        if i < step_all_until:
-            for s in range(count):
-                _scaled_step(r > scales[s] * limit, s, i, samples, armed, t, onset, j, false_alarms, first, state)
-            continue
-        exceeded = 0  # the scales exceeded are the first ``exceeded``
-        while exceeded < count and r > scales[exceeded] * limit:
-            exceeded += 1
-        for s in range(exceeded, count):
-            if state[1, s] >= samples and state[2, s] == 0:
-                break
-            _scaled_step(False, s, i, samples, armed, t, onset, j, false_alarms, first, state)
-        for s in range(exceeded - 1, -1, -1):
-            if state[1, s] >= samples and state[2, s] == 1:
-                break
-            _scaled_step(True, s, i, samples, armed, t, onset, j, false_alarms, first, state)
-
-
-@numba.njit(cache=True, nogil=True, inline="always")
-def _scaled_step(value, s, i, samples, armed, t, onset, j, false_alarms, first, state):  # pragma: no cover
-    """Sample ``i`` of scale ``s``'s diagnoser (``state[:, s]``: its alarm, its run of equal values capped at
-    ``samples``, its last value)."""
-    alarm_before = state[0, s] != 0
-    run, alarm = _debounce_step(value, state[2, s] != 0, state[1, s], alarm_before, samples)
-    if alarm and not alarm_before and armed[i] and t[i] < onset:  # raised here
-        false_alarms[s, j] += 1
-    if alarm and first[s, j] < 0 and t[i] >= onset:
-        first[s, j] = i
-    state[0, s], state[1, s], state[2, s] = alarm, min(run, samples), value
+def _window(x: np.ndarray, p: int, combine: np.ufunc) -> np.ndarray:
+    """``combine`` (minimum: associative, commutative, idempotent) over every window of ``p`` consecutive
+    samples along axis 0, dated by the window's last sample (``N - p + 1`` of them), by windows of doubling
+    length: the result does not depend on the order in which a window is reduced (a minimum also propagates
+    NaN in any order)."""
+    count = len(x) - p + 1
+    result, done = None, 0  # ``result`` combines the first ``done`` samples of each window
+    power, span, remaining = x, 1, p  # ``power`` combines windows of ``span`` samples
+    while remaining:
+        if remaining & 1:
+            piece = power[done:done + count]
+            result = piece.copy() if result is None else combine(result, piece, out=result)
+            done += span
+        remaining >>= 1
+        if remaining:
+            length = len(power) - span
+            power = combine(power[:length], power[span:span + length])
+            span *= 2
+    return result
