@@ -181,7 +181,7 @@ class ReportSpec(Strict):
     claims: list[ClaimSpec] = []
     #: The heat map of a 2-D numeric grid.
     heatmap: HeatmapSpec = HeatmapSpec()
-    #: Bootstrap resamples of every confidence interval.
+    #: Bootstrap resamples of the means' and the paired differences' confidence intervals.
     bootstrap: Annotated[StrictInt, Field(ge=100)] = 2000
 
 

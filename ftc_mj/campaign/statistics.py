@@ -3,8 +3,17 @@ between variants on the same runs, proportions with Wilson intervals, and the de
 detection probability against fault size, false alarms per hour) recomputed from the per-run threshold-free
 columns that :func:`ftc_mj.analysis.diagnosis.detection_statistics` keeps.
 
-Every interval is a 95% interval. Bootstrap intervals are percentile intervals over a fixed number of
-resamples drawn from a fixed seed, so that a report is the same each time it is made.
+Every interval is a 95% interval, and each is tested on that promise by simulation (it covers the true value
+in 93-97% of samples drawn from a known distribution; tests/campaign/test_statistics_coverage.py):
+
+* a mean, and a paired mean difference: the percentile bootstrap, over a fixed number of resamples drawn from a
+  fixed seed, so that a report is the same each time it is made;
+* a median or another percentile: the distribution-free interval between two order statistics (the inverted
+  binomial test of the quantile, ``scipy.stats.quantile_test``), whose coverage is at least 95% for any
+  continuous distribution. The percentile bootstrap of a tail percentile covers far less on the samples a
+  campaign has (84% for the 5th percentile of 60 normal values); where the sample is too small to bound a side
+  at 95% (the 5th percentile below 73 values), that side is infinite;
+* a proportion (a rate, a win rate): Wilson's score interval.
 """
 
 from __future__ import annotations
@@ -12,7 +21,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
-from scipy.stats import binomtest, spearmanr
+from scipy.stats import binomtest, quantile_test, spearmanr
 
 CONFIDENCE = 0.95
 _SEED = 20221130
@@ -51,18 +60,26 @@ def _interval(samples: np.ndarray) -> tuple[float, float]:
     return float(low), float(high)
 
 
+def percentile(x: np.ndarray, q: float) -> Estimate:
+    """The ``q``-th percentile of the finite sample ``x`` (linear interpolation) with its distribution-free 95%
+    interval between two order statistics (``scipy.stats.quantile_test``); a side the sample is too small to
+    bound is infinite."""
+    value = float(np.percentile(x, q))
+    ci = quantile_test(x, q=value, p=q / 100).confidence_interval(CONFIDENCE)
+    low, high = float(ci.low), float(ci.high)
+    return Estimate(value, -np.inf if np.isnan(low) else low, np.inf if np.isnan(high) else high)
+
+
 def summarise(values: np.ndarray, resamples: int = 2000) -> Summary:
-    """Mean, median, 5th and 95th percentiles of the finite values, each with a bootstrap interval."""
+    """Mean (bootstrap interval), median, 5th and 95th percentiles (order-statistic intervals) of the finite
+    values."""
     x = np.asarray(values, dtype=float)
     x = x[np.isfinite(x)]
     if x.size == 0:
         nan = Estimate(np.nan, np.nan, np.nan)
         return Summary(0, nan, nan, nan, nan)
-    boot = x[_resample_index(x.size, resamples)]
-    stats = {"mean": (np.mean(x), boot.mean(axis=1))}
-    for name, q in (("median", 50), ("p5", 5), ("p95", 95)):
-        stats[name] = (np.percentile(x, q), np.percentile(boot, q, axis=1))
-    return Summary(int(x.size), **{name: Estimate(float(v), *_interval(b)) for name, (v, b) in stats.items()})
+    mean = Estimate(float(np.mean(x)), *_interval(x[_resample_index(x.size, resamples)].mean(axis=1)))
+    return Summary(int(x.size), mean, percentile(x, 50), percentile(x, 5), percentile(x, 95))
 
 
 @dataclass

@@ -118,7 +118,8 @@ def _defined_columns(results: Results, metric: str) -> list[tuple[int, str]]:
 
 def _metric_tables(results: Results) -> list[str]:
     lines = ["## Metrics", "", "Per variant and joint, over the runs where the metric is defined (n): mean, median, "
-             "5th and 95th percentiles, each with its 95% bootstrap interval.", ""]
+             "5th and 95th percentiles with 95% intervals (the mean's by bootstrap, the percentiles' between two order "
+             "statistics; a side too few runs bound is inf).", ""]
     resamples = results.spec.report.bootstrap
     for metric in results.spec.report.metrics:
         rows = []

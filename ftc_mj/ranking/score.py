@@ -17,7 +17,7 @@ times the threshold iff z > c):
 * ``isolation_accuracy``: the DX competition's convention: among the faulty runs detected at c = 1, the share
   whose isolated joints are exactly the faulty ones (Wilson);
 * ``delay_median``, ``delay_p95``: of the first alarm after the onset on the faulty joint, over the detected
-  runs [s] (bootstrap);
+  runs [s] (order-statistic intervals, :func:`ftc_mj.campaign.statistics.percentile`);
 * ``false_alarms_per_hour``: alarms raised at c = 1 per hour of armed healthy operation, the mean over the
   healthy runs of their rates (they last alike; bootstrap).
 
