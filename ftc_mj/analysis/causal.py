@@ -274,3 +274,20 @@ def _record(component: CausalDiagnoser, out: DiagnosisSeries, i: int, t: float, 
     out.threshold[i] = component.threshold
     out.alarm[i] = component.alarm
     out.armed[i] = component.armed
+
+
+class RecordedDiagnoser:
+    """A :class:`CausalDiagnoser` over ``rows`` rows stepped by the engine inside the loop, its outputs kept for
+    ``steps`` samples (:attr:`series`, ``(steps, rows, n)``): what the post-run diagnosis computes afterwards,
+    made during the run, where a controller can read it (:attr:`component`) before it commands."""
+
+    def __init__(self, diagnoser, rows: int, steps: int):
+        self.component = CausalDiagnoser(diagnoser, rows)
+        n = self.component.n
+        self.series = DiagnosisSeries(*(np.full((steps, rows, n), np.nan) for _ in range(4)),
+                                      np.zeros((steps, rows, n), dtype=bool), np.zeros(steps, dtype=bool),
+                                      self.component.mean, self.component.std)
+
+    def step(self, k: int, t: float, estimate: np.ndarray, q_meas: np.ndarray, qd_hat: np.ndarray) -> None:
+        """Sample ``k`` at time ``t`` (the arguments of :meth:`CausalDiagnoser.step`), kept."""
+        _record(self.component, self.series, k, t, estimate, q_meas, qd_hat)

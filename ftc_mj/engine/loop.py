@@ -40,6 +40,8 @@ from functools import cached_property
 import mujoco
 import numpy as np
 
+from ftc_mj.analysis.causal import RecordedDiagnoser
+from ftc_mj.config.errors import InputError
 from ftc_mj.effects import randomness
 from ftc_mj.effects.faults import ActuatorFaults
 from ftc_mj.effects.sensors import Measurement
@@ -92,6 +94,9 @@ class VariantBlock:
     #: ``luaf_hat`` and ``sliding`` each period: the observer's ``qd_hat``, ``luaf_hat`` and the controller's
     #: ``sliding`` as they were when the copies were set up (compared each period: a plugin may rebind them).
     copied: tuple[np.ndarray, np.ndarray, np.ndarray] = ()
+    #: The scenario's diagnosis stepped on the observer's estimate each period before the controller commands
+    #: (a controller that declares ``reads_diagnosis`` gets its component as ``controller.diagnosis``), or None.
+    diagnoser: RecordedDiagnoser | None = None
 
     @cached_property
     def estimators(self) -> list[Observer]:
@@ -161,14 +166,17 @@ def simulate(
     progress: ProgressCallback | None = None,
     nthread: int = 0,
     on_chunk: ChunkCallback | None = None,
+    diagnose_in_loop: bool = False,
 ) -> BatchRun:
     """Run every variant of ``scenario`` for every member of ``members``, stepped together; ``on_chunk``
-    (:data:`ChunkCallback`) sees the series every :data:`PROGRESS_EVERY` periods.
+    (:data:`ChunkCallback`) sees the series every :data:`PROGRESS_EVERY` periods. The scenario's diagnosis is
+    stepped inside the loop for the variants whose controller reads it, and for all with ``diagnose_in_loop``
+    (else it runs after the run, on the recorded estimate: the same numbers).
 
     MuJoCo's printed warnings are silenced meanwhile: the bad-state warnings are each row's divergence, which
     the run reports itself (with the variant, the member and the time)."""
     with quiet_warnings():
-        return _simulate(scenario, members, record_poses, progress, nthread, on_chunk)
+        return _simulate(scenario, members, record_poses, progress, nthread, on_chunk, diagnose_in_loop)
 
 
 _quiet_lock = threading.Lock()
@@ -201,8 +209,8 @@ def _quiet(message: str) -> None:
 
 
 def _simulate(scenario: Scenario, members: Members, record_poses: bool, progress: ProgressCallback | None,
-              nthread: int, on_chunk: ChunkCallback | None = None) -> BatchRun:
-    run = _Run.set_up(scenario, members, record_poses, nthread)
+              nthread: int, on_chunk: ChunkCallback | None = None, diagnose_in_loop: bool = False) -> BatchRun:
+    run = _Run.set_up(scenario, members, record_poses, nthread, diagnose_in_loop)
     with np.errstate(all="ignore"):  # stopped rows may hold NaN; they are cut off from their time on
         for k in range(run.steps):
             run.stop(run.plant.check(), k)
@@ -268,7 +276,8 @@ class _Run:
         return self.layout.rows
 
     @classmethod
-    def set_up(cls, scenario: Scenario, members: Members, record_poses: bool, nthread: int) -> _Run:
+    def set_up(cls, scenario: Scenario, members: Members, record_poses: bool, nthread: int,
+               diagnose_in_loop: bool = False) -> _Run:
         spec, variants, times = scenario.spec, scenario.variants, scenario.times
         n, dt, steps, count = scenario.n_joints, spec.control_dt, len(times), members.count
         layout = Layout.of(count, [len(v.monitors) for v in variants],
@@ -325,7 +334,8 @@ class _Run:
                         for estimator, points in zip(estimators, block.estimators)],
                 reading_points=None if block.readings is None else (nominal.qpos[block.readings],
                                                                     nominal.qvel[block.readings]),
-                signals={**observer.signals, **controller.signals}))
+                signals={**observer.signals, **controller.signals},
+                diagnoser=_diagnoser(scenario, variant.name, controller, count, steps, diagnose_in_loop)))
 
         inputs = _inputs(scenario, members, layout)
         used = [list(spec.parameters).index(name) for name in scenario.reference.parameters]
@@ -412,13 +422,16 @@ class _Run:
                     for signal_name, signal in observer.signals.items():
                         monitor_extras[signal_name][k] = signal
             observer, controller = block.observer, block.controller
+            if luaf_torque is not None:  # before the controller: the diagnosis in torque space reads it
+                block.model.apply_M(observer.luaf_hat, out=luaf_torque[k, rows_b])
+            if block.diagnoser is not None:
+                estimate = observer.luaf_hat if luaf_torque is None else luaf_torque[k, rows_b]
+                block.diagnoser.step(k, t, estimate, q_b, observer.qd_hat)
             block.tau[...] = controller.compute(t, q_ref, qd_ref, qdd_ref, q_b, observer, block.model)
             qd_hat, luaf_hat, sliding = block.copied
             if observer.qd_hat is not qd_hat or observer.luaf_hat is not luaf_hat or controller.sliding is not sliding:
                 block.copied = (observer.qd_hat, observer.luaf_hat, controller.sliding)
                 self.copies.rebind(block, block.copied)
-            if luaf_torque is not None:
-                block.model.apply_M(observer.luaf_hat, out=luaf_torque[k, rows_b])
             if block.signals:
                 extras = recorded.extras[block.name]
                 for name, signal in block.signals.items():
@@ -491,7 +504,8 @@ class _Run:
                         extras=recorded.extras, fault_active=recorded.fault_active,
                         qd_measured=recorded.qd_measured, luaf_torque=recorded.luaf_torque,
                         body_xpos=recorded.body_xpos, body_xquat=recorded.body_xquat, done=done,
-                        diverged_at=self.stops.diverged_at, monitor_extras=recorded.monitor_extras)
+                        diverged_at=self.stops.diverged_at, monitor_extras=recorded.monitor_extras,
+                        diagnosis={b.name: b.diagnoser.series for b in self.blocks if b.diagnoser is not None})
 
 
 def _sample_copies(plant: Plant, readings: Readings, tau: np.ndarray, poses: tuple[np.ndarray, np.ndarray] | None,
@@ -514,6 +528,24 @@ def _sample_copies(plant: Plant, readings: Readings, tau: np.ndarray, poses: tup
         for source, name in zip(block.copied, ("qd_hat", "luaf_hat", "sliding")):
             copies.sample(source, rows[name][:, block.rows], group=block)
     return copies
+
+
+def _diagnoser(scenario: Scenario, variant: str, controller: Controller, members: int, steps: int,
+               in_loop: bool) -> RecordedDiagnoser | None:
+    """The variant's diagnosis stepped in the loop, where its controller reads it (then given to it as
+    ``controller.diagnosis``) or ``in_loop`` asks for it; None otherwise."""
+    reads = bool(getattr(controller, "reads_diagnosis", False))
+    if scenario.diagnoser is None:
+        if reads:
+            raise InputError(str(scenario.path), f"variants.{variant}.controller",
+                             "the controller reads the diagnosis: the scenario needs a diagnosis section")
+        return None
+    if not (reads or in_loop):
+        return None
+    recorded = RecordedDiagnoser(scenario.diagnoser, members, steps)
+    if reads:
+        controller.diagnosis = recorded.component
+    return recorded
 
 
 def _plant(scenario: Scenario, members: Members, rows: int, per_row: Callable[[np.ndarray], np.ndarray],

@@ -250,7 +250,13 @@ def variant_result(scenario: Scenario, run: BatchRun, v: int, m: int, poses: boo
         qd_meas=of_row(run.qd_measured),
         **{name: values[kept, row] for name, values in run.series.items()},
     )
-    diagnose_result(scenario.diagnoser, result, of_row(run.luaf_torque))
+    in_loop = run.diagnosis.get(variant.name)
+    if in_loop is None:
+        diagnose_result(scenario.diagnoser, result, of_row(run.luaf_torque))
+    else:  # stepped inside the loop, where its controller read it
+        space = scenario.diagnoser.space
+        injected = result.fault_torque if space == "torque" else result.fault_acceleration
+        result.diagnosis = in_loop.of_row(m, space, result.t, np.asarray(injected, dtype=float), kept)
     monitor_extras = run.monitor_extras.get(variant.name, {})
     for name, series in run.monitor_series[variant.name].items():
         monitor = next(mon for mon in variant.monitors if mon.name == name)

@@ -44,6 +44,9 @@ class BatchRun:
     diverged_at: np.ndarray
     #: The monitors' plugin signals per variant: monitor name -> signal name -> ``(steps, members, n)``.
     monitor_extras: dict[str, dict[str, dict[str, np.ndarray]]] = field(default_factory=dict)
+    #: Per variant whose diagnosis ran inside the loop, its outputs (:class:`~ftc_mj.analysis.causal.
+    #: DiagnosisSeries`, ``(steps, members, n)``).
+    diagnosis: dict = field(default_factory=dict)
 
 
 @dataclass(frozen=True)
