@@ -1,0 +1,53 @@
+"""``ftc-mj monitor``: the scenario's log streamed row by row prints each alarm as the replay has it; a scenario
+the monitor cannot run is one line and exit status 2."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from ftc_mj import load_scenario, run_scenario
+from ftc_mj.cli.main import main
+from ftc_mj.robot.packages import resolve_package_uri
+
+ROOT = Path(__file__).resolve().parents[2]
+FREE = ROOT / "scenarios/real/ur10_free_motion.yaml"
+
+pytestmark = pytest.mark.skipif(
+    resolve_package_uri("package://example-robot-data/robots/ur_description/urdf/ur10_robot.urdf") is None,
+    reason="example-robot-data is not installed (the robots extra)")
+
+
+def test_streaming_the_log_prints_the_replays_alarms_as_they_come(capsys):
+    assert main(["monitor", str(FREE), "--variant", "tosmo"]) == 0
+    lines = capsys.readouterr().out.splitlines()
+    printed = [line.split(" (")[0].split() for line in lines if "alarm" in line and " s  " in line]
+    replay = run_scenario(load_scenario(FREE, variants=["tosmo"]), record_poses=False)[0].diagnosis
+    joints = [load_scenario(FREE, variants=["tosmo"]).model.joint(j).name for j in range(6)]
+    steps = np.diff(np.vstack([np.zeros((1, 6), bool), replay.alarm]).astype(int), axis=0)
+    expected = [[f"{replay.t[k]:.3f}", "s", f"{joints[j]}:", "alarm", "raised" if steps[k, j] > 0 else "cleared"]
+                for k, j in np.argwhere(steps)]
+    assert len(expected) >= 4 and printed == expected
+    assert lines[-1].startswith("567 periods of 0.01 s; isolated: shoulder_lift_joint, elbow_joint")
+
+
+@pytest.mark.parametrize("options, message", [
+    (["--set", "diagnosis=null"], "diagnosis: a monitor needs a diagnosis section"),
+    (["--variant", "pid"], "variants: no variant 'pid'"),
+    (["--lost-after", "0"], "--lost-after: must be positive"),
+    (["--set", "diagnosis.baseline={start: 0.5, end: 1.0}", "--set", "diagnosis.start=0.6"], "diagnosis"),
+])
+def test_what_the_monitor_cannot_run_is_one_line_and_exit_2(capsys, options, message):
+    assert main(["monitor", str(FREE), *options]) == 2
+    captured = capsys.readouterr()
+    assert captured.out == "" and captured.err.count("\n") == 1 and captured.err.startswith("error: ")
+    assert message in captured.err
+
+
+def test_ros_node_runs_for_its_duration_and_stops(capsys):
+    pytest.importorskip("rclpy", reason="ROS 2's Python client is not installed (pip install ftc_mj[ros])")
+    assert main(["monitor", str(FREE), "--ros", "--variant", "do", "--joint-states", "/cli_test/joint_states",
+                 "--duration", "0.3", "--latency"]) == 0
+    assert "variant do on /cli_test/joint_states" in capsys.readouterr().err
