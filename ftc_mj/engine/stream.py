@@ -4,8 +4,8 @@ monitor beside a real robot runs (:mod:`ftc_mj.online`).
 A replayed log (:class:`~ftc_mj.engine.plant.LogPlant`) hands the loop the logged positions, velocities and
 torque of each period; :class:`StreamPlant` is the same plant with no log behind it, whose period's readings
 are given by :meth:`PeriodStepper.step` as they arrive. :class:`PeriodStepper` runs the phases of
-:func:`ftc_mj.engine.loop.simulate` on it (readings, observers, nominal model, the log's controller, the
-observers' integration), so a stream gives the replay's numbers bit for bit: the same code on the same
+:func:`ftc_mj.engine.loop.simulate` on it (readings, observers, nominal model, the diagnosis in the loop,
+the log's controller, the observers' integration), so a stream gives the replay's numbers bit for bit: the same code on the same
 inputs, not a second implementation of it. Its series hold two samples, the first period's and the current
 one's (the loop's first period is where the observers start, so it keeps its own index); nothing grows with
 the length of the stream.
@@ -86,7 +86,7 @@ class PeriodStepper:
         self.variants = [v.name for v in streamed.variants]
         self.measures_velocity = velocity
         with quiet_warnings():
-            run = _Run.set_up(streamed, single(streamed), record_poses=False, nthread=1)
+            run = _Run.set_up(streamed, single(streamed), record_poses=False, nthread=1, diagnose_in_loop=True)
         self.plant = StreamPlant(scenario.model, run.rows)
         run.plant = self.plant
         for block in run.blocks:
@@ -100,6 +100,12 @@ class PeriodStepper:
         self._luaf_torque = series.luaf_torque
         self._qd_hat = series.rows["qd_hat"]
         self._q_meas = series.rows["q_meas"]
+
+    @property
+    def diagnosers(self) -> list:
+        """Each variant's causal diagnoser (:class:`~ftc_mj.analysis.causal.CausalDiagnoser`, one row), stepped
+        in the loop: its outputs are the last period's; None without a diagnosis section."""
+        return [None if block.diagnoser is None else block.diagnoser.component for block in self._run.blocks]
 
     @property
     def rows(self) -> list[slice]:

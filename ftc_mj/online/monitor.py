@@ -4,8 +4,8 @@ Built from a scenario (its robot, nominal model, one variant's observer, its ``d
 :class:`Monitor` takes samples ``(t, q, qd or None, tau)`` as they come and returns, each control period, the
 residual, the threshold, the alarms and the isolated joints; there is no simulated plant. Per period it runs
 the engine's own loop on the readings (:class:`~ftc_mj.engine.stream.PeriodStepper`: the observer, the
-nominal model, M(q_meas) times the estimate in torque space) and the causal diagnoser
-(:class:`~ftc_mj.analysis.causal.CausalDiagnoser`), so a log streamed through it gives what the log's replay
+nominal model, M(q_meas) times the estimate in torque space, the causal diagnoser
+:class:`~ftc_mj.analysis.causal.CausalDiagnoser` inside the loop), so a log streamed through it gives what the log's replay
 (``ftc-mj run`` on a scenario with a ``log`` section) gives, bit for bit.
 
 Sample times: the monitor steps on the scenario's uniform grid from the first sample's time, each signal
@@ -29,7 +29,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ftc_mj.analysis.causal import CausalDiagnoser, require_causal
+from ftc_mj.analysis.causal import require_causal
 from ftc_mj.config.errors import InputError
 from ftc_mj.engine.stream import PeriodStepper
 from ftc_mj.online.grid import GridResampler, SampleError
@@ -76,7 +76,8 @@ class Monitor:
         require_causal(scenario.diagnoser, 0.0, file)
         self.scenario, self.variant = scenario, variant
         self.stepper = PeriodStepper(scenario, [variant])
-        self.diagnoser = CausalDiagnoser(scenario.diagnoser, 1)
+        #: The variant's causal diagnoser, stepped in the loop (one row).
+        self.diagnoser = self.stepper.diagnosers[0]
         self.n = scenario.n_joints
         self.dt = self.stepper.dt
         #: Whether a sample must hold the velocity (the scenario's readings include it).
@@ -114,7 +115,6 @@ class Monitor:
         if estimate is None:
             estimate = stepper.luaf_hat(sample)
         time = k * self.dt  # the replay's grid instant
-        diagnoser.step(time, estimate, stepper.q_meas(sample), stepper.qd_hat(sample))
         return Period(k, time, estimate[0].copy(), diagnoser.fault_estimate[0].copy(), diagnoser.residual[0].copy(),
                       diagnoser.threshold[0].copy(), diagnoser.alarm[0].copy(), diagnoser.isolated[0].copy(),
                       bool(diagnoser.armed))
