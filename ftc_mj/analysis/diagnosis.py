@@ -66,6 +66,7 @@ from pydantic import Field, StrictInt, model_validator
 
 from ftc_mj import fast
 from ftc_mj.analysis.causal import CausalDiagnoser, run_causal
+from ftc_mj.analysis.registry import metric, of_kind
 from ftc_mj.config.errors import InputError
 from ftc_mj.config.expressions import StateFunction, state_variables
 from ftc_mj.config.types import (
@@ -325,42 +326,93 @@ def persistent(exceeded: np.ndarray, samples: int, axis: int = 0) -> np.ndarray:
     return np.moveaxis(alarm, 0, axis)
 
 
+class DiagnosedRun:
+    """What a diagnosis metric reads: the run's :class:`~ftc_mj.results.Diagnosis` (``diagnosis``, with at
+    least one sample), per joint its first fault onset (``onsets``, inf: healthy; ``faulty``), the first onset
+    of any fault (``first_fault``, inf: none) and the windows the built-in metrics share."""
+
+    def __init__(self, diagnosis: Diagnosis, joint_onsets: np.ndarray, first_fault: float):
+        self.diagnosis = diagnosis
+        self.t = np.asarray(diagnosis.t, dtype=float)
+        self.faulty = np.isfinite(joint_onsets)
+        self.onsets = np.where(self.faulty, joint_onsets, np.inf)
+        self.first_fault = first_fault
+        armed = diagnosis.armed[:, None]
+        #: ``(T, n)``: armed and fault-free; armed from the joint's onset on.
+        self.fault_free = armed & (self.t[:, None] < self.onsets)
+        self.observed = armed & (self.t[:, None] >= self.onsets)
+        self.dt = self.t[1] - self.t[0] if self.t.size > 1 else 0.0
+        window = diagnosis.armed & (self.t >= first_fault) if math.isfinite(first_fault) else diagnosis.armed
+        #: Per joint, whether its detection and isolation are defined: an armed sample in the isolation window
+        #: (at or after the first onset; anywhere without faults) and, on a faulty joint, from its onset on. A
+        #: fault that never acted within the run is neither detected nor missed.
+        self.decided = window.any() & (~self.faulty | self.observed.any(axis=0))
+        detected = diagnosis.alarm & (self.t[:, None] >= self.onsets)
+        #: Per joint, the first sample alarmed at or after its onset (-1: none).
+        self.detected = np.where(detected.any(axis=0), detected.argmax(axis=0), -1)
+
+
+@metric("detection_delay", "s", "a faulty joint's onset to the end", kind="diagnosis")
+def detection_delay(run: DiagnosedRun) -> np.ndarray:
+    """Per faulty joint, the first time at or after its onset with its alarm on, minus the onset; NaN on a
+    healthy joint and on a missed one."""
+    found = run.faulty & run.decided & (run.detected >= 0)
+    return np.where(found, run.t[np.maximum(run.detected, 0)] - run.onsets, np.nan)
+
+
+@metric("missed_detection", "0/1", "a faulty joint's onset to the end", kind="diagnosis")
+def missed_detection(run: DiagnosedRun) -> np.ndarray:
+    """Per faulty joint, 1 if its alarm is never on from the onset to the end, else 0."""
+    return np.where(run.faulty & run.decided, (run.detected < 0).astype(float), np.nan)
+
+
+@metric("false_alarms", "count", "armed and fault-free", kind="diagnosis")
+def false_alarms(run: DiagnosedRun) -> np.ndarray:
+    """Alarms raised while the joint is fault-free and the diagnoser armed (before the joint's onset; the whole
+    armed run on a healthy joint)."""
+    raised = (run.diagnosis.raised & run.fault_free).sum(axis=0)
+    return np.where(run.fault_free.any(axis=0), raised, np.nan)
+
+
+@metric("false_alarm_rate", "1/s", "armed and fault-free", kind="diagnosis")
+def false_alarm_rate(run: DiagnosedRun) -> np.ndarray:
+    """false_alarms per second of armed fault-free time."""
+    seconds = run.fault_free.sum(axis=0) * run.dt
+    with np.errstate(invalid="ignore", divide="ignore"):
+        return np.where(seconds > 0, false_alarms(run) / seconds, np.nan)
+
+
+@metric("isolation_correct", "0/1", "from the first fault onset", kind="diagnosis")
+def isolation_correct(run: DiagnosedRun) -> np.ndarray:
+    """1 if the diagnoser names the joint faulty (an alarm at or after the first fault onset; at any armed time
+    in a run without faults) exactly when it is faulty, else 0."""
+    isolated = run.diagnosis.isolated(run.first_fault)
+    return np.where(run.decided, (isolated == run.faulty).astype(float), np.nan)
+
+
+@metric("fault_estimate_rms", "rad/s^2 or N m", "a detected joint's detection to the end", kind="diagnosis")
+def fault_estimate_rms(run: DiagnosedRun) -> np.ndarray:
+    """Per detected faulty joint, RMS of the fault estimate minus the injected fault (both in the diagnosis
+    space) from detection to the end."""
+    out = np.full(len(run.faulty), np.nan)
+    d = run.diagnosis
+    for j in np.flatnonzero(run.faulty & run.decided & (run.detected >= 0)):
+        first = run.detected[j]
+        error = d.fault_estimate[first:, j] - d.injected[first:, j]
+        out[j] = np.sqrt(np.mean(error**2))
+    return out
+
+
 def diagnosis_metrics(
     diagnosis: Diagnosis | None, joint_onsets: np.ndarray, first_fault: float, n: int
 ) -> dict[str, np.ndarray]:
-    """The diagnosis metrics per joint (see the module docstring); NaN everywhere without a diagnosis."""
-    out = {name: np.full(n, np.nan) for name in DIAGNOSIS_METRICS}
+    """Every registered diagnosis metric per joint (see the module docstring); NaN everywhere without a
+    diagnosis."""
+    metrics = of_kind("diagnosis")
     if diagnosis is None or diagnosis.t.size == 0:
-        return out
-    t, alarm, armed = diagnosis.t, diagnosis.alarm, diagnosis.armed
-    dt = t[1] - t[0] if t.size > 1 else 0.0
-    raised = diagnosis.raised
-    faulty = np.isfinite(joint_onsets)
-    isolated = diagnosis.isolated(first_fault)
-    # A window with no armed sample (the run ends before the onset or before the diagnoser is armed) leaves its
-    # metrics undefined: a fault that never acted within the run is neither detected nor missed.
-    isolation_window = armed & (t >= first_fault) if math.isfinite(first_fault) else armed
-    for joint in range(n):
-        onset = joint_onsets[joint] if faulty[joint] else np.inf
-        fault_free = armed & (t < onset)
-        if fault_free.any():
-            out["false_alarms"][joint] = raised[fault_free, joint].sum()
-            out["false_alarm_rate"][joint] = (out["false_alarms"][joint] / (fault_free.sum() * dt) if dt > 0
-                                              else np.nan)
-        observed = armed & (t >= onset)
-        if not isolation_window.any() or (faulty[joint] and not observed.any()):
-            continue
-        out["isolation_correct"][joint] = float(isolated[joint] == faulty[joint])
-        if not faulty[joint]:
-            continue
-        detected = np.flatnonzero(alarm[:, joint] & (t >= onset))
-        out["missed_detection"][joint] = float(detected.size == 0)
-        if detected.size:
-            first = detected[0]
-            out["detection_delay"][joint] = t[first] - onset
-            error = diagnosis.fault_estimate[first:, joint] - diagnosis.injected[first:, joint]
-            out["fault_estimate_rms"][joint] = np.sqrt(np.mean(error**2))
-    return out
+        return {m.name: np.full(n, np.nan) for m in metrics}
+    run = DiagnosedRun(diagnosis, joint_onsets, first_fault)
+    return {m.name: np.asarray(m.definition(run), dtype=float) for m in metrics}
 
 
 def scale_tag(scale: float) -> str:

@@ -1,4 +1,5 @@
-"""Metrics of a variant, per joint, in SI units. Definitions (also on the docs' metrics page):
+"""Metrics of a variant, per joint, in SI units: each a NumPy function registered by name, unit and window
+(:mod:`ftc_mj.analysis.registry`; adding one is one function). Definitions (also on the docs' metrics page):
 
 * ``rms_error``, ``max_error``: RMS and maximum of |e|, e = q - q_d (true position), over the whole run.
 * ``rms_error_converged``, ``max_error_converged``: the same over the evaluation window, per variant and
@@ -44,22 +45,30 @@
   instead; 0 on a joint without a limit, or when no limits are given (a replayed log).
 
 Diagnosis metrics (``detection_delay``, ``missed_detection``, ``false_alarms``, ``false_alarm_rate``,
-``isolation_correct``, ``fault_estimate_rms``): defined and computed in :mod:`ftc_mj.analysis.diagnosis`.
+``isolation_correct``, ``fault_estimate_rms``): defined and registered in :mod:`ftc_mj.analysis.diagnosis`.
+
+Where the fast paths are on, the built-in series metrics are computed by their accelerator
+(:func:`ftc_mj.fast.analysis_metrics.series_pass`, checked against these definitions to 1e-12 relative); a metric
+registered beyond them always by its definition.
 """
 
 from __future__ import annotations
 
 from collections.abc import Sequence
+from functools import cached_property
 from typing import NamedTuple
 
-import numba
 import numpy as np
 from pydantic import Field
 
+from ftc_mj import fast
 from ftc_mj.analysis.diagnosis import DIAGNOSIS_METRICS, diagnosis_metrics
-from ftc_mj.config.kernels import for_any_layout
-from ftc_mj.results import VariantResult
+from ftc_mj.analysis.registry import METRICS, UNITS, metric, of_kind
 from ftc_mj.config.types import NonNegativeFloat, PositiveFloat, Strict
+from ftc_mj.results import VariantResult
+
+__all__ = ["METRICS", "UNITS", "MetricsSpec", "RecordedSeries", "Samples", "compute_metrics", "series_metrics",
+           "unit", "evaluation_mask", "onsets_per_joint", "windows_after_the_end", "DIAGNOSIS_METRICS"]
 
 
 class MetricsSpec(Strict):
@@ -81,63 +90,11 @@ class MetricsSpec(Strict):
         description="|sliding variable| tolerance of reaching_time (units of the surface, rad/s for every built-in law).")
 
 
-METRICS: tuple[str, ...] = (
-    "rms_error",
-    "max_error",
-    "rms_error_converged",
-    "max_error_converged",
-    "convergence_time",
-    "rms_velocity_error",
-    "rms_luaf_error",
-    "observer_convergence_time",
-    "luaf_convergence_time",
-    "peak_luaf_error_transient",
-    "luaf_overshoot",
-    "rms_luaf_error_fault",
-    "first_reaching_time",
-    "reaching_time",
-    "fault_peak_error",
-    "recovery_time",
-    "rms_torque",
-    "chattering",
-    "saturation_time",
-    *DIAGNOSIS_METRICS,
-)
-
-#: Units for display.
-UNITS: dict[str, str] = {
-    "rms_error": "rad",
-    "max_error": "rad",
-    "rms_error_converged": "rad",
-    "max_error_converged": "rad",
-    "convergence_time": "s",
-    "rms_velocity_error": "rad/s",
-    "rms_luaf_error": "rad/s^2",
-    "observer_convergence_time": "s",
-    "luaf_convergence_time": "s",
-    "peak_luaf_error_transient": "rad/s^2",
-    "luaf_overshoot": "rad/s^2",
-    "rms_luaf_error_fault": "rad/s^2",
-    "first_reaching_time": "s",
-    "reaching_time": "s",
-    "fault_peak_error": "rad",
-    "recovery_time": "s",
-    "rms_torque": "N m",
-    "chattering": "N m/s",
-    "saturation_time": "share",
-    "detection_delay": "s",
-    "missed_detection": "0/1",
-    "false_alarms": "count",
-    "false_alarm_rate": "1/s",
-    "isolation_correct": "0/1",
-    "fault_estimate_rms": "rad/s^2 or N m",
-}
-
-def unit(metric: str, diagnosis_space: str | None = None) -> str:
-    """The unit of ``metric``; the fault-estimate error takes the diagnosis space's."""
-    if metric == "fault_estimate_rms" and diagnosis_space is not None:
+def unit(metric_name: str, diagnosis_space: str | None = None) -> str:
+    """The unit of ``metric_name``; the fault-estimate error takes the diagnosis space's."""
+    if metric_name == "fault_estimate_rms" and diagnosis_space is not None:
         return "N m" if diagnosis_space == "torque" else "rad/s^2"
-    return UNITS[metric]
+    return UNITS[metric_name]
 
 
 def evaluation_mask(t: np.ndarray, start: float, fault_onsets: Sequence[float], settle: float) -> np.ndarray:
@@ -195,241 +152,324 @@ class RecordedSeries(NamedTuple):
         return cls(*(getattr(result, name) for name in cls._fields))
 
 
+class Samples:
+    """What a series metric reads: the recorded series ``(T, W, n)`` (as attributes: ``q_true``, ``tau``, ...),
+    the times ``t``, the ``metrics`` section ``spec``, the fault onsets, per joint its first onset
+    (``joint_onsets``, NaN: healthy) and torque limit, and the windows and errors the built-in metrics share
+    (each computed once, on first use)."""
+
+    def __init__(self, t: np.ndarray, series: RecordedSeries, spec: MetricsSpec, fault_onsets: Sequence[float],
+                 joint_onsets: np.ndarray, torque_limits: np.ndarray | None):
+        self.t = np.asarray(t, dtype=float)
+        for name, values in zip(RecordedSeries._fields, series):
+            setattr(self, name, np.asarray(values, dtype=float))
+        self.spec = spec
+        self.fault_onsets = list(fault_onsets)
+        self.first_fault = min(self.fault_onsets, default=np.inf)
+        self.joint_onsets = np.asarray(joint_onsets, dtype=float)
+        n = self.q_true.shape[2]
+        self.torque_limits = np.full(n, np.inf) if torque_limits is None else np.asarray(torque_limits, dtype=float)
+
+    @property
+    def steps(self) -> int:
+        return len(self.t)
+
+    @cached_property
+    def error(self) -> np.ndarray:
+        """e = q - q_d on the true position."""
+        return self.q_true - self.q_ref
+
+    @cached_property
+    def error_size(self) -> np.ndarray:
+        return np.abs(self.error)
+
+    @cached_property
+    def velocity_error(self) -> np.ndarray:
+        return self.qd_true - self.qd_hat
+
+    @cached_property
+    def luaf_error(self) -> np.ndarray:
+        return self.luaf_true - self.luaf_hat
+
+    @cached_property
+    def estimation(self) -> np.ndarray:
+        """The estimation window ``(T,)``: from ``estimation_window_start``, outside the settle intervals."""
+        return evaluation_mask(self.t, self.spec.estimation_window_start, self.fault_onsets, self.spec.fault_settle)
+
+    @cached_property
+    def before_fault(self) -> np.ndarray:
+        """``(T,)``: before the first fault onset, where convergence and reaching are sought."""
+        return self.t < self.first_fault
+
+    @cached_property
+    def transient(self) -> np.ndarray:
+        """``(T,)``: before ``estimation_window_start``, the estimates' transient."""
+        return self.t < self.spec.estimation_window_start
+
+    @cached_property
+    def converged(self) -> np.ndarray:
+        """``(T, W, n)``: each column's evaluation window (the module docstring)."""
+        spec = self.spec
+        entry = first_time(self.error_size <= spec.tracking_tolerance, self.t, self.before_fault)
+        begin = np.where(np.isfinite(entry), np.maximum(spec.window_start, entry + spec.fault_settle),
+                         spec.window_start)
+        free = evaluation_mask(self.t, 0.0, self.fault_onsets, spec.fault_settle)
+        return free[:, None, None] & (self.t[:, None, None] >= begin[None])
+
+    @cached_property
+    def fault_windows(self) -> np.ndarray:
+        """``(T, 1, n)``: per joint, from its first onset to the next onset of any fault (none: healthy)."""
+        onsets = self.joint_onsets
+        until = np.array([min((o for o in self.fault_onsets if o > onset), default=np.inf) for onset in onsets])
+        return ((self.t[:, None] >= onsets) & (self.t[:, None] < until))[:, None, :]
+
+
+def root_mean_square(values: np.ndarray, where: np.ndarray | None = None) -> np.ndarray:
+    """sqrt(mean(values^2)) along time (axis 0) over the samples ``where`` (``(T,)`` or like ``values``; None: all),
+    the squares summed in time order; NaN without samples."""
+    squares = values * values
+    if where is None:
+        count = np.full(values.shape[1:], len(values))
+    else:
+        where = np.broadcast_to(where.reshape(where.shape + (1,) * (values.ndim - where.ndim)), values.shape)
+        squares = np.where(where, squares, 0.0)
+        count = where.sum(axis=0)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        return np.sqrt(_time_sum(squares) / np.where(count > 0, count, np.nan))
+
+
+def _time_sum(values: np.ndarray) -> np.ndarray:
+    """The sum along axis 0 in time order: NumPy's along the slow axis, a column at a time for one column (which
+    NumPy would sum pairwise)."""
+    if len(values) > 1 and values[0].size == 1:
+        total = np.zeros(values.shape[1:])
+        for sample in values:
+            total += sample
+        return total
+    return values.sum(axis=0) if len(values) else np.zeros(values.shape[1:])
+
+
+def peak(values: np.ndarray, where: np.ndarray | None = None) -> np.ndarray:
+    """The largest of ``values`` along time over the samples ``where`` (as for :func:`root_mean_square`), NaN if
+    one of them is NaN or there are none."""
+    if where is not None:
+        where = np.broadcast_to(where.reshape(where.shape + (1,) * (values.ndim - where.ndim)), values.shape)
+        values = np.where(where, values, -np.inf)
+        count = where.sum(axis=0)
+    else:
+        count = np.full(values.shape[1:], len(values))
+    if not len(values):
+        return np.full(values.shape[1:], np.nan)
+    return np.where(count > 0, values.max(axis=0), np.nan)
+
+
+def first_time(within: np.ndarray, t: np.ndarray, where: np.ndarray | None = None) -> np.ndarray:
+    """The first time within (``within`` ``(T, W, n)``) among the samples ``where`` (as for
+    :func:`root_mean_square`); NaN if never."""
+    if where is not None:
+        within = within & np.broadcast_to(where.reshape(where.shape + (1,) * (within.ndim - where.ndim)),
+                                          within.shape)
+    if not len(t):
+        return np.full(within.shape[1:], np.nan)
+    return np.where(within.any(axis=0), t[within.argmax(axis=0)], np.nan)
+
+
+def settling_time(within: np.ndarray, t: np.ndarray, where: np.ndarray | None = None) -> np.ndarray:
+    """The first time after which ``within`` holds until the last of the samples ``where`` (a run of consecutive
+    samples, ``(T,)`` or ``(T, 1, n)``; None: all): the first sample of the last run within; NaN if the last
+    sample is not within or there are none. NaN values count as not within."""
+    steps = len(t)
+    if where is None:
+        where = np.ones(steps, dtype=bool)
+    where = np.broadcast_to(where.reshape(where.shape + (1,) * (within.ndim - where.ndim)), within.shape)
+    if not steps:
+        return np.full(within.shape[1:], np.nan)
+    outside = where & ~within
+    last_outside = np.where(outside.any(axis=0), steps - 1 - outside[::-1].argmax(axis=0), -1)
+    last_sample = np.where(where.any(axis=0), steps - 1 - where[::-1].argmax(axis=0), -1)
+    first_sample = where.argmax(axis=0)
+    start = np.where(last_outside >= 0, last_outside + 1, first_sample)
+    settled = (last_sample >= 0) & (last_outside < last_sample)
+    return np.where(settled, t[np.minimum(start, steps - 1)], np.nan)
+
+
+# The built-in series metrics, in the order of the tables.
+
+@metric("rms_error", "rad", "the whole run")
+def rms_error(run: Samples) -> np.ndarray:
+    """RMS of |e|, e = q - q_d (true position), over the whole run."""
+    return root_mean_square(run.error)
+
+
+@metric("max_error", "rad", "the whole run")
+def max_error(run: Samples) -> np.ndarray:
+    """Maximum of |e| over the whole run."""
+    return peak(run.error_size)
+
+
+@metric("rms_error_converged", "rad", "the evaluation window")
+def rms_error_converged(run: Samples) -> np.ndarray:
+    """RMS of |e| over the evaluation window, per variant and joint from its own convergence."""
+    return root_mean_square(run.error, run.converged)
+
+
+@metric("max_error_converged", "rad", "the evaluation window")
+def max_error_converged(run: Samples) -> np.ndarray:
+    """Maximum of |e| over the evaluation window."""
+    return peak(run.error_size, run.converged)
+
+
+@metric("convergence_time", "s", "before the first fault")
+def convergence_time(run: Samples) -> np.ndarray:
+    """The first time after which |e| stays within tracking_tolerance until the first fault onset (or the
+    end); NaN if it is never within."""
+    return settling_time(run.error_size <= run.spec.tracking_tolerance, run.t, run.before_fault)
+
+
+@metric("rms_velocity_error", "rad/s", "the estimation window")
+def rms_velocity_error(run: Samples) -> np.ndarray:
+    """RMS of the velocity estimate against ground truth over the estimation window."""
+    return root_mean_square(run.velocity_error, run.estimation)
+
+
+@metric("rms_luaf_error", "rad/s^2", "the estimation window")
+def rms_luaf_error(run: Samples) -> np.ndarray:
+    """RMS of the LUaF estimate against ground truth over the estimation window."""
+    return root_mean_square(run.luaf_error, run.estimation)
+
+
+@metric("observer_convergence_time", "s", "before the first fault")
+def observer_convergence_time(run: Samples) -> np.ndarray:
+    """As convergence_time for the velocity estimation error with velocity_tolerance."""
+    return settling_time(np.abs(run.velocity_error) <= run.spec.velocity_tolerance, run.t, run.before_fault)
+
+
+@metric("luaf_convergence_time", "s", "before the first fault")
+def luaf_convergence_time(run: Samples) -> np.ndarray:
+    """As convergence_time for the LUaF estimation error with luaf_tolerance."""
+    return settling_time(np.abs(run.luaf_error) <= run.spec.luaf_tolerance, run.t, run.before_fault)
+
+
+@metric("peak_luaf_error_transient", "rad/s^2", "before estimation_window_start")
+def peak_luaf_error_transient(run: Samples) -> np.ndarray:
+    """The largest |LUaF estimation error| before estimation_window_start."""
+    return peak(np.abs(run.luaf_error), run.transient)
+
+
+@metric("luaf_overshoot", "rad/s^2", "before estimation_window_start")
+def luaf_overshoot(run: Samples) -> np.ndarray:
+    """How far the LUaF estimate goes past the true LUaF before estimation_window_start: the largest estimation
+    error of the sign opposite to the initial error (0 if it never crosses; the largest |error| if the initial
+    error is exactly 0)."""
+    transient = np.flatnonzero(run.transient)
+    if not transient.size:
+        return np.full(run.luaf_error.shape[1:], np.nan)
+    errors = run.luaf_error[transient]
+    initial = np.sign(errors[0])
+    beyond = np.maximum(np.max(-initial * errors, axis=0), 0.0)
+    return np.where(initial == 0, np.max(np.abs(errors), axis=0), beyond)
+
+
+@metric("rms_luaf_error_fault", "rad/s^2", "the estimation window after the first fault")
+def rms_luaf_error_fault(run: Samples) -> np.ndarray:
+    """rms_luaf_error restricted to the samples after the first fault onset; NaN without faults."""
+    return root_mean_square(run.luaf_error, run.estimation & (run.t >= run.first_fault))
+
+
+@metric("first_reaching_time", "s", "before the first fault")
+def first_reaching_time(run: Samples) -> np.ndarray:
+    """The first time |s| <= sliding_tolerance (before the first fault onset; NaN if never)."""
+    return first_time(np.abs(run.sliding) <= run.spec.sliding_tolerance, run.t, run.before_fault)
+
+
+@metric("reaching_time", "s", "before the first fault")
+def reaching_time(run: Samples) -> np.ndarray:
+    """As convergence_time for the sliding variable with sliding_tolerance: the sliding motion reached for good."""
+    return settling_time(np.abs(run.sliding) <= run.spec.sliding_tolerance, run.t, run.before_fault)
+
+
+@metric("fault_peak_error", "rad", "a faulty joint's fault window")
+def fault_peak_error(run: Samples) -> np.ndarray:
+    """Per faulty joint, the largest |e| in [onset, onset + fault_window), cut at the next fault onset; NaN on a
+    healthy joint."""
+    window = run.fault_windows & (run.t[:, None, None] < run.joint_onsets + run.spec.fault_window)
+    return peak(run.error_size, window)
+
+
+@metric("recovery_time", "s", "a faulty joint's onset to the next")
+def recovery_time(run: Samples) -> np.ndarray:
+    """Per faulty joint, how long after its first fault onset |e| comes back within tracking_tolerance for good
+    (up to the next fault onset, or the end); NaN on a healthy joint or if it never does."""
+    within = run.error_size <= run.spec.tracking_tolerance
+    return settling_time(within, run.t, run.fault_windows) - run.joint_onsets
+
+
+@metric("rms_torque", "N m", "the whole run")
+def rms_torque(run: Samples) -> np.ndarray:
+    """RMS of the commanded torque over the whole run."""
+    return root_mean_square(run.tau)
+
+
+@metric("chattering", "N m/s", "the evaluation window")
+def chattering(run: Samples) -> np.ndarray:
+    """Total variation of the commanded torque per second over the evaluation window, sum |tau[k+1] - tau[k]|
+    over consecutive samples in it, divided by their span."""
+    window = run.converged
+    if run.steps < 2:
+        return np.full(run.tau.shape[1:], np.nan)
+    pairs = window[1:] & window[:-1]
+    variation = _time_sum(np.where(pairs, np.abs(run.tau[1:] - run.tau[:-1]), 0.0))
+    seconds = pairs.sum(axis=0) * (run.t[1] - run.t[0])
+    with np.errstate(invalid="ignore", divide="ignore"):
+        return np.where(seconds > 0, variation / np.where(seconds > 0, seconds, 1.0), np.nan)
+
+
+@metric("saturation_time", "share", "the whole run")
+def saturation_time(run: Samples) -> np.ndarray:
+    """The share of the run's samples (0-1) at which the command was beyond the joint's torque limit."""
+    if not run.steps:
+        return np.full(run.tau.shape[1:], np.nan)
+    return (np.abs(run.tau) > run.torque_limits).sum(axis=0) / run.steps
+
+
 def series_metrics(
     t: np.ndarray, series: RecordedSeries, spec: MetricsSpec, fault_onsets: Sequence[float],
     joint_onsets: np.ndarray, torque_limits: np.ndarray | None = None,
 ) -> dict[str, np.ndarray]:
-    """The metrics of :func:`compute_metrics` but the diagnosis', from the recorded series themselves: each
-    ``(n,)`` for ``(T, n)`` series, ``(W, n)`` for ``W`` results side by side (``(T, W, n)``; ``joint_onsets``
-    and ``torque_limits`` ``(n,)``, the same for all).
+    """Every registered series metric (the diagnosis' aside), from the recorded series themselves: each ``(n,)``
+    for ``(T, n)`` series, ``(W, n)`` for ``W`` results side by side (``(T, W, n)``; ``joint_onsets`` and
+    ``torque_limits`` ``(n,)``, the same for all). A column's value does not depend on the columns beside it.
 
-    One compiled pass over the samples computes every metric of every column, then a second one the windows
-    that start at each column's own convergence (:func:`_series_pass`). Each column's sums run over its samples
-    in time order, so a column's value has the same bits whatever results stand beside it: those of NumPy's sums
-    over the time axis of a ``(T, n)`` array with n >= 2 (of a single column NumPy's sum would be pairwise)."""
+    Each metric's NumPy definition, or for the built-in ones their accelerator where the fast paths are on
+    (:func:`ftc_mj.fast.analysis_metrics.series_pass`)."""
     single = series.q_true.ndim == 2
-    # Read-only float views: one compiled version for a result's views, a broadcast reference and arrays.
-    columns = RecordedSeries(*(_read_only(values[:, None, :] if single else values) for values in series))
-    t = _read_only(t)
-    steps, width, n = columns.q_true.shape
-    first_fault = min(fault_onsets, default=np.inf)
-    # The windows that are the same for every column, one flag per sample.
-    estimation = evaluation_mask(t, spec.estimation_window_start, fault_onsets, spec.fault_settle)
-    flags = np.stack([
-        estimation,
-        evaluation_mask(t, 0.0, fault_onsets, spec.fault_settle),  # the converged window, before its start
-        t < spec.estimation_window_start,  # the estimates' transient
-        t < first_fault,  # where convergence and reaching are sought
-        estimation & (t >= first_fault),  # the estimates after the fault
-    ])
-    # Per joint, its fault window: from its first onset to the next onset of any fault.
-    until = np.array([min((o for o in fault_onsets if o > onset), default=np.inf) for onset in joint_onsets])
-    limits = np.full(n, np.inf) if torque_limits is None else np.asarray(torque_limits, dtype=float)
-    out = np.empty((len(_PASS_OUTPUTS), width, n))
+    columns = RecordedSeries(*(values[:, None, :] if single else values for values in series))
+    run = Samples(t, columns, spec, fault_onsets, joint_onsets, torque_limits)
+    out: dict[str, np.ndarray] = {}
+    if fast.enabled():
+        out.update(_accelerated(run, columns))
+    with np.errstate(invalid="ignore", divide="ignore"):
+        for entry in of_kind("series"):
+            if entry.name not in out:
+                out[entry.name] = np.asarray(entry.definition(run), dtype=float)
+    names = [entry.name for entry in of_kind("series")]
+    return {name: out[name][0] if single else out[name] for name in names}
+
+
+def _accelerated(run: Samples, columns: RecordedSeries) -> dict[str, np.ndarray]:
+    """The built-in series metrics by their accelerator."""
+    from ftc_mj.fast.analysis_metrics import ACCELERATED, series_pass
+
+    spec, t = run.spec, run.t
+    flags = np.stack([run.estimation, evaluation_mask(t, 0.0, run.fault_onsets, spec.fault_settle), run.transient,
+                      run.before_fault, run.estimation & (t >= run.first_fault)])
+    onsets = run.joint_onsets
+    until = np.array([min((o for o in run.fault_onsets if o > onset), default=np.inf) for onset in onsets])
     tolerances = np.array([spec.tracking_tolerance, spec.velocity_tolerance, spec.luaf_tolerance,
                            spec.sliding_tolerance])
-    state = np.repeat(_STATE_START[:, None, None], width, axis=1).repeat(n, axis=2)
-    searching = np.ones((6, width, n), dtype=bool)  # each settling time searching; no previous sample inside
-    searching[5] = False
-    arguments = (t, *columns, flags, float(spec.window_start), float(spec.fault_settle), float(spec.fault_window),
-                 tolerances, np.asarray(joint_onsets, dtype=float), until, limits, out, state, searching,
-                 np.zeros((4, width, n), dtype=np.int64))
-    for_any_layout(_series_pass, *arguments)(*arguments)
-    return {name: values[0] if single else values for name, values in zip(_PASS_OUTPUTS, out)}
-
-
-def _read_only(values: np.ndarray) -> np.ndarray:
-    """``values`` as a read-only float view (a float copy if they are of another dtype)."""
-    view = np.asarray(values, dtype=float).view()
-    view.flags.writeable = False
-    return view
-
-
-#: Where each row of :func:`_series_pass`'s float state starts, in its order: sums at 0, peaks at -inf (the
-#: maximum of no sample yet), times at NaN (none yet). The caller makes the state: a kernel that allocates
-#: its own (some thirty arrays) takes a third longer to compile.
-_STATE_START = np.array([0.0, -np.inf, np.nan, np.nan, 0.0, np.nan, 0.0, 0.0, np.nan, -np.inf, 0.0, -np.inf,
-                         np.nan, np.nan, 0.0, -np.inf, np.nan, 0.0, 0.0, -np.inf, 0.0])
-
-#: The metrics of :func:`_series_pass`'s output, in its order.
-_PASS_OUTPUTS: tuple[str, ...] = METRICS[:METRICS.index(DIAGNOSIS_METRICS[0])]
-
-
-@numba.njit(cache=True, nogil=True)
-def _nan_peak(peak: float, value: float) -> float:  # pragma: no cover - compiled
-    """NumPy's ``maximum``: the larger of the two, NaN if either is."""
-    if peak != peak:
-        return peak
-    if value != value or value > peak:
-        return value
-    return peak
-
-
-@numba.njit(cache=True, nogil=True)
-def _settle_step(result: float, searching: bool, outside: bool, time: float) -> tuple[float, bool]:  # pragma: no cover
-    """One sample of a settling time: the first time of the last run of samples within the tolerance so far
-    (NaN while outside), and whether the next sample within starts a new run."""
-    if outside:
-        return np.nan, True
-    if searching:
-        return time, False
-    return result, False
-
-
-@numba.njit(cache=True, nogil=True)
-def _root_mean(squares: float, count: int) -> float:  # pragma: no cover - compiled
-    """sqrt(squares / count); NaN without samples."""
-    return np.sqrt(squares / count) if count > 0 else np.nan
-
-
-@numba.njit(cache=True, nogil=True)
-def _series_pass(t, q_true, q_ref, qd_true, qd_hat, luaf_true, luaf_hat, tau, sliding, flags, window_start,
-                 settle, fault_window, tolerances, onsets, until, limits, out, state, searching,
-                 counts):  # pragma: no cover - compiled
-    """Every metric of :data:`_PASS_OUTPUTS` into ``out[metric, w, j]``, from ``(T, W, n)`` series (see
-    :func:`series_metrics`) and the per-sample ``flags`` (estimation window, outside the settle intervals, the
-    estimates' transient, before the first fault, estimation window after it).
-
-    The definitions (module docstring) as state updated sample by sample, samples in time order: sums of
-    squares from 0 (NumPy's time-ordered sums, whose first term is the first square), maxima that NaN
-    poisons (NumPy's), settling times as the first sample after the last one outside the tolerance (NaN
-    counts as outside), and after a first pass, a second one over each column's converged window. The state
-    is the caller's (``state`` from :data:`_STATE_START`, ``searching``, ``counts`` at 0), one row each."""
-    steps, width, n = q_true.shape
-    tracking, velocity, luaf_tolerance, sliding_tolerance = tolerances[0], tolerances[1], tolerances[2], tolerances[3]
-    error_squares = state[0]
-    error_peak = state[1]
-    convergence = state[2]
-    entry = state[3]
-    velocity_squares = state[4]
-    observer = state[5]
-    luaf_squares = state[6]
-    luaf_fault_squares = state[7]
-    luaf_settled = state[8]
-    transient_peak = state[9]
-    initial = state[10]
-    beyond = state[11]
-    reached = state[12]
-    first_reached = state[13]
-    torque_squares = state[14]
-    fault_peak = state[15]
-    recovery = state[16]
-    begin = state[17]
-    window_squares = state[18]
-    window_peak = state[19]
-    variation = state[20]
-    converging = searching[0]
-    observing = searching[1]
-    luaf_settling = searching[2]
-    reaching = searching[3]
-    recovering = searching[4]
-    was_inside = searching[5]
-    saturated = counts[0]
-    fault_samples = counts[1]
-    window_count = counts[2]
-    pairs = counts[3]
-    estimation_count = fault_count = transient_count = 0
-    for i in range(steps):
-        time = t[i]
-        estimated, transient, before, after = flags[0, i], flags[2, i], flags[3, i], flags[4, i]
-        first_transient = transient and transient_count == 0
-        if estimated:
-            estimation_count += 1
-        if after:
-            fault_count += 1
-        if transient:
-            transient_count += 1
-        for w in range(width):
-            for j in range(n):
-                error = q_true[i, w, j] - q_ref[i, w, j]
-                size = abs(error)
-                error_squares[w, j] += error * error
-                error_peak[w, j] = _nan_peak(error_peak[w, j], size)
-                velocity_error = qd_true[i, w, j] - qd_hat[i, w, j]
-                luaf_error = luaf_true[i, w, j] - luaf_hat[i, w, j]
-                if estimated:
-                    velocity_squares[w, j] += velocity_error * velocity_error
-                    luaf_squares[w, j] += luaf_error * luaf_error
-                if after:
-                    luaf_fault_squares[w, j] += luaf_error * luaf_error
-                if transient:
-                    if first_transient:
-                        initial[w, j] = np.sign(luaf_error)
-                    transient_peak[w, j] = _nan_peak(transient_peak[w, j], abs(luaf_error))
-                    beyond[w, j] = _nan_peak(beyond[w, j], -initial[w, j] * luaf_error)
-                s = sliding[i, w, j]
-                if before:
-                    convergence[w, j], converging[w, j] = _settle_step(
-                        convergence[w, j], converging[w, j], not size <= tracking, time)
-                    if entry[w, j] != entry[w, j] and size <= tracking:
-                        entry[w, j] = time
-                    observer[w, j], observing[w, j] = _settle_step(
-                        observer[w, j], observing[w, j], not abs(velocity_error) <= velocity, time)
-                    luaf_settled[w, j], luaf_settling[w, j] = _settle_step(
-                        luaf_settled[w, j], luaf_settling[w, j], not abs(luaf_error) <= luaf_tolerance, time)
-                    reached[w, j], reaching[w, j] = _settle_step(
-                        reached[w, j], reaching[w, j], not abs(s) <= sliding_tolerance, time)
-                    if first_reached[w, j] != first_reached[w, j] and abs(s) <= sliding_tolerance:
-                        first_reached[w, j] = time
-                onset = onsets[j]
-                if time >= onset and time < until[j]:
-                    recovery[w, j], recovering[w, j] = _settle_step(
-                        recovery[w, j], recovering[w, j], not size <= tracking, time)
-                    if time < onset + fault_window:
-                        fault_peak[w, j] = _nan_peak(fault_peak[w, j], size)
-                        fault_samples[w, j] += 1
-                torque = tau[i, w, j]
-                torque_squares[w, j] += torque * torque
-                if abs(torque) > limits[j]:
-                    saturated[w, j] += 1
-
-    # The converged window: outside the settle intervals, from max(window_start, entry + settle) on.
-    for w in range(width):
-        for j in range(n):
-            begin[w, j] = max(window_start, entry[w, j] + settle) if np.isfinite(entry[w, j]) else window_start
-    for i in range(steps):
-        time, free = t[i], flags[1, i]
-        for w in range(width):
-            for j in range(n):
-                inside = free and time >= begin[w, j]
-                if inside:
-                    error = q_true[i, w, j] - q_ref[i, w, j]
-                    window_squares[w, j] += error * error
-                    window_peak[w, j] = _nan_peak(window_peak[w, j], abs(error))
-                    window_count[w, j] += 1
-                    if was_inside[w, j]:
-                        pairs[w, j] += 1
-                        variation[w, j] += abs(tau[i, w, j] - tau[i - 1, w, j])
-                was_inside[w, j] = inside
-
-    dt = t[1] - t[0] if steps > 1 else 0.0
-    for w in range(width):
-        for j in range(n):
-            out[0, w, j] = _root_mean(error_squares[w, j], steps)
-            out[1, w, j] = error_peak[w, j] if steps else np.nan
-            out[2, w, j] = _root_mean(window_squares[w, j], window_count[w, j])
-            out[3, w, j] = window_peak[w, j] if window_count[w, j] else np.nan
-            out[4, w, j] = convergence[w, j]
-            out[5, w, j] = _root_mean(velocity_squares[w, j], estimation_count)
-            out[6, w, j] = _root_mean(luaf_squares[w, j], estimation_count)
-            out[7, w, j] = observer[w, j]
-            out[8, w, j] = luaf_settled[w, j]
-            out[9, w, j] = transient_peak[w, j] if transient_count else np.nan
-            if not transient_count:
-                out[10, w, j] = np.nan
-            elif initial[w, j] == 0:
-                out[10, w, j] = transient_peak[w, j]
-            else:
-                out[10, w, j] = _nan_peak(beyond[w, j], 0.0)
-            out[11, w, j] = _root_mean(luaf_fault_squares[w, j], fault_count)
-            out[12, w, j] = first_reached[w, j]
-            out[13, w, j] = reached[w, j]
-            out[14, w, j] = fault_peak[w, j] if fault_samples[w, j] else np.nan
-            out[15, w, j] = recovery[w, j] - onsets[j]
-            out[16, w, j] = _root_mean(torque_squares[w, j], steps)
-            seconds = pairs[w, j] * dt
-            out[17, w, j] = variation[w, j] / seconds if seconds > 0 else np.nan
-            out[18, w, j] = saturated[w, j] / steps if steps else np.nan
+    values = series_pass(t, tuple(columns), flags, spec.window_start, spec.fault_settle, spec.fault_window,
+                         tolerances, onsets, until, run.torque_limits)
+    return dict(zip(ACCELERATED, values))
 
 
 def windows_after_the_end(result: VariantResult, spec: MetricsSpec, fault_onsets: Sequence[float]) -> dict[str, str]:
