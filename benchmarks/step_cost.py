@@ -7,7 +7,9 @@ computed, metrics evaluated, and the Rerun file written (to a temporary director
 ``mujoco.mj_step`` on the same model with nothing else, as many steps. Prints microseconds per control step of
 each (the fastest round of each) and their ratio; then each round's own ratio, its closed loop against the bare
 loop measured just before it, and their median: the machine's speed drifts from minute to minute, and a round's
-two measurements, a second apart, drift least.
+two measurements, a second apart, drift least. Last, the cost of the causal diagnoser stepped inside the loop
+(``simulate(..., diagnose_in_loop=True)``, as for a controller that reads the diagnosis) against the same run
+diagnosed after it (its accelerator), alternated rounds, the fastest of each: microseconds per control step.
 """
 
 from __future__ import annotations
@@ -22,6 +24,9 @@ import mujoco
 
 from ftc_mj import load_scenario, run_scenario
 from ftc_mj.analysis.metrics import compute_metrics
+from ftc_mj.engine.loop import simulate
+from ftc_mj.engine.members import single
+from ftc_mj.engine.runner import variant_result
 from ftc_mj.outputs.recording import write_recording
 from ftc_mj.scenario.definition import Scenario
 
@@ -81,6 +86,28 @@ def main() -> None:
     print(f"ratio closed loop / bare:    {recorded / bare:8.1f}")
     print("each round against its own bare loop: " + ", ".join(f"{ratio:.2f}" for ratio in paired)
           + f"; median {statistics.median(paired):.2f}")
+    if scenario.diagnoser is not None:
+        after, inside = diagnosis_in_loop_seconds(scenario, args.rounds)
+        print(f"diagnosis after the run:     {per_step(after):8.2f} us per control step (simulate + diagnose)")
+        print(f"diagnosis inside the loop:   {per_step(inside):8.2f} us per control step; "
+              f"the causal diagnoser per period: {per_step(inside - after):+.2f} us")
+
+
+def diagnosis_in_loop_seconds(scenario: Scenario, rounds: int) -> tuple[float, float]:
+    """The fastest of ``rounds`` alternated runs (simulated and every variant's result made, so diagnosed) with
+    the diagnosis after the run and inside the loop."""
+    def one(in_loop: bool) -> float:
+        start = time.perf_counter()
+        run = simulate(scenario, single(scenario), diagnose_in_loop=in_loop)
+        for v in range(len(scenario.variants)):
+            variant_result(scenario, run, v, 0)
+        return time.perf_counter() - start
+
+    one(True)  # the component's first use: not a round
+    after = inside = float("inf")
+    for _ in range(rounds):
+        after, inside = min(after, one(False)), min(inside, one(True))
+    return after, inside
 
 
 if __name__ == "__main__":

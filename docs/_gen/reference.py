@@ -4,9 +4,8 @@ Used as a MkDocs hook (``mkdocs.yml``: ``hooks``): :func:`on_files` adds one gen
 entry of :data:`PAGES` to the site. Every schema page is read from the pydantic models themselves (field,
 type, default) and their ``#:`` comments (meaning); the command pages from each command's ``build_parser``;
 the methods page from the registry of built-in observers and controllers and their gain ``Config`` models;
-the metrics page from ``ftc_mj.analysis.metrics`` (names and units) with the definitions kept in
-``docs/_gen/metrics.yaml``, checked against the code's list (a metric without a definition, or a
-definition of no metric, fails the build).
+the metrics page from the metrics registry (``ftc_mj.analysis.registry``: names, units, windows and the
+definitions' docstrings).
 """
 
 from __future__ import annotations
@@ -311,35 +310,27 @@ def methods_page() -> str:
 # ----------------------------------------------------------------------------------------------- metrics
 
 
-def metric_definitions() -> dict[str, str]:
-    return yaml.safe_load((HERE / "metrics.yaml").read_text())
-
-
 def metrics_page() -> str:
-    from ftc_mj.analysis.diagnosis import DIAGNOSIS_METRICS
-    from ftc_mj.analysis.metrics import METRICS, UNITS, MetricsSpec
+    """The metrics page from the registry (:mod:`ftc_mj.analysis.registry`): name, unit, window and the
+    definition's docstring of every registered metric."""
+    from ftc_mj.analysis.metrics import MetricsSpec
+    from ftc_mj.analysis.registry import of_kind
 
-    definitions = metric_definitions()
-    missing = [name for name in METRICS if name not in definitions]
-    extra = [name for name in definitions if name not in METRICS]
-    if missing or extra:
-        raise ValueError(f"docs/_gen/metrics.yaml: metrics without a definition {missing}, "
-                         f"definitions of no metric {extra}")
     out = ["# Metrics", "",
-           "Per variant and per joint, SI units, computed by `ftc_mj.analysis.metrics.compute_metrics` "
-           "(diagnosis metrics by `ftc_mj.analysis.diagnosis`). e = q - q_d on the true position. Names and "
-           "units are generated from `METRICS` and `UNITS`; the windows and tolerances are the scenario's "
-           "[`metrics` section](scenario.md#metricsspec).", "",
-           "| metric | unit | definition |", "|---|---|---|"]
-    for name in METRICS:
-        if name in DIAGNOSIS_METRICS:
-            continue
-        out.append(f"| `{name}` | {UNITS[name]} | {_cell(definitions[name])} |")
+           "Per variant and per joint, SI units, each a NumPy function registered in `ftc_mj.analysis.registry` "
+           "(series metrics in `ftc_mj.analysis.metrics`, diagnosis metrics in `ftc_mj.analysis.diagnosis`); this "
+           "page is generated from that registry. e = q - q_d on the true position. The windows and tolerances are "
+           "the scenario's [`metrics` section](scenario.md#metricsspec). A metric of your own is one function "
+           "decorated with `@metric(name, unit, window)`: it is then in every run's table and `--json`, a "
+           "campaign's rows and statistics, and here.", "",
+           "| metric | unit | window | definition |", "|---|---|---|---|"]
+    for entry in of_kind("series"):
+        out.append(f"| `{entry.name}` | {entry.unit} | {entry.window} | {_cell(entry.doc)} |")
     out += ["", "## Diagnosis metrics", "",
             "All undefined (`-` in the table, `null` in `--json`) without a `diagnosis` section.", "",
-            "| metric | unit | definition |", "|---|---|---|"]
-    for name in DIAGNOSIS_METRICS:
-        out.append(f"| `{name}` | {UNITS[name]} | {_cell(definitions[name])} |")
+            "| metric | unit | window | definition |", "|---|---|---|---|"]
+    for entry in of_kind("diagnosis"):
+        out.append(f"| `{entry.name}` | {entry.unit} | {entry.window} | {_cell(entry.doc)} |")
     out += ["", "## The `metrics` section", "", *_gains_table(MetricsSpec), ""]
     return "\n".join(out)
 

@@ -354,8 +354,8 @@ class DiagnosedRun:
 
 @metric("detection_delay", "s", "a faulty joint's onset to the end", kind="diagnosis")
 def detection_delay(run: DiagnosedRun) -> np.ndarray:
-    """Per faulty joint, the first time at or after its onset with its alarm on, minus the onset; NaN on a
-    healthy joint and on a missed one."""
+    """Per faulty joint, the first time at or after its onset with its alarm on, minus the onset; undefined on a
+    healthy or missed joint."""
     found = run.faulty & run.decided & (run.detected >= 0)
     return np.where(found, run.t[np.maximum(run.detected, 0)] - run.onsets, np.nan)
 
@@ -368,15 +368,15 @@ def missed_detection(run: DiagnosedRun) -> np.ndarray:
 
 @metric("false_alarms", "count", "armed and fault-free", kind="diagnosis")
 def false_alarms(run: DiagnosedRun) -> np.ndarray:
-    """Alarms raised while the joint is fault-free and the diagnoser armed (before the joint's onset; the whole
-    armed run on a healthy joint)."""
+    """Alarms raised while the joint is fault-free and the diagnoser armed (before its onset; the whole armed run on a
+    healthy joint)."""
     raised = (run.diagnosis.raised & run.fault_free).sum(axis=0)
     return np.where(run.fault_free.any(axis=0), raised, np.nan)
 
 
 @metric("false_alarm_rate", "1/s", "armed and fault-free", kind="diagnosis")
 def false_alarm_rate(run: DiagnosedRun) -> np.ndarray:
-    """false_alarms per second of armed fault-free time."""
+    """That count per second of armed fault-free time."""
     seconds = run.fault_free.sum(axis=0) * run.dt
     with np.errstate(invalid="ignore", divide="ignore"):
         return np.where(seconds > 0, false_alarms(run) / seconds, np.nan)
@@ -384,16 +384,16 @@ def false_alarm_rate(run: DiagnosedRun) -> np.ndarray:
 
 @metric("isolation_correct", "0/1", "from the first fault onset", kind="diagnosis")
 def isolation_correct(run: DiagnosedRun) -> np.ndarray:
-    """1 if the diagnoser names the joint faulty (an alarm at or after the first fault onset; at any armed time
-    in a run without faults) exactly when it is faulty, else 0."""
+    """1 if the diagnoser names the joint faulty (an alarm at or after the first fault onset; at any armed time without
+    faults) exactly when it is faulty, else 0."""
     isolated = run.diagnosis.isolated(run.first_fault)
     return np.where(run.decided, (isolated == run.faulty).astype(float), np.nan)
 
 
 @metric("fault_estimate_rms", "rad/s^2 or N m", "a detected joint's detection to the end", kind="diagnosis")
 def fault_estimate_rms(run: DiagnosedRun) -> np.ndarray:
-    """Per detected faulty joint, RMS of the fault estimate minus the injected fault (both in the diagnosis
-    space) from detection to the end."""
+    """Per detected faulty joint, RMS of fault estimate minus injected fault from detection to the end, in the
+    diagnosis space."""
     out = np.full(len(run.faulty), np.nan)
     d = run.diagnosis
     for j in np.flatnonzero(run.faulty & run.decided & (run.detected >= 0)):

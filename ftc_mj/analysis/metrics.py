@@ -297,7 +297,7 @@ def settling_time(within: np.ndarray, t: np.ndarray, where: np.ndarray | None = 
 
 @metric("rms_error", "rad", "the whole run")
 def rms_error(run: Samples) -> np.ndarray:
-    """RMS of |e|, e = q - q_d (true position), over the whole run."""
+    """RMS of |e| over the whole run."""
     return root_mean_square(run.error)
 
 
@@ -309,58 +309,66 @@ def max_error(run: Samples) -> np.ndarray:
 
 @metric("rms_error_converged", "rad", "the evaluation window")
 def rms_error_converged(run: Samples) -> np.ndarray:
-    """RMS of |e| over the evaluation window, per variant and joint from its own convergence."""
+    """RMS of |e| over the evaluation window, per variant and joint from its own convergence: from
+    max(`metrics.window_start`, t_in + `fault_settle`) to the end, t_in the first time |e| <=
+    `tracking_tolerance` (`window_start` if never; entering the tolerance ends the reaching phase, so the settle
+    interval that follows a fault onset follows it too; the first entry, so that a later excursion that is no
+    fault, e.g. a sensor effect, stays in the window), without `[onset, onset + fault_settle)` after each fault
+    onset; a steady-state comparison never includes a variant's convergence."""
     return root_mean_square(run.error, run.converged)
 
 
 @metric("max_error_converged", "rad", "the evaluation window")
 def max_error_converged(run: Samples) -> np.ndarray:
-    """Maximum of |e| over the evaluation window."""
+    """The maximum of |e| over the evaluation window of `rms_error_converged`."""
     return peak(run.error_size, run.converged)
 
 
 @metric("convergence_time", "s", "before the first fault")
 def convergence_time(run: Samples) -> np.ndarray:
-    """The first time after which |e| stays within tracking_tolerance until the first fault onset (or the
-    end); NaN if it is never within."""
+    """The time after which |e| stays within `tracking_tolerance` until the first fault onset (when |e| last leaves the
+    tolerance); NaN if never within."""
     return settling_time(run.error_size <= run.spec.tracking_tolerance, run.t, run.before_fault)
 
 
 @metric("rms_velocity_error", "rad/s", "the estimation window")
 def rms_velocity_error(run: Samples) -> np.ndarray:
-    """RMS of the velocity estimate against ground truth over the estimation window."""
+    """RMS of true minus estimated velocity over the estimation window (from `estimation_window_start`, without the
+    settle intervals)."""
     return root_mean_square(run.velocity_error, run.estimation)
 
 
 @metric("rms_luaf_error", "rad/s^2", "the estimation window")
 def rms_luaf_error(run: Samples) -> np.ndarray:
-    """RMS of the LUaF estimate against ground truth over the estimation window."""
+    """RMS of true minus estimated lumped uncertainty over the estimation window."""
     return root_mean_square(run.luaf_error, run.estimation)
 
 
 @metric("observer_convergence_time", "s", "before the first fault")
 def observer_convergence_time(run: Samples) -> np.ndarray:
-    """As convergence_time for the velocity estimation error with velocity_tolerance."""
+    """As `convergence_time`, for the velocity estimation error with `velocity_tolerance`."""
     return settling_time(np.abs(run.velocity_error) <= run.spec.velocity_tolerance, run.t, run.before_fault)
 
 
 @metric("luaf_convergence_time", "s", "before the first fault")
 def luaf_convergence_time(run: Samples) -> np.ndarray:
-    """As convergence_time for the LUaF estimation error with luaf_tolerance."""
+    """As `convergence_time`, for the LUaF estimation error with `luaf_tolerance` (default 0.5 rad/s^2)."""
     return settling_time(np.abs(run.luaf_error) <= run.spec.luaf_tolerance, run.t, run.before_fault)
 
 
 @metric("peak_luaf_error_transient", "rad/s^2", "before estimation_window_start")
 def peak_luaf_error_transient(run: Samples) -> np.ndarray:
-    """The largest |LUaF estimation error| before estimation_window_start."""
+    """Largest |LUaF error| before `estimation_window_start`: the initial error, or more if the estimate runs away
+    first."""
     return peak(np.abs(run.luaf_error), run.transient)
 
 
 @metric("luaf_overshoot", "rad/s^2", "before estimation_window_start")
 def luaf_overshoot(run: Samples) -> np.ndarray:
-    """How far the LUaF estimate goes past the true LUaF before estimation_window_start: the largest estimation
-    error of the sign opposite to the initial error (0 if it never crosses; the largest |error| if the initial
-    error is exactly 0)."""
+    """The one definition of overshoot, for every observer: how far the LUaF estimate goes past the true LUaF before
+    `estimation_window_start`, i.e. the largest estimation error of the sign opposite to the initial error (0 if
+    it never crosses; the largest |error| if the initial error is 0). An estimate that only converges scores its
+    steady-state error; in the reproduction an observer overshoots if it exceeds `luaf_tolerance`."""
     transient = np.flatnonzero(run.transient)
     if not transient.size:
         return np.full(run.luaf_error.shape[1:], np.nan)
@@ -372,34 +380,38 @@ def luaf_overshoot(run: Samples) -> np.ndarray:
 
 @metric("rms_luaf_error_fault", "rad/s^2", "the estimation window after the first fault")
 def rms_luaf_error_fault(run: Samples) -> np.ndarray:
-    """rms_luaf_error restricted to the samples after the first fault onset; NaN without faults."""
+    """`rms_luaf_error` over the samples after the first fault onset only; NaN without faults."""
     return root_mean_square(run.luaf_error, run.estimation & (run.t >= run.first_fault))
 
 
 @metric("first_reaching_time", "s", "before the first fault")
 def first_reaching_time(run: Samples) -> np.ndarray:
-    """The first time |s| <= sliding_tolerance (before the first fault onset; NaN if never)."""
+    """The first time |s| <= `sliding_tolerance` before the first fault onset: when the surface is first reached; NaN
+    if never."""
     return first_time(np.abs(run.sliding) <= run.spec.sliding_tolerance, run.t, run.before_fault)
 
 
 @metric("reaching_time", "s", "before the first fault")
 def reaching_time(run: Samples) -> np.ndarray:
-    """As convergence_time for the sliding variable with sliding_tolerance: the sliding motion reached for good."""
+    """As `convergence_time`, for the controller's sliding variable with `sliding_tolerance` (default 0.01): when the
+    sliding motion is reached for good (until the first fault onset); later than `first_reaching_time` when s is
+    kicked off the surface after reaching it."""
     return settling_time(np.abs(run.sliding) <= run.spec.sliding_tolerance, run.t, run.before_fault)
 
 
 @metric("fault_peak_error", "rad", "a faulty joint's fault window")
 def fault_peak_error(run: Samples) -> np.ndarray:
-    """Per faulty joint, the largest |e| in [onset, onset + fault_window), cut at the next fault onset; NaN on a
-    healthy joint."""
+    """Per faulty joint (a joint whose fault value is not identically 0): the largest |e| in the fault window `[onset,
+    onset + metrics.fault_window)` after its first fault onset (default 2 s), cut at the next onset; NaN on
+    healthy joints."""
     window = run.fault_windows & (run.t[:, None, None] < run.joint_onsets + run.spec.fault_window)
     return peak(run.error_size, window)
 
 
 @metric("recovery_time", "s", "a faulty joint's onset to the next")
 def recovery_time(run: Samples) -> np.ndarray:
-    """Per faulty joint, how long after its first fault onset |e| comes back within tracking_tolerance for good
-    (up to the next fault onset, or the end); NaN on a healthy joint or if it never does."""
+    """Per faulty joint: how long after its first fault onset |e| is back within `tracking_tolerance` for good (up to
+    the next onset); NaN if never or healthy."""
     within = run.error_size <= run.spec.tracking_tolerance
     return settling_time(within, run.t, run.fault_windows) - run.joint_onsets
 
@@ -412,8 +424,8 @@ def rms_torque(run: Samples) -> np.ndarray:
 
 @metric("chattering", "N m/s", "the evaluation window")
 def chattering(run: Samples) -> np.ndarray:
-    """Total variation of the commanded torque per second over the evaluation window, sum |tau[k+1] - tau[k]|
-    over consecutive samples in it, divided by their span."""
+    """Total variation of the commanded torque per second over the (per-joint) evaluation window, sum |tau[k+1] -
+    tau[k]| / window length."""
     window = run.converged
     if run.steps < 2:
         return np.full(run.tau.shape[1:], np.nan)
@@ -426,7 +438,8 @@ def chattering(run: Samples) -> np.ndarray:
 
 @metric("saturation_time", "share", "the whole run")
 def saturation_time(run: Samples) -> np.ndarray:
-    """The share of the run's samples (0-1) at which the command was beyond the joint's torque limit."""
+    """Share of the run's samples where |tau| was beyond the joint's torque limit, so that MuJoCo clipped the command
+    (0 without limits; a warning after a run above 5% on any joint)."""
     if not run.steps:
         return np.full(run.tau.shape[1:], np.nan)
     return (np.abs(run.tau) > run.torque_limits).sum(axis=0) / run.steps
