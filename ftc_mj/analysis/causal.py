@@ -55,6 +55,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from ftc_mj import fast
 from ftc_mj.config.errors import InputError
 from ftc_mj.results import Diagnosis
 
@@ -120,6 +121,12 @@ class CausalDiagnoser:
         self._run = np.zeros(shape, dtype=np.int64)
         self._level = np.zeros(shape)  # fixed + k sd
         self._scratch = np.zeros(shape)
+        self._bound = np.zeros(shape)  # the threshold's bound at this sample
+        #: The compiled period (:mod:`ftc_mj.fast.analysis_diagnosis`) where the fast paths are on, else None.
+        self._period = None
+        if fast.enabled():
+            from ftc_mj.fast.analysis_diagnosis import period_kernel
+            self._period = period_kernel()
         self.reset()
 
     def reset(self) -> None:
@@ -146,8 +153,37 @@ class CausalDiagnoser:
     def step(self, t: float, estimate: np.ndarray, q_meas: np.ndarray | None = None,
              qd_hat: np.ndarray | None = None) -> None:
         """Sample ``t``: ``estimate``, ``q_meas``, ``qd_hat`` ``(rows, n)`` (the last two read only by a threshold
-        ``bound``). The outputs are this component's arrays, updated in place."""
+        ``bound``). The outputs are this component's arrays, updated in place. Where the fast paths are on, the
+        arithmetic after the baseline's bookkeeping runs in its accelerator
+        (:func:`ftc_mj.fast.analysis_diagnosis.period_kernel`, the same bits)."""
         d = self.diagnoser
+        keep, learn = -1, False
+        if not self._learned:
+            window = d.baseline
+            if window[0] <= t < window[1]:
+                if self._kept == len(self._window):  # irregular samples: more than the period allows
+                    self._window = np.concatenate([self._window, np.empty_like(self._window)])
+                keep = self._kept
+                self._kept += 1
+            # The window's last sample (or one after it): no more to come.
+            learn = self._learned = t + d.dt >= window[1] - 1e-9
+        self.armed = armed = t >= d.start
+        bound = None
+        if armed and d.bound is not None:
+            bound = self._bound
+            for j, column in enumerate(d.bound(t, q_meas.T, qd_hat.T)):
+                bound[:, j] = column
+        if self._period is not None:
+            estimate = np.asarray(estimate, dtype=float)
+            if estimate.shape != (self.rows, self.n):
+                raise ValueError(f"the estimate is {estimate.shape}, the diagnoser {(self.rows, self.n)}")
+            self._period(t, np.ascontiguousarray(estimate), self._bound, bound is not None, self._first, self._a,
+                         self._b0, keep, learn, self._kept, self._window, self._fixed, float(d.k), armed,
+                         self._cusum, float(d.drift), float(d.h), self._samples, self.signal, self._filtered,
+                         self.mean, self.std, self._level, self.fault_estimate, self.residual, self.threshold,
+                         self._g, self._previous, self._run, self.alarm, self.isolated, self.alarm_time)
+            self._first = False
+            return
         signal = self.signal
         if self._a > 0.0:  # y = b0 x + a y_(k-1), as SciPy's lfilter forms it: the state z = a y
             if self._first:
@@ -158,24 +194,17 @@ class CausalDiagnoser:
         else:
             signal[...] = estimate
         self._first = False
-        if not self._learned:
-            window = d.baseline
-            if window[0] <= t < window[1]:
-                if self._kept == len(self._window):  # irregular samples: more than the period allows
-                    self._window = np.concatenate([self._window, np.empty_like(self._window)])
-                self._window[self._kept] = signal
-                self._kept += 1
-            if t + d.dt >= window[1] - 1e-9:  # the window's last sample (or one after it): no more to come
-                self._learn()
+        if keep >= 0:
+            self._window[keep] = signal
+        if learn:
+            self._learn()
         np.subtract(signal, self.mean, out=self.fault_estimate)
         residual, threshold = self.residual, self.threshold
         np.abs(self.fault_estimate, out=residual)
-        self.armed = armed = t >= d.start
         if armed:
             threshold[...] = self._level
-            if d.bound is not None:
-                for j, column in enumerate(d.bound(t, q_meas.T, qd_hat.T)):
-                    threshold[:, j] += column
+            if bound is not None:
+                threshold += bound
         else:
             threshold.fill(np.nan)
         if self._cusum:  # z = r / threshold; g = max(0, g + z - nu), or 0 (and NaN out) where z is NaN
@@ -221,7 +250,6 @@ class CausalDiagnoser:
             std = np.sqrt(squares / count)
         self.mean[...] = mean
         self.std[...] = std
-        self._learned = True
         self._update_level()
 
 

@@ -112,3 +112,67 @@ def _pass(t, estimate, bound, fixed, k, first, stop, learned_at, has_baseline, a
                     state = exceeded
                 previous = exceeded
                 alarm[i, r, j] = state
+
+
+def period_kernel():
+    """:func:`_period`, the accelerator of one :meth:`~ftc_mj.analysis.causal.CausalDiagnoser.step` after its
+    Python part (the baseline window's bookkeeping, the arming, the threshold's ``bound``): the same
+    operations in the same order on every row and joint, so the same bits (its conformance test steps the
+    component with and without it)."""
+    return _period
+
+
+@numba.njit(cache=True, nogil=True, error_model="numpy")
+def _period(t, estimate, bound, with_bound, first, a, b0, keep, learn, count, window, fixed, k, armed, cusum_rule,
+            drift, h, samples, signal, filtered, mean, std, level, fault_estimate, residual, threshold, g, previous,
+            run, alarm, isolated, alarm_time):  # pragma: no cover - compiled
+    rows, n = estimate.shape
+    for r in range(rows):
+        for j in range(n):
+            x = estimate[r, j]
+            if a > 0.0:
+                if first:
+                    filtered[r, j] = a * x
+                y = filtered[r, j] + b0 * x
+                filtered[r, j] = a * y
+            else:
+                y = x
+            signal[r, j] = y
+            if keep >= 0:
+                window[keep, r, j] = y
+            if learn:  # the baseline from the kept samples, sums in time order
+                total = 0.0
+                for i in range(count):
+                    total += window[i, r, j]
+                m = total / count
+                squares = 0.0
+                for i in range(count):
+                    d = window[i, r, j] - m
+                    squares += d * d
+                sd = np.sqrt(squares / count)
+                mean[r, j], std[r, j] = m, sd
+                level[r, j] = fixed[j] + k * sd
+            e = y - mean[r, j]
+            fault_estimate[r, j] = e
+            value = abs(e)
+            limit = np.nan
+            if armed:
+                limit = level[r, j] + bound[r, j] if with_bound else level[r, j]
+            if cusum_rule:
+                s = g[r, j] + value / limit - drift
+                s = s if s >= 0.0 or s != s else 0.0
+                value = s
+                g[r, j] = 0.0 if s != s else s
+                limit = h if armed else np.nan
+            residual[r, j], threshold[r, j] = value, limit
+            exceeded = value > limit
+            length = run[r, j] + 1 if exceeded == previous[r, j] else 1
+            if length > samples:
+                length = samples
+            run[r, j] = length
+            if length >= samples:
+                alarm[r, j] = exceeded
+            previous[r, j] = exceeded
+            if alarm[r, j] and not isolated[r, j]:
+                isolated[r, j] = True
+                alarm_time[r, j] = t

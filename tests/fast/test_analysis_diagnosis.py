@@ -1,7 +1,8 @@
-"""Conformance of the causal diagnoser's accelerator (ftc_mj.fast.analysis_diagnosis) to its definition, the
-NumPy component stepped sample by sample (ftc_mj.analysis.causal): equal bits (tolerance 0) on random and
-edge-case inputs (NaN, inf, runs shorter than the baseline, one joint, a filter, a bound, both rules,
-persistence 1 and more, several rows)."""
+"""Conformance of the causal diagnoser's accelerators (ftc_mj.fast.analysis_diagnosis: the whole-array pass of
+the post-run diagnosis and the compiled period of a step) to their definition, the NumPy component stepped
+sample by sample (ftc_mj.analysis.causal, the fast paths off): equal bits (tolerance 0) on random and edge-case
+inputs (NaN, inf, runs shorter than the baseline, an empty baseline window, one joint, a filter, a bound, both
+rules, persistence 1 and more, several rows)."""
 
 from __future__ import annotations
 
@@ -65,13 +66,44 @@ def test_the_accelerator_gives_the_components_bits(case):
             kwargs["bound"] = _bound(n)
         diagnoser = _diagnoser(n, **kwargs)
         t, estimate, q, qd = _inputs(rng, steps, rows, n, edges)
-        definition = run_causal(diagnoser, t, estimate, q, qd)
-        assert fast.enabled()
-        accelerated = diagnoser.diagnose_rows(t, estimate, q, qd)
-        for name in ("signal", "fault_estimate", "residual", "threshold", "alarm", "armed", "mean", "std"):
-            expected, actual = getattr(definition, name), getattr(accelerated, name)
-            assert actual.shape == expected.shape, name
-            assert np.array_equal(actual, expected, equal_nan=True), (case, steps, rows, n, edges, name)
+        fast.set_enabled(False)
+        try:
+            definition = run_causal(diagnoser, t, estimate, q, qd)
+        finally:
+            fast.set_enabled(True)
+        for accelerated in (diagnoser.diagnose_rows(t, estimate, q, qd), run_causal(diagnoser, t, estimate, q, qd)):
+            for name in ("signal", "fault_estimate", "residual", "threshold", "alarm", "armed", "mean", "std"):
+                expected, actual = getattr(definition, name), getattr(accelerated, name)
+                assert actual.shape == expected.shape, name
+                assert np.array_equal(actual, expected, equal_nan=True), (case, steps, rows, n, edges, name)
+
+
+def _final_isolation(diagnoser: Diagnoser, t, estimate, q, qd, accelerated: bool) -> tuple[np.ndarray, ...]:
+    fast.set_enabled(accelerated)
+    try:
+        component = CausalDiagnoser(diagnoser, estimate.shape[1])
+    finally:
+        fast.set_enabled(True)
+    with np.errstate(all="ignore"):
+        for i in range(len(t)):
+            component.step(float(t[i]), estimate[i], q[i], qd[i])
+    return component.isolated.copy(), component.alarm_time.copy()
+
+
+@pytest.mark.parametrize("case", ["persistence", "cusum", "everything"])
+def test_the_compiled_period_isolates_as_the_definition(case):
+    """The latched isolation and the first alarm's time, stepped with the compiled period and without."""
+    n = 2
+    kwargs = dict(CASES[case])
+    if kwargs.get("bound") == "bound":
+        kwargs["bound"] = _bound(n)
+    diagnoser = _diagnoser(n, **kwargs)
+    t, estimate, q, qd = _inputs(np.random.default_rng(3), 80, 3, n, edges=True)
+    definition = _final_isolation(diagnoser, t, estimate, q, qd, accelerated=False)
+    compiled = _final_isolation(diagnoser, t, estimate, q, qd, accelerated=True)
+    assert definition[0].any()
+    assert np.array_equal(definition[0], compiled[0])
+    assert np.array_equal(definition[1], compiled[1], equal_nan=True)
 
 
 def test_every_row_is_a_diagnoser_of_its_own():
