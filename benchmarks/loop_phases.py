@@ -13,6 +13,11 @@ with a timer around each phase of the loop (:mod:`ftc_mj.engine.loop`):
 * set-up and truths: buffers, plugins, the truths solved after the run;
 * metrics: every member's results, diagnosis, metrics and detection statistics, as a worker computes them.
 
+Beside the phases, two measurements of the analysis: the metrics phase again on the NumPy definitions alone
+(``FTC_MJ_FAST=0`` for it: what the accelerators of ``ftc_mj/fast/analysis_*.py`` save), and the causal
+diagnoser stepped each period over every row on the batch's recorded estimates, as the loop steps it for a
+controller that reads the diagnosis (with its compiled period, and on the NumPy step alone).
+
 Each phase is printed per row (variant x member) and control period, and as a share of the physics. The
 campaign's goal is at most 1.3 times the bare physics, so everything but the physics must stay
 within 0.3 of it; the printed cumulative ratios say how far each phase brings it. The bare physics of the
@@ -32,6 +37,8 @@ from pathlib import Path
 import numpy as np
 
 from batch_cost import bare  # the same bare physics as the batch benchmark (this folder is on sys.path)
+from ftc_mj import fast
+from ftc_mj.analysis.causal import RecordedDiagnoser
 from ftc_mj.campaign import execute
 from ftc_mj.engine import loop
 from ftc_mj.engine.members import members_from_overrides
@@ -89,7 +96,37 @@ def phase_seconds(campaign: execute.Campaign, task: execute.Task) -> tuple[dict[
     _, keep_detection = execute.detection_keeper(scenario, task.scales)
     member_outcomes(scenario, batch_run, 0, keep_detection)
     seconds["metrics"] += clock() - a
+    fast.set_enabled(False)
+    try:
+        a = clock()
+        _, keep_detection = execute.detection_keeper(scenario, task.scales)
+        member_outcomes(scenario, batch_run, 0, keep_detection)
+        seconds["metrics, NumPy definitions"] = clock() - a
+        seconds["causal diagnoser, NumPy step"] = diagnoser_seconds(scenario, batch_run)
+    finally:
+        fast.set_enabled(True)
+    seconds["causal diagnoser"] = diagnoser_seconds(scenario, batch_run)
     return seconds, run.rows, run.steps
+
+
+def diagnoser_seconds(scenario, batch_run: BatchRun) -> float:
+    """Seconds to step every variant's causal diagnoser over its members' recorded estimates, period by
+    period, as the loop does for a controller that reads the diagnosis (0 without a diagnosis)."""
+    if scenario.diagnoser is None:
+        return 0.0
+    members, series = batch_run.members, batch_run.series
+    estimate = batch_run.luaf_torque if scenario.diagnoser.space == "torque" else series["luaf_hat"]
+    total = 0.0
+    with np.errstate(all="ignore"):
+        for v in range(len(batch_run.variants)):
+            rows = slice(v * members, (v + 1) * members)
+            diagnoser = RecordedDiagnoser(scenario.diagnoser, members, len(batch_run.times))
+            values = [np.ascontiguousarray(s[:, rows]) for s in (estimate, series["q_meas"], series["qd_hat"])]
+            start = time.perf_counter()
+            for k, t in enumerate(batch_run.times.tolist()):
+                diagnoser.step(k, t, values[0][k], values[1][k], values[2][k])
+            total += time.perf_counter() - start
+    return total
 
 
 def main() -> None:
@@ -128,6 +165,8 @@ def main() -> None:
     print(f"ratio whole batch / its physics: {cumulative / physics_cost:.2f}")
     print(f"ratio physics + nominal model / physics (the floor with the methods free): "
           f"{(per['physics'] + per['nominal model']) / physics_cost:.2f}")
+    for name in ("metrics, NumPy definitions", "causal diagnoser", "causal diagnoser, NumPy step"):
+        print(f"{name}: {per[name] * 1e6:.2f} us per row-period ({per[name] / physics_cost:.2f} of the physics)")
 
 
 if __name__ == "__main__":

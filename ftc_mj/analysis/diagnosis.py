@@ -1,16 +1,18 @@
 """Fault diagnosis on any observer's lumped-uncertainty (LUaF) estimate: detection, isolation, estimation.
 
-Per joint j and sample k (all causal: an output at t_k uses samples up to t_k only, so running it on the
-recorded arrays after the run gives what an online diagnoser would have given):
+Per joint j and sample k (all causal: an output at t_k uses samples up to t_k only; the definition is the
+component :class:`ftc_mj.analysis.causal.CausalDiagnoser`, which the loop steps where a controller reads it
+and which runs over the recorded arrays after the run otherwise, the same numbers):
 
 * signal s: the LUaF estimate in the diagnosis ``space``: ``acceleration`` (the estimate itself, rad/s^2)
   or ``torque`` (M(q_meas) times it, N m, with the controller's nominal model, formed in the loop where that
   M is at hand; an actuator fault of one joint then shows on that joint only, while in acceleration units
   M^-1 spreads it over coupled joints); optionally through a first-order low-pass filter
   (``filter_time_constant``);
-* baseline: mean m_j and standard deviation sd_j of s over a fault-free ``baseline`` window [t0, t1)
-  (without one, m = 0 and sd = 0: the estimate is compared against the bound alone);
-* fault estimate: s - m, its magnitude over time; residual r = |s - m|;
+* baseline: mean m_j and standard deviation sd_j of s over a fault-free ``baseline`` window [t0, t1),
+  learned at the window's last sample (without one, m = 0 and sd = 0: the estimate is compared against the
+  bound alone);
+* fault estimate: s - m, its magnitude over time; residual r = |s - m| (both NaN until m is learned);
 * threshold: ``fixed`` + ``k`` sd_j + ``bound``_j(t, q_meas, qd_hat) (the last an adaptive bound of the
   healthy uncertainty, an expression of the measured position and the estimated velocity);
 * alarm: raised after ``persistence`` consecutive samples with r > threshold, cleared after as many below
@@ -32,7 +34,7 @@ diagnosis then holds the CUSUM's statistic g as its ``residual`` and h as its ``
 metric and the campaign statistics (which scale the threshold) apply unchanged: a multiple c scales h.
 
 The section ``diagnosis`` of a scenario (:class:`DiagnosisSpec`) is compiled by :func:`compile_diagnoser`;
-the loop hands every result to :func:`diagnose_result`.
+the runner hands every result not diagnosed inside the loop to :func:`diagnose_result`.
 
 Metrics (:func:`diagnosis_metrics`, part of :func:`ftc_mj.analysis.metrics.compute_metrics`; all NaN without a
 ``diagnosis`` section). A joint is faulty from the first onset of a fault acting on it (a fault term or an
