@@ -191,6 +191,7 @@ print(json.dumps(state))
 """
 
 
+@pytest.mark.slow  # a subprocess
 @pytest.mark.parametrize("preset", [None, "svg"])
 def test_importing_the_figure_modules_leaves_matplotlib_alone(preset):
     """No ``matplotlib.use`` at import, no pyplot, the backend a user chose (or none) kept; figures are still

@@ -384,3 +384,59 @@ def on_files(files, config):  # the MkDocs hook
     for path, write in PAGES.items():
         files.append(File.generated(config, path, content=write()))
     return files
+
+
+# ----------------------------------------------------------------------------------------------- the package tree
+
+#: Where the architecture page takes the tree of the package, generated when the site is built.
+TREE_MARK = "<!-- the package tree, generated -->"
+PACKAGE = HERE.parents[1] / "ftc_mj"
+
+
+def _summary(path: Path) -> str:
+    """A module's (or package's) docstring up to its first full stop or colon, roles and markup dropped."""
+    import ast
+
+    doc = ast.get_docstring(ast.parse(path.read_text(encoding="utf-8"))) or ""
+    doc = re.sub(r":\w+:`~?([^`]+)`", lambda m: m.group(1).rsplit(".", 1)[-1], " ".join(doc.split()))
+    doc = doc.replace("``", "`")
+    # The first full stop, colon or semicolon that ends a phrase, not an abbreviation's ("eq. (5.6)", "Fig. 2").
+    first = re.split(r"(?<!\beq\.)(?<!\beqs\.)(?<!\bFig\.)(?<!\be\.g\.)(?<!\bi\.e\.)(?<!\.\.\.)(?<=[.:;])\s", doc, maxsplit=1)[0]
+    first = first.rstrip(".:;")
+    return first if len(first) <= 90 else first[:87].rsplit(" ", 1)[0] + " ..."
+
+
+def package_modules(root: Path = PACKAGE) -> list[str]:
+    """Every subpackage (``name/``) and module (``name.py``) of the package, as paths relative to it, in tree
+    order (a package's modules, then its subpackages); ``__init__.py`` and ``__main__.py`` stand for their
+    package."""
+    out: list[str] = []
+
+    def walk(folder: Path, prefix: str) -> None:
+        for module in sorted(folder.glob("*.py")):
+            if not module.name.startswith("__"):
+                out.append(prefix + module.name)
+        for package in sorted(p for p in folder.iterdir() if (p / "__init__.py").is_file()):
+            out.append(prefix + package.name + "/")
+            walk(package, prefix + package.name + "/")
+
+    walk(root, "")
+    return out
+
+
+def package_tree(root: Path = PACKAGE) -> str:
+    """The package as an indented tree, each entry with the first phrase of its docstring."""
+    lines = [f"{root.name}/"]
+    for entry in package_modules(root):
+        depth = entry.rstrip("/").count("/") + 1
+        name = entry.rstrip("/").rsplit("/", 1)[-1] + ("/" if entry.endswith("/") else "")
+        source = root / entry / "__init__.py" if entry.endswith("/") else root / entry
+        label = "  " * depth + name
+        lines.append(f"{label:<34} {_summary(source)}".rstrip())
+    return "```text\n" + "\n".join(lines) + "\n```"
+
+
+def on_page_markdown(markdown, page, config, files):  # the MkDocs hook
+    if TREE_MARK in markdown:
+        markdown = markdown.replace(TREE_MARK, package_tree())
+    return markdown

@@ -80,6 +80,7 @@ def diagnose(diagnoser: Diagnoser, luaf: np.ndarray, injected: np.ndarray | None
     return diagnoser.diagnose(T, luaf, zeros, zeros, zeros if injected is None else injected)
 
 
+@pytest.mark.slow  # a closed-loop run of seconds
 def test_baseline_threshold_and_detection_delay() -> None:
     luaf = healthy_signal()
     injected = np.zeros_like(luaf)
@@ -135,6 +136,7 @@ def test_false_alarms_missed_detection_and_isolation() -> None:
     np.testing.assert_array_equal(diagnosis.isolated(6.0), [True, True, False])
 
 
+@pytest.mark.slow  # a closed-loop run of seconds
 def test_a_fault_after_the_runs_end_is_neither_detected_nor_missed() -> None:
     """A run shortened below a fault's onset: the fault never acted, so its detection metrics are undefined
     (NaN), not a miss; the fault-free metrics keep their values over the samples there are."""
@@ -357,6 +359,7 @@ def metrics_of(scenario, result) -> dict[str, np.ndarray]:
     return compute_metrics(result, scenario.spec.metrics, scenario.fault_onsets, scenario.joint_fault_onsets)
 
 
+@pytest.mark.slow  # a closed-loop run of seconds
 def test_torque_space_signal_is_nominal_mass_times_estimate(loe_runs) -> None:
     """In torque space the diagnosis signal is M(q_meas) luaf_hat with the controller's nominal model."""
     (scenario, result), _ = loe_runs
@@ -366,6 +369,7 @@ def test_torque_space_signal_is_nominal_mass_times_estimate(loe_runs) -> None:
         np.testing.assert_allclose(result.diagnosis.signal[k], expected, rtol=1e-12, atol=1e-12)
 
 
+@pytest.mark.slow  # a closed-loop run of seconds
 def test_no_alarm_without_a_fault(loe_runs) -> None:
     (scenario, result), _ = loe_runs
     assert result.status == "ok" and result.t[-1] > 11.9
@@ -380,6 +384,7 @@ def test_no_alarm_without_a_fault(loe_runs) -> None:
     assert 4e-5 < np.abs(result.q_meas - result.q_true).max() < 1e-4
 
 
+@pytest.mark.slow  # a closed-loop run of seconds
 def test_loss_of_effectiveness_detected_and_isolated(loe_runs) -> None:
     """Measured: joint 2 detected 0.171 s after the onset, nothing else alarmed, fault estimate error 3.4 N m
     RMS (the fault grows to about 25 N m)."""
@@ -393,6 +398,7 @@ def test_loss_of_effectiveness_detected_and_isolated(loe_runs) -> None:
     assert m["fault_estimate_rms"][1] < 0.25 * np.abs(result.fault_torque[:, 1]).max()
 
 
+@pytest.mark.slow  # a closed-loop run of seconds
 def test_staggered_onsets_in_the_closed_loop(tmp_path: Path) -> None:
     """scenarios/faults/puma_loss_of_effectiveness.yaml with a second fault, a 10 N m bias on joint 1 from 9.5 s,
     through the command line: each joint's delay from its own onset (joint 2's LoE at 8 s, joint 1's bias at
@@ -417,6 +423,7 @@ def test_staggered_onsets_in_the_closed_loop(tmp_path: Path) -> None:
     assert m["false_alarms"] == [0.0, 0.0, 0.0] and m["isolation_correct"] == [1.0, 1.0, 1.0]
 
 
+@pytest.mark.slow  # a closed-loop run of seconds
 def test_bias_detected_against_the_uncertainty_bound(tmp_path: Path) -> None:
     """scenarios/faults/puma_bias.yaml: threshold from the declared friction and disturbance bound, no
     baseline. Measured: joint 3 detected after 0.224 s, no false alarm from 2 s (armed) on."""
@@ -477,6 +484,7 @@ def test_persistence_time_in_samples(tmp_path: Path) -> None:
 # ------------------------------------------------------------------------------------------ outputs
 
 
+@pytest.mark.slow  # a subprocess
 def test_table_json_and_recording(tmp_path: Path, capsys: pytest.CaptureFixture) -> None:
     rec, out = tmp_path / "rec.rrd", tmp_path / "out.json"
     status = main([str(FAULTS / "puma_loss_of_effectiveness.yaml"), "--variant", "proposed", "--duration", "9",

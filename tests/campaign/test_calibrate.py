@@ -22,6 +22,9 @@ from ftc_mj.engine.runner import run_batch, run_scenario
 from ftc_mj.analysis.metrics import compute_metrics
 from ftc_mj.scenario.loading import load_scenario
 
+#: campaigns, calibrations, tunings and benchmarks of closed-loop runs
+pytestmark = pytest.mark.slow
+
 ROOT = Path(__file__).resolve().parents[2]
 BIAS = ROOT / "scenarios" / "faults" / "puma_bias.yaml"
 RATE = 0.2

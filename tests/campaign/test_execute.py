@@ -15,6 +15,9 @@ from ftc_mj.campaign import execute
 from ftc_mj.cli import run
 from ftc_mj.config.errors import InputError
 
+#: campaigns, calibrations, tunings and benchmarks of closed-loop runs
+pytestmark = pytest.mark.slow
+
 
 @pytest.fixture(scope="module")
 def campaign_file(tmp_path_factory):

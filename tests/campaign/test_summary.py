@@ -11,6 +11,9 @@ import small_campaign
 from ftc_mj.campaign import execute
 from ftc_mj.cli.campaign import main
 
+#: a campaign of closed-loop runs, reported
+pytestmark = pytest.mark.slow
+
 
 @pytest.fixture(scope="module")
 def results(tmp_path_factory):

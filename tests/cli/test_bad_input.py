@@ -28,6 +28,9 @@ ROOT = Path(__file__).resolve().parents[2]
 sys.path.insert(0, str(ROOT / "tests" / "campaign"))
 import small_campaign  # noqa: E402
 
+#: closed-loop runs and subprocesses of the command line
+pytestmark = pytest.mark.slow
+
 #: Seconds a case may take, on a loaded machine (before the fixes: minutes, or killed by the memory limit).
 TIMEOUT = 15
 #: Address space of a case [KiB]: an expanded alias bomb or /dev/zero read whole would exceed it.

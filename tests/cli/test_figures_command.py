@@ -11,6 +11,9 @@ import pytest
 
 from ftc_mj.cli.figures import main
 
+#: closed-loop runs and subprocesses of the command line
+pytestmark = pytest.mark.slow
+
 ROOT = Path(__file__).parents[2]
 ENV = {**os.environ, "PYTHONPATH": str(ROOT)}
 

@@ -53,6 +53,7 @@ def _first_store(path: Path) -> str:
     return next(lines[i + 1].strip().rstrip(",") for i, line in enumerate(lines) if "StoreId(" in line)
 
 
+@pytest.mark.slow  # a closed-loop run of seconds
 @pytest.mark.filterwarnings("ignore:RRD file has no footer")  # a stream saved by the server, not a file
 @pytest.mark.skipif(RERUN is None, reason="the rerun program (rerun-sdk) is not on PATH")
 def test_connect_streams_the_recording_to_a_grpc_server_and_keeps_the_file(tmp_path):
@@ -67,6 +68,7 @@ def test_connect_streams_the_recording_to_a_grpc_server_and_keeps_the_file(tmp_p
     assert len(kept[0]) == 50
 
 
+@pytest.mark.slow  # a subprocess
 @pytest.mark.filterwarnings("ignore:RRD file has no footer")
 @pytest.mark.skipif(RERUN is None, reason="the rerun program (rerun-sdk) is not on PATH")
 def test_the_run_streams_blueprint_first_then_chunk_by_chunk(tmp_path, monkeypatch):

@@ -54,6 +54,7 @@ def processes() -> dict[str, subprocess.CompletedProcess]:
     return {name: future.result() for name, future in futures.items()}
 
 
+@pytest.mark.slow  # a subprocess
 def test_the_script_entry_lists_every_command(processes):
     done = processes["script --help"]
     assert done.returncode == 0, done.stderr
@@ -71,6 +72,7 @@ def test_every_command_has_a_module_and_help(capsys):
         assert out.startswith(f"usage: ftc-mj {command} "), out
 
 
+@pytest.mark.slow  # a subprocess
 def test_help_loads_no_engine():
     """``--help`` reads no scenario machinery: MuJoCo, the engine and Rerun stay unimported (the figures
     command's help names the formats of :mod:`ftc_mj.outputs.figures`, which loads matplotlib)."""
@@ -93,6 +95,7 @@ def test_a_short_run_through_the_dispatcher(capsys):
     assert capsys.readouterr().out == ""  # --quiet: no table
 
 
+@pytest.mark.slow  # a subprocess
 def test_a_short_run_through_the_script_and_the_old_form(processes):
     for name in ("script run", "python -m ftc_mj.run"):
         done = processes[name]
@@ -100,6 +103,7 @@ def test_a_short_run_through_the_script_and_the_old_form(processes):
         assert done.stdout == "" and done.stderr == "", name
 
 
+@pytest.mark.slow  # a subprocess
 def test_the_old_forms_are_the_same_commands(processes):
     for old, command in OLD_FORMS.items():
         done = processes[f"{old} --help"]
@@ -121,6 +125,7 @@ def test_a_bad_option_is_one_line_and_exit_2(argv, capsys):
         captured.err
 
 
+@pytest.mark.slow  # a subprocess
 def test_the_old_forms_refuse_a_bad_option_in_one_line(processes):
     for name in ("python -m ftc_mj.cli --bogus", "python -m ftc_mj.campaign --bogus"):
         done = processes[name]

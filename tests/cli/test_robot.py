@@ -47,6 +47,7 @@ def test_bad_input_is_one_line_exit_2(tmp_path, capsys):
     assert "--set" in capsys.readouterr().err
 
 
+@pytest.mark.slow  # a closed-loop run of seconds
 def test_run_prints_the_checks_warnings_in_short_and_the_saturation(capsys):
     scenario = str(ROOT / "scenarios" / "robots" / "ur5e_fault.yaml")
     assert main(["run", scenario, "--no-record", "--duration", "0.3", "--set", "robot.torque_limits=5"]) == 0

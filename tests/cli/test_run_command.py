@@ -31,6 +31,9 @@ from ftc_mj.analysis.metrics import METRICS
 from ftc_mj.cli.run import main
 from ftc_mj.outputs.tables import summary_metrics
 
+#: closed-loop runs and subprocesses of the command line
+pytestmark = pytest.mark.slow
+
 ROOT = Path(__file__).resolve().parents[2]
 PUMA_YAML = ROOT / "scenarios" / "puma_fault.yaml"
 PUMA_MODEL = ROOT / "models" / "puma560.xml"

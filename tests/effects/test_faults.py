@@ -292,6 +292,7 @@ def test_closed_loop_fault_acts_through_qfrc_applied_only(tmp_path: Path) -> Non
     assert np.abs(result.fault_acceleration[k0:, 1]).max() > 1.0
 
 
+@pytest.mark.slow  # a closed-loop run of seconds
 def test_closed_loop_acceleration_fault_term_force(tmp_path: Path) -> None:
     """An additive acceleration-space fault: its generalized force is M(q) times it, its acceleration itself."""
     data = scenario_data("puma_intermittent")

@@ -10,6 +10,8 @@ import sys
 from concurrent.futures import ThreadPoolExecutor
 from pathlib import Path
 
+import pytest
+
 import numpy as np
 from fault_scenarios import FAULTS, ROOT, array_fields, load, scenario_data
 from rerun.chunk import RrdReader
@@ -28,6 +30,7 @@ def noisy(seed: int, variants: tuple[str, ...] = ("proposed",)) -> dict:
     return data
 
 
+@pytest.mark.slow  # a closed-loop run of seconds
 def test_same_seed_same_run_bit_for_bit(tmp_path: Path) -> None:
     first = load(tmp_path, noisy(5), "a.yaml")
     second = load(tmp_path, noisy(5), "b.yaml")
@@ -43,6 +46,7 @@ def test_same_seed_same_run_bit_for_bit(tmp_path: Path) -> None:
             np.testing.assert_array_equal(fields[name], value, err_msg=name)
 
 
+@pytest.mark.slow  # a closed-loop run of seconds
 def test_another_seed_another_run(tmp_path: Path) -> None:
     a = load(tmp_path, noisy(5), "a.yaml")
     b = load(tmp_path, noisy(6), "b.yaml")
@@ -91,6 +95,7 @@ def test_random_elements_do_not_disturb_each_other(tmp_path: Path) -> None:
     assert np.abs(with_velocity_noise.qd_meas - with_velocity_noise.qd_true).max() > 1e-3
 
 
+@pytest.mark.slow  # a subprocess
 def test_same_seed_same_files_across_processes(tmp_path: Path) -> None:
     """Three processes: two with the scenario's seed write identical JSON (metrics to the last bit, alarm
     times) and recordings holding identical data; one with another seed differs."""

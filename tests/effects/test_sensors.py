@@ -253,6 +253,7 @@ def estimation_errors(noise_std: float) -> dict[str, tuple[float, float]]:
     return out
 
 
+@pytest.mark.slow  # a closed-loop run of seconds
 def test_estimation_error_grows_with_noise_for_every_observer() -> None:
     """Noise 0, 1e-4 and 1e-3 rad, 4 s runs. Measured: velocity error 0.014 / 0.027 / 0.046 rad/s (SOSMO),
     2.7e-4 / 2.3e-3 / 7.6e-3 (TOSMO and HS-TOSMO); LUaF error 1.31 / 2.52 / 3.88 rad/s^2 (SOSMO), 0.051 /

@@ -105,6 +105,7 @@ def test_a_parameter_rate_compiles_to_an_abrupt_profile_and_its_parameter() -> N
     np.testing.assert_array_equal(by_name.joints, [True, True, False])
 
 
+@pytest.mark.slow  # a closed-loop run of seconds
 @pytest.mark.parametrize("space", ["acceleration", "torque"])
 @pytest.mark.parametrize("sign", [1, -1])
 @pytest.mark.parametrize("zeta", [0.5, 2.0, 40.0])
@@ -131,6 +132,7 @@ def test_parameter_rate_equals_numeric_rate_and_the_closed_form(space: str, sign
                                   err_msg="the fault term does not have the sign of s f")
 
 
+@pytest.mark.slow  # a closed-loop run of seconds
 @pytest.mark.parametrize("rows", [3, SCALAR_ROWS + 3])
 @pytest.mark.parametrize("sign", [1, -1])
 def test_each_member_follows_its_own_rate(rows: int, sign: int) -> None:
@@ -420,6 +422,7 @@ def test_the_terms_are_evaluated_on_the_buffers_given_bound_once_per_pair() -> N
         q, qd = q_next, qd_next
 
 
+@pytest.mark.slow  # a closed-loop run of seconds
 def test_the_mapped_terms_are_the_same_on_a_live_mass_buffer_and_on_new_ones() -> None:
     """The loop passes one live M(q) buffer every period (the products then run past the dispatcher), or a new
     one; both give the bits of a new view each period, also after the buffer changes, for the acceleration sum

@@ -20,6 +20,9 @@ from ftc_mj.config.errors import InputError
 from ftc_mj.scenario.loading import load_scenario
 from ftc_mj.scenario.definition import Scenario
 
+#: closed-loop batches checked member by member against single runs
+pytestmark = pytest.mark.slow
+
 ROOT = Path(__file__).resolve().parents[2]
 PUMA = ROOT / "models" / "puma560.xml"
 NFTSMC = {"beta1": 15.0, "beta2": 10.0, "beta3": 10.0, "beta4": 5.0, "gamma1": 0.5, "bound": 0.5, "mu": 0.5}

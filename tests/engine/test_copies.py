@@ -111,6 +111,7 @@ def test_a_rebound_buffer_entry_and_the_other_groups() -> None:
     np.testing.assert_array_equal(series[1], second)
 
 
+@pytest.mark.slow  # a closed-loop run of seconds
 def test_the_table_keeps_its_arrays_alive() -> None:
     """The kernel reads addresses: the arrays behind them stay alive while the copies do, whoever else drops
     them (the first call compiles the table from an array nobody else holds)."""

@@ -22,6 +22,9 @@ from ftc_mj.methods.observers.base import Observer
 from ftc_mj.methods.primitives import exp, signed_power
 from ftc_mj.scenario.loading import load_scenario
 
+#: closed-loop batches checked member by member against single runs
+pytestmark = pytest.mark.slow
+
 ROOT = Path(__file__).resolve().parents[2]
 
 

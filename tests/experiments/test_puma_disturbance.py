@@ -10,6 +10,9 @@ import pytest
 
 from scenario_runs import Metrics, run_scenario
 
+#: whole-scenario closed-loop experiments
+pytestmark = pytest.mark.slow
+
 
 @pytest.fixture(scope="module")
 def metrics(tmp_path_factory: pytest.TempPathFactory) -> Metrics:

@@ -19,6 +19,9 @@ from ftc_mj.outputs.recording import read_series
 from ftc_mj.run import main
 from ftc_mj.scenario.loading import load_scenario
 
+#: whole-scenario closed-loop experiments
+pytestmark = pytest.mark.slow
+
 ROOT = Path(__file__).resolve().parents[2]
 SCENARIO = ROOT / "scenarios" / "puma_fault.yaml"
 

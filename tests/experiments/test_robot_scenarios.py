@@ -13,6 +13,9 @@ from scenario_runs import run_scenario
 
 from ftc_mj.robot.packages import resolve_package_uri
 
+#: whole-scenario closed-loop experiments
+pytestmark = pytest.mark.slow
+
 
 @pytest.fixture(scope="module")
 def ur5e(tmp_path_factory):

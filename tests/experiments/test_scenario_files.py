@@ -12,6 +12,9 @@ from ftc_mj import load_scenario, run_scenario
 from ftc_mj.config.yaml import read_yaml_mapping
 from ftc_mj.robot.packages import resolve_package_uri
 
+#: whole-scenario closed-loop experiments
+pytestmark = pytest.mark.slow
+
 FOLDER = Path(__file__).resolve().parents[2] / "scenarios"
 SCENARIOS = sorted(FOLDER.glob("*.yaml"))
 #: Shared fragments that scenarios name as their ``base``.

@@ -12,6 +12,9 @@ from fault_scenarios import run, scenario_data
 
 from ftc_mj.analysis.metrics import compute_metrics
 
+#: whole-scenario closed-loop experiments
+pytestmark = pytest.mark.slow
+
 NAMES = ("puma_lock", "puma_float", "puma_saturation", "puma_intermittent", "puma_sensors")
 
 

@@ -12,6 +12,9 @@ import pytest
 from ftc_mj.outputs.recording import read_series
 from scenario_runs import Metrics, run_scenario
 
+#: whole-scenario closed-loop experiments
+pytestmark = pytest.mark.slow
+
 
 @pytest.fixture(scope="module")
 def run(tmp_path_factory: pytest.TempPathFactory):

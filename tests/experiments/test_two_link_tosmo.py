@@ -22,6 +22,9 @@ from scenario_runs import ROOT, Metrics, run_scenario
 sys.path.insert(0, str(ROOT / "studies"))
 from sigmoid_spikes import spikes  # noqa: E402  (the study docs/results/reproduction.md quotes, run over 12 s)
 
+#: whole-scenario closed-loop experiments
+pytestmark = pytest.mark.slow
+
 
 @pytest.fixture(scope="module", params=["two_link_tosmo_simple", "two_link_tosmo_complex"])
 def metrics(request, tmp_path_factory: pytest.TempPathFactory) -> Metrics:

@@ -89,6 +89,7 @@ def test_csv_export_text():
         "0.25,-2.5,3,-25,30,-12.5,15\n")
 
 
+@pytest.mark.slow  # a subprocess
 def test_a_utf8_log_reads_alike_under_an_ascii_locale(tmp_path):
     """The log is read as UTF-8, not in the locale's encoding: a header naming a column with a non-ASCII name
     reads under the C locale with Python's UTF-8 mode off (this package's copy, run from the repository root)."""

@@ -36,6 +36,7 @@ def _replay_scenario(tmp_path: Path, scenario, variant: str, log_file: Path) -> 
     return path
 
 
+@pytest.mark.slow  # a closed-loop run of seconds
 @pytest.mark.parametrize("file, variant", [
     ("scenarios/two_link_do.yaml", "a_nftsmc_do"),        # DO on the tachometers, SOSMO and ESO as monitors
     ("scenarios/puma_fault.yaml", "proposed"),            # HS-TOSMO on positions, an actuator fault acting

@@ -18,9 +18,9 @@ ROOT = Path(__file__).resolve().parents[2]
 FREE, PUSHED = ROOT / "scenarios/real/ur10_free_motion.yaml", ROOT / "scenarios/real/ur10_pushed.yaml"
 CONSTANTS = [10.0, 10.6956, 8.4566, 9.0029, 9.48, 10.1232]
 
-pytestmark = pytest.mark.skipif(
+pytestmark = [pytest.mark.slow, pytest.mark.skipif(  # real robot logs replayed through the observers
     resolve_package_uri("package://example-robot-data/robots/ur_description/urdf/ur10_robot.urdf") is None,
-    reason="example-robot-data is not installed (the robots extra)")
+    reason="example-robot-data is not installed (the robots extra)")]
 
 
 def _residual_rms(results, name: str) -> np.ndarray:

@@ -168,6 +168,7 @@ observer.advance(np.zeros((2, 3)), model)
 """
 
 
+@pytest.mark.slow  # a subprocess
 def test_the_first_compilation_is_announced_once_per_law_and_cached(tmp_path):
     """An empty cache (a fresh NUMBA_CACHE_DIR): one line on stderr naming the law and the cache; the next
     process loads the cached kernels and says nothing."""

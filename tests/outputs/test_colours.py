@@ -14,6 +14,9 @@ from ftc_mj.cli.figures import main as figures_main
 from ftc_mj.cli.run import main as run_main
 from ftc_mj.outputs.palette import COLOURS, assign_colours, declared_colours, parse_colour
 
+#: closed-loop runs and a campaign drawn as figures
+pytestmark = pytest.mark.slow
+
 ROOT = Path(__file__).parents[2]
 SCENARIO = ROOT / "scenarios" / "puma_fault.yaml"
 CAMPAIGN = ROOT / "campaigns" / "ch5_monte_carlo.yaml"

@@ -63,6 +63,7 @@ def test_truth_beside_the_estimate_and_zoom_past_the_run(recording: Path) -> Non
     matplotlib.pyplot.close(fig)
 
 
+@pytest.mark.slow  # a closed-loop run of seconds
 def test_save_every_format(recording: Path, tmp_path: Path) -> None:
     from PIL import Image
 

@@ -273,6 +273,7 @@ def test_capsule_is_centred_like_mujoco(chunks: list, model: mujoco.MjModel) -> 
     assert np.isclose(batch.column("Capsules3D:lengths").to_pylist()[0][0], 2 * half)
 
 
+@pytest.mark.slow  # a subprocess
 def test_rerun_cli_verifies(rrd: Path) -> None:
     exe = shutil.which("rerun")
     if exe is None:

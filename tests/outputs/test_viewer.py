@@ -29,9 +29,9 @@ try:
 except ImportError:
     websocket = None
 
-pytestmark = pytest.mark.skipif(
+pytestmark = [pytest.mark.slow, pytest.mark.skipif(  # the viewer in a browser, a subprocess
     CHROMIUM is None or RERUN is None or websocket is None,
-    reason="needs chromium (apt-get install chromium), the rerun command and websocket-client (pip install)")
+    reason="needs chromium (apt-get install chromium), the rerun command and websocket-client (pip install)")]
 
 #: Pixels of a variant's colour that make a plot "non-empty" (a 1000-sample line in one plot is thousands).
 MIN_PIXELS = 300

@@ -20,6 +20,9 @@ from ftc_mj.methods import observers, registry
 from ftc_mj.methods.gains import GainConfig, PositiveJoints
 from ftc_mj.methods.observers.base import Observer
 
+#: campaigns, calibrations, tunings and benchmarks of closed-loop runs
+pytestmark = pytest.mark.slow
+
 
 class LinearObserverConfig(GainConfig):
     bandwidth: PositiveJoints

@@ -11,6 +11,9 @@ from ftc_mj.ranking.entries import load_bench
 from ftc_mj.cli.bench import main
 import tiny_suite
 
+#: campaigns, calibrations, tunings and benchmarks of closed-loop runs
+pytestmark = pytest.mark.slow
+
 
 def _with(change) -> dict:
     bench = copy.deepcopy(tiny_suite.entries())

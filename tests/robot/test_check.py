@@ -125,6 +125,7 @@ def test_wrong_units_are_warned():
     assert any("body 'upper'" in w and "wrong units" in w for w in check_robot(model).warnings)
 
 
+@pytest.mark.slow  # a closed-loop run of seconds
 @pytest.mark.parametrize("path", SHIPPED)
 def test_shipped_scenarios_get_only_true_warnings(path):
     from ftc_mj.cli.robot import _check

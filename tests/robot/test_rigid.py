@@ -224,6 +224,7 @@ tree.evaluate(mass, first, inertia, armature, q, qd, applied, *out, True)
 """
 
 
+@pytest.mark.slow  # a subprocess
 def test_the_first_compilation_is_announced_once_and_cached(tmp_path):
     """An empty cache (a fresh NUMBA_CACHE_DIR): one line on stderr naming the cache; the next process loads
     the cached kernel and says nothing."""

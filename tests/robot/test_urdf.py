@@ -114,6 +114,7 @@ def test_puma_urdf_scenario_locks_and_loads_the_wrist_as_the_model_tests_do():
     assert (robot.lock, robot.armature) == (PUMA_LOCK, PUMA_ARMATURE)
 
 
+@pytest.mark.slow  # a closed-loop run of seconds
 def test_puma_fault_same_metrics_on_both_models():
     """2 s of puma_fault on the MJCF and on the URDF: the same metrics.
 
@@ -394,6 +395,7 @@ def check_broken(case: Case, returncode: int, stdout: str, stderr: str, before: 
     assert after == before, "bad input wrote something"
 
 
+@pytest.mark.slow  # a subprocess
 @pytest.mark.parametrize("name", list(BROKEN))
 def test_broken_input_exits_2_with_one_line_and_writes_nothing(outcomes, name):
     process, before, after = outcomes[name]
@@ -430,6 +432,7 @@ def test_load_scenario_raises_input_error_naming_the_urdf(tmp_path):
     assert info.value.field == "link 'fore': visual 1: mesh"
 
 
+@pytest.mark.slow  # a subprocess
 def test_test_arm_runs_end_to_end(outcomes):
     process, before, after = outcomes["good"]
     assert process.returncode == 0, process.stderr
@@ -443,6 +446,7 @@ def test_test_arm_runs_end_to_end(outcomes):
         assert max(variant["metrics"]["max_error_converged"]) < 0.02, name  # it tracks
 
 
+@pytest.mark.slow  # a subprocess
 def test_recording_draws_the_urdf_meshes_and_primitives(outcomes):
     """The 3-D view holds every visual of the URDF; the forearm mesh, placed by its geom transform, is the
     OBJ file's box where the URDF puts it (0.12 m along the forearm link)."""

@@ -492,6 +492,7 @@ _coefficients = st.lists(
 )
 
 
+@pytest.mark.slow  # a closed-loop run of seconds
 @settings(max_examples=60, deadline=None)
 @given(_coefficients)
 def test_polynomial_derivatives_match_numpy_polyder(coefficients):

@@ -17,6 +17,9 @@ import small_campaign  # noqa: E402
 from ftc_mj.cli.tune import main  # noqa: E402
 from ftc_mj.tuning import optimise  # noqa: E402
 
+#: campaigns, calibrations, tunings and benchmarks of closed-loop runs
+pytestmark = pytest.mark.slow
+
 TUNING = {
     "name": "small", "campaign": "campaign.yaml", "variant": "hs", "conditions": 2, "held_out": 3,
     "gains": {"variants.hs.controller.gains.mu": {"low": 0.05, "high": 5.0, "log": True},

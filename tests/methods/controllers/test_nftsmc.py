@@ -164,6 +164,7 @@ def test_sliding_variable_obeys_the_reaching_law(bound, mu):
     assert np.abs(run["e_dot"][settled]).max() < 4e-3 * K
 
 
+@pytest.mark.slow  # a closed-loop run of seconds
 def test_no_compensation_tracks_only_with_a_large_gain_and_chatters_more():
     """Remark 5.5: compensating the injection lets a small switching gain work, with much less chattering.
 

@@ -79,6 +79,7 @@ def test_two_periods_by_hand_and_no_model():
 # the defining properties
 
 
+@pytest.mark.slow  # a closed-loop run of seconds
 def test_integrator_removes_a_constant_loads_steady_state_error():
     """PD (K_i = 0) leaves e = tau_d / K_p = 0.2 rad; PID drives it to 0 (measured 5.7e-8 rad at 10 s)."""
     pd = regulate({**GAINS, "ki": 0.0}, load=10.0, set_point=0.0, T=10.0)
@@ -88,6 +89,7 @@ def test_integrator_removes_a_constant_loads_steady_state_error():
     assert pid["integral"][-1] == pytest.approx(10.0 / GAINS["ki"], rel=1e-5)  # K_i I holds the load
 
 
+@pytest.mark.slow  # a closed-loop run of seconds
 def test_torque_limit_and_anti_windup():
     """A 1 rad step against a 10 N m load with |tau| <= 15 N m: the command saturates for about half a second.
     The command never exceeds the limit; with clamping the integrator holds exactly while the command is

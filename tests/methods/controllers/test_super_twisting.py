@@ -107,6 +107,7 @@ def test_two_periods_by_hand(compensation):
 # the defining property
 
 
+@pytest.mark.slow  # a closed-loop run of seconds
 def test_reaches_the_surface_within_the_lyapunov_bound(monkeypatch):
     """Unperturbed (exact injection): s reaches 0 in finite time, before Moreno and Osorio's bound. A finite
     time, not an asymptote: the time to gain each decade of |s| shrinks (the twisting's turns shrink
@@ -119,6 +120,7 @@ def test_reaches_the_surface_within_the_lyapunov_bound(monkeypatch):
     assert times[3] - times[2] < 0.5 * (times[1] - times[0])  # measured 0.009 against 0.060 s
 
 
+@pytest.mark.slow  # a closed-loop run of seconds
 @pytest.mark.parametrize(("compensation", "band_at_dt"), [("injection", 1e-5), ("none", 3e-5)])
 def test_sliding_band_shrinks_as_dt_squared(monkeypatch, compensation, band_at_dt):
     """Sampled super-twisting keeps |s| = O(dt^2) (Levant 1993) also under the whole LUaF (``none``, L above
@@ -132,6 +134,7 @@ def test_sliding_band_shrinks_as_dt_squared(monkeypatch, compensation, band_at_d
     assert bands[0] / bands[1] > 3.0  # measured 4.0 (injection), 4.2 (none)
 
 
+@pytest.mark.slow  # a closed-loop run of seconds
 def test_reaching_time_does_not_depend_on_dt(monkeypatch):
     """Finite-time reaching under the whole LUaF (``none``): the time from which |s| <= 1e-4 converges as
     dt -> 0 (measured 0.606 s at 1 ms, 0.6055 s at 0.5 ms, 0.604 s at 0.25 ms); z takes over d(t) meanwhile."""

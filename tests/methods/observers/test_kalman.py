@@ -92,6 +92,7 @@ def test_the_estimate_of_a_constant_disturbance_converges():
     assert abs(estimates[-1] - 2.5) < 1e-6
 
 
+@pytest.mark.slow  # a closed-loop run of seconds
 def test_innovations_are_white_when_the_plant_is_the_model():
     densities, R = (1e-8, 1e-3, 20.0), 1e-10
     observer = make(process_q=densities[0], process_qd=densities[1], process_d=densities[2], measurement=R)
@@ -104,6 +105,7 @@ def test_innovations_are_white_when_the_plant_is_the_model():
     assert np.abs(rho).max() < 3.0 / np.sqrt(N), rho  # measured: 1.6 / sqrt(N)
 
 
+@pytest.mark.slow  # a closed-loop run of seconds
 def test_innovations_are_not_white_when_the_model_is_wrong():
     """The whiteness test can fail: a filter that believes d is constant (tiny process_d) against a d that moves."""
     densities, R = (1e-8, 1e-3, 20.0), 1e-10
@@ -144,6 +146,7 @@ def replay_against_the_full_recursion(gains: dict, n: int, steps: int, seed: int
     return replayed, found
 
 
+@pytest.mark.slow  # a closed-loop run of seconds
 def test_the_steady_state_replays_the_recursion_bit_for_bit():
     """Once the prediction's covariance repeats, the stored gains replace the recursion: the estimates and
     covariances are those of the full recursion to the bit, on arbitrary readings, for joints of different

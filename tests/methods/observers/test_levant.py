@@ -58,6 +58,7 @@ def test_exact_on_a_polynomial_of_its_order_after_convergence(order, discretisat
     assert np.abs(errors[:10, 1]).max() > 0.1  # it did start wrong
 
 
+@pytest.mark.slow  # a closed-loop run of seconds
 def test_euler_lags_and_taylor_does_not():
     """The documented O(tau) lag of explicit Euler on z1: about tau f''/2, which the Taylor terms remove."""
     dt, f = 1e-3, np.polynomial.Polynomial([0.5, 0.3, -0.4])  # f'' = -0.8

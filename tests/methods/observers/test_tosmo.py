@@ -204,6 +204,7 @@ class _RealStepModel:
         return self._step.command_acceleration(np.atleast_2d(tau))[0]
 
 
+@pytest.mark.slow  # a closed-loop run of seconds
 def test_converges_with_the_real_step_model():
     """The same run through NominalModel/StepModel of a one-hinge MJCF (M constant, Psi = 0)."""
     nominal = NominalModel(mujoco.MjModel.from_xml_string(HINGE_XML))
