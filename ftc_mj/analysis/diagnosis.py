@@ -101,7 +101,8 @@ class WindowSpec(Strict):
 
 
 class ThresholdSpec(Strict):
-    """threshold_j(t) = fixed_j + k sd_j + bound_j(t, q, qd); at least one part must be given."""
+    """threshold_j(t) = fixed_j + k sd_j + bound_j(t, q, qd), or max(floor_j, fixed_j) with a floor; at least one
+    part must be given."""
 
     #: A constant, one number or one per joint (units of the diagnosis space).
     fixed: NonNegativeFloat | list[NonNegativeFloat] = 0.0
@@ -110,6 +111,18 @@ class ThresholdSpec(Strict):
     #: Adaptive part: one expression of t, q1..qn, qd1..qn per joint, on the measured position and the
     #: observer's velocity estimate.
     bound: list[ExpressionText] | None = None
+    #: The smallest threshold, one number or one per joint, of a fixed threshold: threshold_j =
+    #: max(floor_j, fixed_j). Keeps a threshold set on a quiet joint (a wrist in free motion) above what
+    #: another motion leaves there (``ftc-mj calibrate`` on a log writes ``fixed``; the floor stays).
+    floor: NonNegativeFloat | list[NonNegativeFloat] = 0.0
+
+    @model_validator(mode="after")
+    def _floor_of_fixed(self) -> "ThresholdSpec":
+        floor = self.floor if isinstance(self.floor, list) else [self.floor]
+        if any(floor) and (self.k > 0 or self.bound is not None):
+            raise ValueError("floor is for a fixed threshold (no k, no bound: write a bound's floor in its "
+                             "expressions)")
+        return self
 
     @model_validator(mode="after")
     def _not_zero(self) -> "ThresholdSpec":
@@ -268,10 +281,11 @@ def compile_diagnoser(spec: DiagnosisSpec, dt: float, estimation_window_start: f
         start = spec.baseline.end if spec.baseline is not None else estimation_window_start
     rule = spec.rule
     cusum_parameters = {"drift": rule.drift, "h": rule.h} if rule.kind == "cusum" else {}
+    fixed = per_joint(spec.threshold.fixed, n, file, "diagnosis.threshold.fixed")
+    fixed = np.maximum(fixed, per_joint(spec.threshold.floor, n, file, "diagnosis.threshold.floor"))
     return Diagnoser(space=spec.space, dt=dt, start=start, k=spec.threshold.k, persistence=max(1, persistence),
-                     fixed=per_joint(spec.threshold.fixed, n, file, "diagnosis.threshold.fixed"), baseline=baseline,
-                     filter_time_constant=spec.filter_time_constant, bound=bound, rule=rule.kind,
-                     **cusum_parameters)
+                     fixed=fixed, baseline=baseline, filter_time_constant=spec.filter_time_constant, bound=bound,
+                     rule=rule.kind, **cusum_parameters)
 
 
 def diagnose_result(diagnoser: Diagnoser | None, result: VariantResult, luaf_torque: np.ndarray | None) -> None:

@@ -28,6 +28,12 @@ the target, and detects later than a threshold at the target would), the thresho
 so. One
 threshold per joint serves every variant (the ``diagnosis`` section is the scenario's): the largest of the
 variants' values, so every variant holds the rate at most.
+
+**On a log** (a scenario with a ``log`` section: :func:`calibrate_log`) there is one healthy run, the log: no
+rate can be estimated from it. The threshold of joint j is ``margin`` times S_j of the log (at least the
+scenario's ``threshold.floor``): the largest residual the log holds for the persistence, with a margin for
+motions it did not show. Set on a log not used to identify the model (``ftc-mj identify``), it says how the
+thresholds hold on data the model was not fitted to.
 """
 
 from __future__ import annotations
@@ -75,6 +81,9 @@ class Calibration:
     #: Joints whose quantile is below 0: the scenario's bound alone stays below the target rate there (a
     #: lower bound would detect sooner at the same rate).
     bound_above_target: list[str] = dataclasses.field(default_factory=list)
+    #: On a log (:func:`calibrate_log`): the margin on its largest residual, and the log; else None.
+    margin: float | None = None
+    log: Path | None = None
 
     def empirical_rate(self) -> dict[str, np.ndarray]:
         """Per variant and joint, the share of the calibration runs whose S exceeds the threshold."""
@@ -95,7 +104,8 @@ def healthy_scenario(path: Path, overrides: Sequence[str] = (), duration: float 
         raise InputError(file, "diagnosis", "the scenario has no diagnosis section: nothing to calibrate")
     raw = scenario.raw
     terms = [term for term in raw.get("terms") or [] if term.get("kind") != "fault"]
-    assignments: dict[str, Any] = {"actuator_faults": [], "terms": terms}
+    # A log has neither (it refuses the sections): it is healthy as it is.
+    assignments: dict[str, Any] = {} if scenario.log is not None else {"actuator_faults": [], "terms": terms}
     healthy = load_scenario(path, overrides=list(overrides), duration=duration, variants=list(variants),
                             assignments=assignments)
     zero = np.zeros(healthy.n_joints)
@@ -187,6 +197,34 @@ def calibrate(path: Path, *, runs: int, false_alarm_rate: float, overrides: Sequ
                        bound_above_target=[joint for joint, q in zip(joints, raw_quantiles) if q < 0])
 
 
+def calibrate_log(path: Path, *, margin: float, overrides: Sequence[str] = (), variants: Sequence[str] = ()
+                  ) -> Calibration:
+    """Thresholds from the healthy log the scenario at ``path`` replays: per joint ``margin`` times its S over
+    the variants, at least the scenario's ``threshold.floor`` (module docstring).
+
+    Raises:
+        InputError: a scenario without a log or a diagnosis, or a margin below 1.
+    """
+    file = str(path)
+    if not margin >= 1.0:
+        raise InputError(file, "--margin", f"must be at least 1, not {margin:g}")
+    scenario = healthy_scenario(path, overrides, None, variants)
+    if scenario.log is None:
+        raise InputError(file, "log", "calibrating on a log needs a scenario with a log section")
+    statistics, diverged = exceedance_statistics(scenario, [scenario.spec.seed])
+    floor = np.asarray(scenario.spec.diagnosis.threshold.floor, dtype=float) * np.ones(scenario.n_joints)
+    per_variant = {}
+    for name, values in statistics.items():
+        if not len(values):
+            raise InputError(file, "variants", f"variant {name!r} diverged on the log: nothing to calibrate on")
+        per_variant[name] = np.maximum(margin * np.maximum(values[0], 0.0), floor)
+    thresholds = np.max(np.stack(list(per_variant.values())), axis=0)
+    joints = [scenario.model.joint(j).name for j in range(scenario.n_joints)]
+    return Calibration(scenario=path, false_alarm_rate=float("nan"), seeds=[], joints=joints,
+                       statistics=statistics, per_variant=per_variant, thresholds=thresholds, diverged=diverged,
+                       margin=margin, log=scenario.log.file)
+
+
 def scenario_fragment(calibration: Calibration, written_to: Path, base: bool = True) -> str:
     """A scenario file (valid YAML, runnable as it is) that is the calibrated scenario with the calibrated
     thresholds: ``base:`` the scenario (relative to ``written_to``'s folder), ``diagnosis.threshold.fixed``
@@ -195,11 +233,17 @@ def scenario_fragment(calibration: Calibration, written_to: Path, base: bool = T
     Without ``base``, the thresholds alone: a fragment a scenario names as its own ``base:``, whose
     ``diagnosis.threshold`` then gives neither ``fixed`` nor ``k`` (its own values would win the merge)."""
     thresholds = [float(f"{value:.6g}") for value in calibration.thresholds]
-    lines = [f"# Per-joint diagnosis thresholds for a per-run false-alarm rate of {calibration.false_alarm_rate:g} "
-             f"per joint,",
-             f"# calibrated on {len(calibration.seeds)} healthy runs (faults removed; seeds {calibration.seeds[0]}-"
-             f"{calibration.seeds[-1]}) by ftc-mj calibrate.",
-             f"# Joints: {', '.join(calibration.joints)}. The same values on the command line:",
+    if calibration.margin is not None:
+        lines = [f"# Per-joint diagnosis thresholds: {calibration.margin:g} times the largest residual of the healthy "
+                 f"log {calibration.log.name}",
+                 f"# held for the persistence, over the variants {', '.join(calibration.per_variant)} (at least the "
+                 "threshold floor), by ftc-mj calibrate."]
+    else:
+        lines = [f"# Per-joint diagnosis thresholds for a per-run false-alarm rate of "
+                 f"{calibration.false_alarm_rate:g} per joint,",
+                 f"# calibrated on {len(calibration.seeds)} healthy runs (faults removed; seeds "
+                 f"{calibration.seeds[0]}-{calibration.seeds[-1]}) by ftc-mj calibrate."]
+    lines += [f"# Joints: {', '.join(calibration.joints)}. The same values on the command line:",
              f"#   --set diagnosis.threshold.fixed=[{', '.join(f'{t:g}' for t in thresholds)}] "
              "--set diagnosis.threshold.k=0"]
     document: dict[str, Any] = {"diagnosis": {"threshold": {"fixed": thresholds, "k": 0.0}}}

@@ -5,6 +5,8 @@ after the diagnoser is armed, and writes per-joint fixed thresholds at the quant
 false-alarm rate P on each joint (:mod:`ftc_mj.campaign.calibrate`), as a scenario file that inherits the
 scenario (``base:``) and sets ``diagnosis.threshold``: run it as it is, or copy its values into ``--set``;
 with ``--thresholds-only``, the thresholds alone, for a scenario that names the file as its own ``base:``.
+On a scenario that replays a log (a ``log`` section), the log is the one healthy run: each joint's threshold
+is ``--margin`` times the largest residual it holds (at least ``diagnosis.threshold.floor``).
 
 Exit status: 0 on success, 2 on bad input (one line naming the file, the field and the problem).
 """
@@ -24,8 +26,10 @@ PROG = "ftc-mj calibrate"
 def build_parser(prog: str = PROG) -> argparse.ArgumentParser:
     parser = ArgumentParser(prog=prog, description=__doc__.split("\n\n")[1])
     parser.add_argument("scenario", type=Path, help="scenario YAML file (with a diagnosis section)")
-    parser.add_argument("--false-alarm-rate", type=float, required=True, metavar="P",
-                        help="per-run false-alarm probability per joint, in (0, 1)")
+    parser.add_argument("--false-alarm-rate", type=float, metavar="P",
+                        help="per-run false-alarm probability per joint, in (0, 1) (simulated scenarios)")
+    parser.add_argument("--margin", type=float, default=1.1, metavar="M",
+                        help="on a log: the threshold is M times the log's largest residual (default 1.1)")
     parser.add_argument("--runs", type=int, default=40, metavar="N", help="healthy runs (default 40)")
     parser.add_argument("--first-seed", type=int, metavar="S",
                         help="seed of the first healthy run (default: the scenario's seed + 1000)")
@@ -45,12 +49,19 @@ def main(argv: Sequence[str] | None = None, prog: str = PROG) -> int:
     from ftc_mj.config.errors import InputError
 
     try:
-        from ftc_mj.campaign.calibrate import calibrate, scenario_fragment
+        from ftc_mj.campaign.calibrate import calibrate, calibrate_log, scenario_fragment
         from ftc_mj.outputs.files import write_atomic
+        from ftc_mj.scenario.loading import load_scenario
 
-        calibration = calibrate(args.scenario, runs=args.runs, false_alarm_rate=args.false_alarm_rate,
-                                overrides=args.overrides, first_seed=args.first_seed, variants=args.variant,
-                                duration=args.duration)
+        if load_scenario(args.scenario, overrides=args.overrides, variants=args.variant).log is not None:
+            calibration = calibrate_log(args.scenario, margin=args.margin, overrides=args.overrides,
+                                        variants=args.variant)
+        else:
+            if args.false_alarm_rate is None:
+                raise InputError(str(args.scenario), "--false-alarm-rate", "is required for a simulated scenario")
+            calibration = calibrate(args.scenario, runs=args.runs, false_alarm_rate=args.false_alarm_rate,
+                                    overrides=args.overrides, first_seed=args.first_seed, variants=args.variant,
+                                    duration=args.duration)
         out = args.out or args.scenario.with_name(f"{args.scenario.stem}_calibrated.yaml")
         text = scenario_fragment(calibration, out, base=not args.thresholds_only)
         write_atomic(out, text.encode("utf-8"))
@@ -59,6 +70,10 @@ def main(argv: Sequence[str] | None = None, prog: str = PROG) -> int:
         return 2
     empirical = calibration.empirical_rate()
     for j, joint in enumerate(calibration.joints):
+        if calibration.margin is not None:
+            parts = ", ".join(f"{name} {calibration.per_variant[name][j]:.4g}" for name in calibration.per_variant)
+            print(f"{joint}: threshold {calibration.thresholds[j]:.4g}; per variant: {parts}")
+            continue
         parts = ", ".join(f"{name} {calibration.per_variant[name][j]:.4g} ({empirical[name][j]:.2g})"
                           for name in calibration.per_variant)
         print(f"{joint}: threshold {calibration.thresholds[j]:.4g}; per variant (calibration-run exceedance): {parts}")

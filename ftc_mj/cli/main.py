@@ -1,4 +1,4 @@
-"""The ``ftc-mj`` command: ``ftc-mj run|figures|report|campaign|tune|bench|robot|calibrate|monitor ...`` (``python -m
+"""The ``ftc-mj`` command: ``ftc-mj run|figures|report|campaign|tune|bench|robot|calibrate|identify|monitor ...`` (``python -m
 ftc_mj.cli`` too).
 
 Dispatches to the command's module in this package, which reads the rest of the arguments; each command's
@@ -24,6 +24,7 @@ COMMANDS = {
     "bench": "benchmark: score methods on a versioned suite",
     "robot": "check a robot before its first run: per-joint numbers, warnings",
     "calibrate": "per-joint diagnosis thresholds for a false-alarm rate",
+    "identify": "identify joint friction (and inertial parameters) from logs: a scenario base file",
     "monitor": "a scenario's observer and diagnosis on a stream: a log row by row, or a ROS 2 topic (--ros)",
 }
 

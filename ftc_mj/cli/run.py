@@ -168,9 +168,16 @@ def metrics_table(scenario: Scenario, results: Sequence[VariantResult], metrics:
     for metric in shown:
         for k, result in enumerate(results):
             first, last = k == 0, k == len(results) - 1
-            table.add_row(metric if first else "", unit(metric, space) if first else "", names[result.name],
+            table.add_row(metric if first else "", _unit(metric, space) if first else "", names[result.name],
                           *(_format(v) for v in metrics[result.name][metric]), end_section=last and not every)
     return table
+
+
+def _unit(metric: str, space: str | None) -> str:
+    from ftc_mj.analysis.metrics import unit
+    from ftc_mj.logs.events import EVENT_METRICS
+
+    return EVENT_METRICS[metric] if metric in EVENT_METRICS else unit(metric, space)
 
 
 def _format(value: float) -> str:
@@ -310,6 +317,10 @@ def main(argv: Sequence[str] | None = None, prog: str = PROG) -> int:
         metrics = {r.name: compute_metrics(r, scenario.spec.metrics, onsets, scenario.joint_fault_onsets,
                                            scenario.torque_limits)
                    for r in results}
+        if scenario.log is not None:  # no ground truth: its metrics out, the events' in
+            from ftc_mj.logs.events import log_metrics
+
+            shown = log_metrics(scenario.log.events, results, metrics, shown)
         if args.metrics == "summary" and any(np.any(m["saturation_time"] > 0) for m in metrics.values()):
             shown.append("saturation_time")  # in the summary whenever a command was clipped
         if not args.quiet:

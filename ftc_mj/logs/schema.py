@@ -29,6 +29,8 @@ Fields:
   period per step, is not offered: the built-in observers fold the period into constants when they are made,
   e.g. the TOSMO's dt k3 and the SOSMO's filter weight, so a period that changes per step would need them
   changed.)
+* ``events``: labelled windows ``{start, end, joints, label}`` of what happened to the arm (e.g. pushes read
+  off the logged torques); the diagnosis is then scored against them (:mod:`ftc_mj.logs.events`).
 """
 
 from __future__ import annotations
@@ -38,6 +40,7 @@ from typing import Annotated, Literal
 from pydantic import Field, StrictInt, model_validator
 
 from ftc_mj.config.types import FiniteFloat, PositiveFloat, Strict
+from ftc_mj.logs.events import EventSpec
 
 #: A CSV column: its 0-based index, or its name in the file's header row.
 ColumnRef = Annotated[StrictInt, Field(ge=0)] | Annotated[str, Field(min_length=1)]
@@ -93,6 +96,8 @@ class LogSpec(Strict):
     scale: ScaleSpec = ScaleSpec()
     #: The uniform grid the observers step on (linear interpolation).
     steps: ResampleSpec
+    #: Labelled windows (pushes, contacts) the diagnosis is scored against (:mod:`ftc_mj.logs.events`).
+    events: list[EventSpec] = []
 
     @model_validator(mode="after")
     def _format_fields(self) -> "LogSpec":

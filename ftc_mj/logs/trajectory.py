@@ -5,13 +5,14 @@ resampling does: :mod:`ftc_mj.logs.schema`)."""
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
 
 from ftc_mj.config.errors import InputError
 from ftc_mj.config.types import per_joint
+from ftc_mj.logs.events import Event, compile_events
 from ftc_mj.logs.readers import SIGNALS, Recording, read_csv, read_joint_states
 from ftc_mj.logs.schema import LogSpec
 
@@ -31,6 +32,8 @@ class Log:
     start: float
     #: The log's own steps [s]: the shortest, the median and the longest.
     logged_steps: tuple[float, float, float]
+    #: The labelled windows of ``log.events``, joints as indices.
+    events: list[Event] = field(default_factory=list)
 
     @property
     def steps(self) -> int:
@@ -103,9 +106,14 @@ def compile_log(spec: LogSpec, scenario_path: Path, robot_joints: list[str], dur
                          f"of {dt:g} s")
     grid = np.arange(steps) * dt  # the run's time grid (ftc_mj.scenario.definition.time_grid)
     differences = np.diff(times)
+    events = compile_events(spec.events, list(robot_joints), file)
+    for e, event in enumerate(events):
+        if event.start >= grid[-1]:
+            raise InputError(file, f"log.events.{e}.start", f"{event.start:g} s is after the run's end "
+                             f"({grid[-1]:g} s)")
     return Log(path, grid, resample(grid, relative, signal("position")), _maybe(grid, relative, signal("velocity")),
                resample(grid, relative, signal("torque")), dt, float(times[0]),
-               (float(differences.min()), float(np.median(differences)), float(differences.max())))
+               (float(differences.min()), float(np.median(differences)), float(differences.max())), events)
 
 
 def resample(grid: np.ndarray, times: np.ndarray, values: np.ndarray) -> np.ndarray:

@@ -22,7 +22,7 @@ from ftc_mj.scenario.definition import Scenario, ScenarioSpec, compile_scenario
 
 #: The scenario fields that hold a path relative to the scenario file (:func:`ftc_mj.robot.model.load_robot`):
 #: written in a base in another folder, they are rewritten to keep naming the same file.
-FILE_RELATIVE_FIELDS = ("robot.model",)
+FILE_RELATIVE_FIELDS = ("robot.model", "log.file")
 
 
 def _method_of_type(key: str) -> tuple[str, ...] | None:

@@ -70,6 +70,7 @@ def ur5e_truth(tmp_path: Path, from_model: bool) -> np.ndarray:
     return result.luaf_true[after], result.qd_true[after], result
 
 
+@pytest.mark.slow  # closed-loop runs
 def test_the_nominal_model_holds_the_model_files_damping(tmp_path):
     """The UR5e's plant has 200 N m s/rad on joints 1-3; with its damping in the nominal model (the default)
     the true LUaF (qdd minus the nominal model's, at the true state) is what is left of it: the plant's implicit
