@@ -13,10 +13,10 @@ with a timer around each phase of the loop (:mod:`ftc_mj.engine.loop`):
 * set-up and truths: buffers, plugins, the truths solved after the run;
 * metrics: every member's results, diagnosis, metrics and detection statistics, as a worker computes them.
 
-Beside the phases, two measurements of the analysis: the metrics phase again on the NumPy definitions alone
-(``FTC_MJ_FAST=0`` for it: what the accelerators of ``ftc_mj/fast/analysis_*.py`` save), and the causal
-diagnoser stepped each period over every row on the batch's recorded estimates, as the loop steps it for a
-controller that reads the diagnosis (with its compiled period, and on the NumPy step alone).
+Beside the phases, the analysis' accelerators (``ftc_mj/fast/analysis_*.py``) against their NumPy definitions
+(``FTC_MJ_FAST=0`` for one of each): the series metrics of every row, the post-run diagnosis of each variant's
+rows at once, and the causal diagnoser stepped each period over every row on the batch's recorded estimates,
+as the loop steps it for a controller that reads the diagnosis.
 
 Each phase is printed per row (variant x member) and control period, and as a share of the physics. The
 campaign's goal is at most 1.3 times the bare physics, so everything but the physics must stay
@@ -42,7 +42,8 @@ from ftc_mj.analysis.causal import RecordedDiagnoser
 from ftc_mj.campaign import execute
 from ftc_mj.engine import loop
 from ftc_mj.engine.members import members_from_overrides
-from ftc_mj.engine.runner import member_outcomes
+from ftc_mj.analysis.metrics import onsets_per_joint
+from ftc_mj.engine.runner import _finished_metrics, member_outcomes
 from ftc_mj.engine.series import BatchRun
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -96,17 +97,34 @@ def phase_seconds(campaign: execute.Campaign, task: execute.Task) -> tuple[dict[
     _, keep_detection = execute.detection_keeper(scenario, task.scales)
     member_outcomes(scenario, batch_run, 0, keep_detection)
     seconds["metrics"] += clock() - a
-    fast.set_enabled(False)
-    try:
-        a = clock()
-        _, keep_detection = execute.detection_keeper(scenario, task.scales)
-        member_outcomes(scenario, batch_run, 0, keep_detection)
-        seconds["metrics, NumPy definitions"] = clock() - a
-        seconds["causal diagnoser, NumPy step"] = diagnoser_seconds(scenario, batch_run)
-    finally:
-        fast.set_enabled(True)
-    seconds["causal diagnoser"] = diagnoser_seconds(scenario, batch_run)
+    for accelerated in (True, False):
+        fast.set_enabled(accelerated)
+        try:
+            tag = "" if accelerated else ", NumPy definitions"
+            joint_onsets = onsets_per_joint(scenario.joint_fault_onsets, scenario.fault_onsets, scenario.n_joints)
+            a = clock()
+            _finished_metrics(scenario, batch_run, joint_onsets)
+            seconds["series metrics" + tag] = clock() - a
+            seconds["post-run diagnosis" + tag] = post_run_seconds(scenario, batch_run)
+            seconds["causal diagnoser in the loop" + tag] = diagnoser_seconds(scenario, batch_run)
+        finally:
+            fast.set_enabled(True)
     return seconds, run.rows, run.steps
+
+
+def post_run_seconds(scenario, batch_run: BatchRun) -> float:
+    """Seconds to diagnose every variant's rows after the run, all rows of a variant at once (0 without a
+    diagnosis)."""
+    if scenario.diagnoser is None:
+        return 0.0
+    members, series = batch_run.members, batch_run.series
+    estimate = batch_run.luaf_torque if scenario.diagnoser.space == "torque" else series["luaf_hat"]
+    start = time.perf_counter()
+    for v in range(len(batch_run.variants)):
+        rows = slice(v * members, (v + 1) * members)
+        scenario.diagnoser.diagnose_rows(batch_run.times, estimate[:, rows], series["q_meas"][:, rows],
+                                         series["qd_hat"][:, rows])
+    return time.perf_counter() - start
 
 
 def diagnoser_seconds(scenario, batch_run: BatchRun) -> float:
@@ -165,8 +183,10 @@ def main() -> None:
     print(f"ratio whole batch / its physics: {cumulative / physics_cost:.2f}")
     print(f"ratio physics + nominal model / physics (the floor with the methods free): "
           f"{(per['physics'] + per['nominal model']) / physics_cost:.2f}")
-    for name in ("metrics, NumPy definitions", "causal diagnoser", "causal diagnoser, NumPy step"):
-        print(f"{name}: {per[name] * 1e6:.2f} us per row-period ({per[name] / physics_cost:.2f} of the physics)")
+    for name in ("series metrics", "post-run diagnosis", "causal diagnoser in the loop"):
+        fast_cost, numpy_cost = per[name], per[name + ", NumPy definitions"]
+        print(f"{name}: {fast_cost * 1e6:.2f} us per row-period accelerated, {numpy_cost * 1e6:.2f} on the NumPy "
+              f"definitions ({fast_cost / physics_cost:.3f} and {numpy_cost / physics_cost:.3f} of the physics)")
 
 
 if __name__ == "__main__":
