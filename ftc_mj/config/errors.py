@@ -39,16 +39,22 @@ def _is_union_tag(part: Any) -> bool:
     return isinstance(part, str) and ("[" in part or "-" in part or part in {"str", "int", "float", "bool", "list"})
 
 
+#: Problems of one validation named in its one line; the rest are counted.
+SHOWN_PROBLEMS = 4
+
+
 def validation_error(file: str, prefix: str, exc: ValidationError,
                      file_of: Callable[[tuple[str | int, ...]], str] | None = None,
                      schema: type[BaseModel] | None = None) -> InputError:
-    """The first problem of a pydantic validation failure as one :class:`InputError`, its field path under
-    ``prefix`` (union member tags dropped), with a count of the other problems. An unknown key comes first
-    (a misspelt ``durration`` is the mistake, not the ``duration`` it leaves missing), with the closest key
-    ``schema`` knows at its place, if one is close.
+    """A pydantic validation failure as one :class:`InputError`: its first problem as ``FILE: FIELD: PROBLEM``
+    (the field path under ``prefix``, union member tags dropped), then up to :data:`SHOWN_PROBLEMS` - 1 more
+    as ``; also FIELD: PROBLEM`` (a count of any left), so that one attempt shows what to fix. Unknown keys
+    come first (a misspelt ``durration`` is the mistake, not the ``duration`` it leaves missing), each with
+    the closest key ``schema`` knows at its place, if one is close.
 
     ``file_of`` picks the file to name from the field path (relative to the validated model): the file that
     wrote the value, when a scenario inherits from a base (:mod:`ftc_mj.config.inheritance`); default ``file``.
+    A problem in another file than the first's names its file too.
     """
     # Group the errors by the value they concern (the location up to the first union tag): a value that fits
     # no member of a union gives one error per member, and counts as one problem.
@@ -57,13 +63,26 @@ def validation_error(file: str, prefix: str, exc: ValidationError,
         loc = error["loc"]
         cut = next((i for i, part in enumerate(loc) if _is_union_tag(part)), len(loc))
         groups.setdefault(tuple(loc[:cut]), []).append(error)
-    unknown = [group for group in groups.values() if any(error["type"] == "extra_forbidden" for error in group)]
-    first_group = unknown[0] if unknown else next(iter(groups.values()))
+    ordered = sorted(groups.values(), key=lambda group: not any(e["type"] == "extra_forbidden" for e in group))
+    problems = [_problem(group, prefix, schema) for group in ordered]
+    files = [file if file_of is None else file_of(parts) for parts, _, _ in problems]
+    _, field, message = problems[0]
+    others = [f"{other_file}: {other_field}: {text}" if other_file != files[0] else f"{other_field}: {text}"
+              for other_file, (_, other_field, text) in zip(files[1:SHOWN_PROBLEMS], problems[1:SHOWN_PROBLEMS])]
+    if others:
+        message += "; also " + "; ".join(others)
+    left = len(problems) - SHOWN_PROBLEMS
+    if left > 0:
+        message += f" (and {left} more problem{'s' if left > 1 else ''})"
+    return InputError(files[0], field, message)
+
+
+def _problem(group: list[dict], prefix: str, schema: type[BaseModel] | None) -> tuple[tuple, str, str]:
+    """(the path relative to the model, the field path under ``prefix``, the problem) of one group of errors."""
     # The member error that got furthest into the value (e.g. a bad list element) says the most.
-    best = max(first_group, key=lambda error: len(error["loc"]))
+    best = max(group, key=lambda error: len(error["loc"]))
     parts = tuple(part for part in best["loc"] if not _is_union_tag(part))
-    loc = ".".join(str(part) for part in parts)
-    field = ".".join(p for p in (prefix, loc) if p)
+    field = ".".join(p for p in (prefix, ".".join(str(part) for part in parts)) if p)
     message = best["msg"].removeprefix("Value error, ")
     if best["type"] == "extra_forbidden":
         message = "unknown key"
@@ -72,10 +91,7 @@ def validation_error(file: str, prefix: str, exc: ValidationError,
             message += f" (did you mean {close!r}?)"
     elif best["type"] == "missing":
         message = "required field is missing"
-    if len(groups) > 1:
-        message += f" (and {len(groups) - 1} more problem{'s' if len(groups) > 2 else ''})"
-    return InputError(file if file_of is None else file_of(parts), field, message)
-
+    return parts, field, message
 
 
 def validate(schema: type[Model] | TypeAdapter, raw: Any, file: str, field: str = "",

@@ -109,14 +109,21 @@ def load_robot(scenario_path: Path, robot: RobotSpec, file: str) -> tuple[Path, 
     return model_path, model
 
 
+#: How to get the ROS robot descriptions the shipped URDF and real-log scenarios use.
+ROBOTS_EXTRA = ("it comes with the robots extra: pip install -e \".[robots]\" in the repository "
+                "(or pip install example-robot-data)")
+
+
 def _model_file(scenario_path: Path, name: str, file: str) -> Path:
     """The model file ``name`` gives: relative to the scenario file's folder, or a ``package://`` name."""
-    if split_package_uri(name) is not None:
+    package = split_package_uri(name)
+    if package is not None:
         found = resolve_package_uri(name)
         if found is None:
+            hint = (f"; {ROBOTS_EXTRA}" if package[0] == "example-robot-data" else "")
             raise InputError(file, "robot.model", f"{name!r} not found (ROS packages are looked up in "
                                                   "ROS_PACKAGE_PATH, AMENT_PREFIX_PATH and those installed with "
-                                                  "Python packages)")
+                                                  f"Python packages){hint}")
         problem = input_file_problem(found)
         if problem is not None:
             raise InputError(file, "robot.model", f"{name!r} ({found}) {problem}")

@@ -287,9 +287,13 @@ def optimise(tuning: Tuning, out: Path, *, workers: int | None = None, scheduler
     start = time.perf_counter()
     spec = tuning.spec
     base = _cached_evaluation(tuning, out / "baseline.parquet", [tuning.baseline], tuning.training, workers, scheduler)
-    optimizer = CMA(mean=tuning.unit(tuning.baseline), sigma=spec.optimizer.sigma,
-                    bounds=np.array([[0.0, 1.0]] * tuning.dimension), seed=spec.optimizer.seed,
-                    population_size=spec.optimizer.population)
+    # With two candidates a generation (one parent) CMA-ES's rank-mu learning rate is 0, and cmaes divides by it
+    # in a minimum of three bounds (eq. 50 of Hansen's tutorial) that the two finite ones then decide: the
+    # infinity is harmless, its RuntimeWarning is not the user's business.
+    with np.errstate(divide="ignore"):
+        optimizer = CMA(mean=tuning.unit(tuning.baseline), sigma=spec.optimizer.sigma,
+                        bounds=np.array([[0.0, 1.0]] * tuning.dimension), seed=spec.optimizer.seed,
+                        population_size=spec.optimizer.population)
     history = _load_rows(out / "history.parquet")
     evaluations = len(tuning.training)
     for generation in range(spec.optimizer.generations):

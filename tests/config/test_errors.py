@@ -48,9 +48,25 @@ def test_the_unknown_key_comes_before_the_value_it_leaves_missing(tmp_path):
     with pytest.raises(InputError) as caught:
         load_scenario(path)
     assert caught.value.field == "variantz" and "did you mean 'variants'" in caught.value.problem
-    assert "(and 1 more problem)" in caught.value.problem
+    assert caught.value.problem.endswith("; also variants: required field is missing"), caught.value.problem
 
 
 def test_a_duration_beyond_any_count_of_periods_says_so(tmp_path):
     error = _error(tmp_path, "duration: 1.0e+308\n")
     assert error.field == "duration" and "too long" in error.problem and "inf" not in error.problem, error
+
+
+def test_every_problem_is_listed_with_its_suggestion_up_to_a_few(tmp_path):
+    """Three misspelt keys and a bad value: all four in the one line, each unknown key with its closest key;
+    a fifth problem is counted, not listed."""
+    text = ("durration: 3.0\ncontrol_dt: -1\ndiagnosis:\n  threshhold: {k: 5}\n"
+            "variants:\n  proposed:\n    observer: {type: hs_tosmo, gainz: {D: 22}}\n")
+    error = _error(tmp_path, text)
+    line = str(error)
+    assert "\n" not in line and line.startswith(str(tmp_path / "s.yaml") + ": ")
+    for field, suggestion in (("durration", "'duration'"), ("diagnosis.threshhold", "'threshold'"),
+                              ("variants.proposed.observer.gainz", "'gains'")):
+        assert f"{field}: unknown key (did you mean {suggestion}?)" in line, line
+    assert "control_dt: " in line and line.count("; also ") == 1 and line.count("; ") == 3, line
+    error = _error(tmp_path, text + "zzzz: 1\n")
+    assert str(error).endswith("(and 1 more problem)"), error

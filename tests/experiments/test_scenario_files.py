@@ -45,7 +45,7 @@ def test_every_variant_runs(path: Path) -> None:
 def test_every_scenario_file_loads_under_its_own_name(path: Path) -> None:
     model = read_yaml_mapping(path, "a scenario").get("robot", {}).get("model", "")
     if model.startswith("package://") and resolve_package_uri(model) is None:
-        pytest.skip(f"{model} is not installed (the robots extra)")
+        pytest.skip(f"{model} is not installed (the robots extra: pip install -e \".[robots]\")")
     scenario = load_scenario(path, duration=0.1)
     assert scenario.name == path.stem
     assert scenario.output_path == Path(f"recordings/{path.stem}.rrd")

@@ -76,3 +76,15 @@ def test_example_robot_data_when_installed():
     if found is None:
         pytest.skip("example-robot-data is not installed")
     assert found.is_file() and found.name == "ur5_robot.urdf"
+
+
+def test_a_missing_example_robot_data_robot_says_how_to_install_it(tmp_path):
+    """Whether or not the robots extra is installed, a file it does not have is not found, and the message
+    gives the command that installs the extra."""
+    from ftc_mj import load_scenario
+    from ftc_mj.config.errors import InputError
+
+    scenario = Path(__file__).resolve().parents[2] / "scenarios" / "two_link_do.yaml"
+    with pytest.raises(InputError) as error:
+        load_scenario(scenario, overrides=["robot.model=package://example-robot-data/robots/none/none.urdf"])
+    assert 'pip install -e ".[robots]"' in str(error.value) and "robot.model" in str(error.value)

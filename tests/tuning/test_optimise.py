@@ -4,6 +4,7 @@ tuning files are refused."""
 from __future__ import annotations
 
 import json
+import warnings
 import sys
 from pathlib import Path
 
@@ -90,7 +91,9 @@ def test_size_options_make_a_smoke_test_and_are_recorded(tmp_path):
     out = tmp_path / "smoke"
     argv = [str(path), "--out", str(out), "--workers", "1", "--quiet", "--conditions", "1", "--held-out", "1",
             "--population", "2", "--generations", "1", "--duration", "0.5", "--set", "sensors.position.noise_std=0"]
-    assert main(argv) == 0
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", RuntimeWarning)  # two candidates: no division by a zero learning rate shown
+        assert main(argv) == 0
     report = json.loads((out / "report.json").read_text())
     assert report["training"]["conditions"] == 1 and report["held_out"]["runs"] == 1
     assert report["training"]["generations"] == 1 and report["training"]["population"] == 2
