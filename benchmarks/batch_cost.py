@@ -23,7 +23,7 @@ import numpy as np
 from mujoco.batch import Batch
 
 from ftc_mj.engine.members import replicates
-from ftc_mj.engine.plant import PERSISTENT_ROWS
+from ftc_mj.fast.crossovers import PERSISTENT_ROWS
 from ftc_mj.engine.runner import run_batch
 from ftc_mj.scenario.loading import load_scenario
 
@@ -33,7 +33,7 @@ SCENARIO = Path(__file__).resolve().parents[1] / "scenarios" / "puma_fault.yaml"
 def bare(model: mujoco.MjModel, members: int, substeps: int, periods: int, threads: int,
          persistent: bool | None = None) -> float:
     """Seconds per member and period of a Batch that only writes ``ctrl`` (a PD law) between steps: by default
-    the plant's kind of batch for as many rows (:data:`~ftc_mj.engine.plant.PERSISTENT_ROWS`); ``persistent``
+    the plant's kind of batch for as many rows (:data:`~ftc_mj.fast.crossovers.PERSISTENT_ROWS`); ``persistent``
     True or False: one MjData per row, or one per thread."""
     if persistent is None:
         persistent = members <= PERSISTENT_ROWS

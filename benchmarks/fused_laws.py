@@ -5,9 +5,9 @@ observer ``advance``) of ``scenarios/puma_fault.yaml`` fused and as the NumPy re
 
 For each batch size a run of the four Chapter 5 variants is set up and stepped for a few hundred periods (the
 states and the nominal model of a real run), once with the fused laws and once built inside
-``reference_laws()``; then each runs the methods' calls of one period ``--repeats`` times, alternated over
+``laws.without_accelerators()`` (every other fast path on); then each runs the methods' calls of one period ``--repeats`` times, alternated over
 ``--rounds`` (the fastest of each counts: this machine's speed drifts). Prints microseconds per row and period
-of each and their ratio. The laws' bits are the same either way (``tests/methods/test_compiled.py``).
+of each and their ratio. The laws' bits are the same either way (``tests/fast/test_fused_laws.py``).
 """
 
 from __future__ import annotations
@@ -21,7 +21,7 @@ import numpy as np
 from ftc_mj import load_scenario
 from ftc_mj.engine import loop
 from ftc_mj.engine.members import single
-from ftc_mj.methods import compiled
+from ftc_mj.fast import laws
 
 ROOT = Path(__file__).resolve().parents[1]
 WARM_UP_PERIODS = 300
@@ -66,7 +66,7 @@ def main() -> None:
     print(f"{'members':>8s} {'rows':>6s} {'fused':>8s} {'reference':>10s} {'reference / fused':>18s}")
     for members in args.members:
         fused = prepared_run(scenario, members)
-        with compiled.reference_laws():
+        with laws.without_accelerators():
             reference = prepared_run(scenario, members)
         repeats = max(20, args.repeats // members)
         best = {"fused": np.inf, "reference": np.inf}

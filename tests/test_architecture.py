@@ -31,7 +31,7 @@ LAYERS: dict[str, int] = {
     "outputs": 4,
     "scenario": 5,
     "engine": 6,
-    "ftc_mj": 7, "online": 7,
+    "ftc_mj": 7, "online": 7, "testing": 7,
     "campaign": 8,
     "tuning": 9, "ranking": 9,
     "cli": 10, "run": 10, "figures": 10, "report": 10, "tune": 10,

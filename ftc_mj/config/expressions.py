@@ -12,17 +12,12 @@ into a SymPy expression; nothing from the file is ever evaluated as Python. SymP
 from __future__ import annotations
 
 import ast
-import inspect
 import math
 import re
 from collections.abc import Callable, Mapping, Sequence
 
 import numpy as np
 import sympy as sp
-from sympy.printing.numpy import NumPyPrinter
-from sympy.printing.precedence import precedence
-
-from ftc_mj.config.programs import Program
 
 MAX_SOURCE_LENGTH = 2000
 MAX_DEPTH = 60
@@ -203,140 +198,39 @@ class TimeFunctions:
         return out[0], out[1], out[2]
 
 
-#: Up to this many rows a state function is evaluated row by row on Python floats (much cheaper than NumPy
-#: on tiny arrays), beyond it on whole columns; both give the same bits (:class:`StateFunction`). A crossover
-#: of this evaluation's own costs (one row is a whole expression on floats, a column one NumPy call per
-#: operation); the engine's other small-batch paths have their own.
-SCALAR_ROWS = 16
-
-
-class _ScalarPrinter(NumPyPrinter):
-    """NumPy's code for an expression with every power written ``_pow(base, exponent)``, so that the same code
-    evaluates one row on Python floats with the functions of :data:`_SCALAR_NUMPY`."""
-
-    def _hprint_Pow(self, expr, rational=False, sqrt="numpy.sqrt"):
-        text = super()._hprint_Pow(expr, rational=rational, sqrt=sqrt)
-        if "**" not in text:  # sqrt(x), 1/sqrt(x), 1/x: already calls or divisions
-            return text
-        precedence_ = precedence(expr)
-        return f"_pow({self.parenthesize(expr.base, precedence_)}, {self.parenthesize(expr.exp, precedence_)})"
-
-
-def _one_element(ufunc: Callable[..., np.ndarray]) -> Callable[..., float]:
-    """``ufunc`` on a one-element array: exactly what it gives that element inside any array (NumPy's SIMD
-    loops compute each element alike), where Python's math may differ in the last bit (exp, log, tanh, tan)."""
-    buffers = [np.zeros(1), np.zeros(1)]
-
-    def call(*arguments: float) -> float:
-        for buffer, argument in zip(buffers, arguments):
-            buffer[0] = argument
-        return float(ufunc(*buffers[:len(arguments)])[0])
-
-    return call
-
-
-def _sqrt(x: float) -> float:
-    return math.sqrt(x) if x >= 0.0 else math.nan  # correctly rounded, as NumPy's; NaN where NumPy gives NaN
-
-
-def _sign(x: float) -> float:
-    if x == 0.0:
-        return 0.0  # NumPy's sign of either zero is +0
-    return math.copysign(1.0, x) if x == x else x  # NaN stays NaN
-
-
-class _ScalarNumPy:
-    """The ``numpy`` of the row-by-row code: math's sin and cos (bit-identical to NumPy's, checked by the
-    tests), exactly rounded operations as Python floats, NumPy's own ufuncs on one element for the rest."""
-
-    sin, cos = math.sin, math.cos
-    sqrt, sign = staticmethod(_sqrt), staticmethod(_sign)
-    pi, e = math.pi, math.e
-
-    def __getattr__(self, name: str) -> Callable[..., float]:
-        function = _one_element(getattr(np, name))
-        setattr(self, name, function)
-        return function
-
-
-_SCALAR_NUMPY = _ScalarNumPy()
-_POW_BASE = np.zeros(1)
-
-
-def _pow(base: float, exponent: float) -> float:
-    """``base ** exponent`` as an array with a scalar exponent computes it, fast paths included (x * x for 2,
-    sqrt for 0.5, ...): NumPy's power, not the C library's."""
-    _POW_BASE[0] = base
-    return float((_POW_BASE ** exponent)[0])
-
-
 class StateFunction:
-    """A vector of expressions of ``(t, q1..qn, qd1..qn, parameters...)`` compiled once, evaluated for every row
-    of a batch (a row: one variant of one member).
+    """A vector of expressions of ``(t, q1..qn, qd1..qn, parameters...)`` compiled once by SymPy into NumPy code
+    (common subexpressions shared), evaluated for every row of a batch at once (a row: one variant of one
+    member) on whole columns.
 
-    The columns' code as one compiled program (:class:`~ftc_mj.config.programs.Program`) where its operations
-    allow (arithmetic, sin, cos, sqrt, abs, sign: every shipped scenario's terms), one call per period for
-    all rows. Otherwise two compiled forms of the same code (common subexpressions shared, the same NumPy
-    functions): on whole columns of ``(rows,)`` arrays, and row by row on Python floats (up to
-    :data:`SCALAR_ROWS` rows, where NumPy's per-call cost would dominate). All three give the same bits, so a
-    member's terms are the same whatever the batch size and the form.
+    This is the definition; :mod:`ftc_mj.fast.programs` runs the same code as one compiled program, or row by
+    row on Python floats for a few rows, with the same bits.
     """
 
     def __init__(self, exprs: Sequence[sp.Expr], n_joints: int, parameters: Sequence[str] = ()):
         self.exprs = list(exprs)
-        symbols = [symbol(v) for v in state_variables(n_joints) + list(parameters)]
-        self._columns = sp.lambdify(symbols, self.exprs, modules="numpy", cse=True)
-        self._row = sp.lambdify(symbols, self.exprs, modules=[{"numpy": _SCALAR_NUMPY, "_pow": _pow}],
-                                printer=_ScalarPrinter, cse=True)
-        #: The columns' code as one compiled program (:mod:`ftc_mj.config.programs`), or None where it uses an
-        #: operation compiled code does not compute as NumPy does (then the two NumPy forms run).
-        self._program = _program(self._columns, n_joints, len(parameters))
-
-    @property
-    def compiled(self) -> bool:
-        """Whether :meth:`evaluate` runs the compiled program."""
-        return self._program is not None
+        self.n_joints = n_joints
+        self.parameters = list(parameters)
+        #: The SymPy symbols of the arguments, in order: t, q1..qn, qd1..qn, the parameters.
+        self.symbols = [symbol(v) for v in state_variables(n_joints) + self.parameters]
+        self.columns = sp.lambdify(self.symbols, self.exprs, modules="numpy", cse=True)
 
     def __call__(self, t: float | np.ndarray, q: Sequence, qd: Sequence, parameters: Sequence = ()) -> list:
         """Values at ``t`` and the state ``q``, ``qd`` (one number or ``(rows,)`` array per joint, e.g. the
         columns ``qpos.T``) and the parameters: one per expression (a plain number where constant)."""
-        return self._columns(t, *q, *qd, *parameters)
+        return self.columns(t, *q, *qd, *parameters)
 
     def evaluation(self, q: np.ndarray, qd: np.ndarray, parameters: np.ndarray,
                    out: np.ndarray) -> Callable[[float], None]:
         """:meth:`evaluate` of these buffers (the same objects every call, read and written in place) as a
-        function of time alone: the compiled program's cheaper call where there is one."""
-        if self._program is not None:
-            return self._program.evaluation(q, qd, parameters, out)
+        function of time alone."""
         return lambda t: self.evaluate(t, q, qd, parameters, out)
 
     def evaluate(self, t: float, q: np.ndarray, qd: np.ndarray, parameters: np.ndarray, out: np.ndarray) -> None:
         """Every row at once into ``out`` ``(rows, expressions)``, from ``q``, ``qd`` ``(rows, n)`` and
         ``parameters`` ``(rows, p)``."""
-        if self._program is not None:
-            self._program.evaluate(t, q, qd, parameters, out)
-            return
-        rows = len(out)
-        if rows <= SCALAR_ROWS:
-            t = float(t)
-            for row, (q_row, qd_row, p_row) in enumerate(zip(q.tolist(), qd.tolist(), parameters.tolist())):
-                try:
-                    out[row] = self._row(t, *q_row, *qd_row, *p_row)
-                except (ArithmeticError, ValueError):  # Python raises where NumPy gives inf or NaN: its answer
-                    values = self._columns(t, *q[row:row + 1].T, *qd[row:row + 1].T, *parameters[row:row + 1].T)
-                    out[row] = [np.ravel(value)[0] for value in values]
-        else:
-            for column, values in enumerate(self._columns(t, *q.T, *qd.T, *parameters.T)):
-                out[:, column] = values
-
-
-def _program(columns: Callable[..., list], n_joints: int, parameters: int) -> Program | None:
-    """The compiled program of lambdified ``columns``, or None (its source not at hand, or not compilable)."""
-    try:
-        source = inspect.getsource(columns)  # lambdify keeps the code it generated in linecache
-    except (OSError, TypeError):
-        return None
-    return Program.from_source(source, n_joints, parameters)
+        for column, values in enumerate(self.columns(t, *q.T, *qd.T, *parameters.T)):
+            out[:, column] = values
 
 
 def is_free_name(name: str) -> bool:

@@ -21,11 +21,11 @@ from dataclasses import dataclass
 from typing import Annotated
 
 import mujoco
-import numba
 import numpy as np
 from pydantic import Field, StrictInt, model_validator
 
-from ftc_mj.config.kernels import WITHOUT_RUNTIME
+from ftc_mj import fast
+from ftc_mj.fast import sensors as compiled
 from ftc_mj.config.types import (
     FiniteFloat,
     Interval,
@@ -143,6 +143,9 @@ class Measurement:
         self._last = np.zeros((rows, n))
         self._no_offsets = np.zeros((1, n))
         self._never_stuck = np.zeros(n, dtype=bool)
+        #: :func:`measure`, or its accelerator with the fast paths on (checked by Numba's dispatcher per call: the
+        #: source and the output are the caller's, of any layout).
+        self._measure = compiled.measure if fast.enabled() else measure
 
     def _draw(self, k: int) -> None:
         """The offsets of samples k .. k + NOISE_CHUNK: bias, drift and each member's noise."""
@@ -171,28 +174,24 @@ class Measurement:
             out = out[None]
         if source.ndim == 1:
             source = source[None]
-        _measure(source, offsets, self._offset, self._quantise, self.inverse_step, self.step, self.quantised,
-                 stuck, self._last, out)
+        self._measure(source, offsets, self._offset, self._quantise, self.inverse_step, self.step, self.quantised,
+                      stuck, self._last, out)
 
 
-@numba.njit(cache=True, nogil=True, **WITHOUT_RUNTIME)
-def _measure(source: np.ndarray, offsets: np.ndarray, offset: bool, quantise: bool, inverse_step: np.ndarray,
-             step: np.ndarray, quantised: np.ndarray, stuck: np.ndarray, last: np.ndarray, out: np.ndarray) -> None:
+def measure(source: np.ndarray, offsets: np.ndarray, offset: bool, quantise: bool, inverse_step: np.ndarray,
+            step: np.ndarray, quantised: np.ndarray, stuck: np.ndarray, last: np.ndarray, out: np.ndarray) -> None:
     """Steps 2-4 of the module docstring for every row (blocks of the same members, variant-major: row r is
-    member r % members) in one pass, with NumPy's operations per element: the offset added, then
-    ``rint(x * (1 / resolution)) * resolution`` where quantised, the last reading where stuck; ``last`` keeps
-    the measurement."""
+    member r % members): the offset added, then ``rint(x * (1 / resolution)) * resolution`` where quantised,
+    the last reading where stuck; ``last`` keeps the measurement. (Accelerated by
+    :func:`ftc_mj.fast.sensors.measure`.)"""
+    rows, n = out.shape
     members = offsets.shape[0]
-    for r in range(out.shape[0]):
-        member = r % members
-        for j in range(out.shape[1]):
-            value = source[r, j] + offsets[member, j] if offset else source[r, j]
-            if quantise and quantised[j]:
-                value = np.rint(value * inverse_step[j]) * step[j]
-            if stuck[j]:
-                value = last[r, j]
-            out[r, j] = value
-            last[r, j] = value
+    value = source + offsets[np.arange(rows) % members] if offset else source.copy()
+    if quantise:
+        value = np.where(quantised, np.rint(value * inverse_step) * step, value)
+    value = np.where(stuck, last, value)
+    out[...] = value
+    last[...] = value
 
 
 def compile_channel(spec: ChannelSpec | None, file: str, field: str, model: mujoco.MjModel) -> Channel | None:

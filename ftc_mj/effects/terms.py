@@ -16,22 +16,22 @@ objects; :class:`PlantTerms` evaluates them on the true state in the loop.
 
 from __future__ import annotations
 
-import sys
 from dataclasses import dataclass
-from functools import cached_property
+from functools import cached_property, partial
 from collections.abc import Callable, Sequence
 from typing import Literal
 
-import numba
 import numpy as np
 import sympy as sp
 
 from ftc_mj.effects.profiles import Profile, ProfileSpec, compile_profile
-from ftc_mj.robot.nominal import MatvecSite
-from ftc_mj.robot.rigid import cache_is_cold
-from ftc_mj.config import expressions, programs
+from ftc_mj import fast
+from ftc_mj.config import expressions
 from ftc_mj.config.errors import InputError
-from ftc_mj.config.kernels import WITHOUT_RUNTIME, direct
+from ftc_mj.fast import programs
+from ftc_mj.fast import terms as compiled
+from ftc_mj.fast.kernels import bound
+from ftc_mj.robot.nominal import MatvecSite
 from ftc_mj.config.types import (ExpressionText, NonNegativeFloat, ParameterName, PositiveFloat, Strict,
                                 parse_expression, per_joint)
 
@@ -203,8 +203,6 @@ class PlantTerms:
         self._block_start = -len(times) - WEIGHT_BLOCK  # no block tabulated yet
         #: :func:`terms_function` of ``terms`` (the scenario's, compiled when it loaded), or compiled here.
         self._function = function or terms_function(terms, n_joints, parameter_names)
-        if self._function.compiled:
-            announce_compilation()
         self._values = np.zeros((rows, len(terms) * n_joints))
         #: The true positions and velocities :meth:`apply` last read, and the terms' evaluation of them in time.
         self._state: tuple = (None, None, None)
@@ -248,8 +246,11 @@ class PlantTerms:
             # The same terms in the same order: the two sums are the same numbers, and so are their M(q) images.
             same_acceleration_sums=acceleration_terms == acceleration_faults,
         )
-        plan.sum_terms = direct(_sum_terms, self._values, plan.terms, plan.slots, plan.targets, self._factors, 0,
-                                self._weights, 0, self._sums)
+        arguments = (self._values, plan.terms, plan.slots, plan.targets, self._factors, self._weights, self._sums)
+        if fast.enabled():
+            plan.sum_terms = bound(compiled.sum_terms, *arguments, free=(0, 0))
+        else:
+            plan.sum_terms = partial(sum_terms, *arguments)
         return plan
 
     def _tabulate_weights(self, k: int) -> None:
@@ -286,41 +287,31 @@ class PlantTerms:
         plan = self._plans[self._plan_of_sample[k]]
         if len(plan.terms):
             if qpos is not self._state[0] or qvel is not self._state[1]:  # new buffers: their own evaluation
-                self._state = (qpos, qvel, self._function.evaluation(qpos, qvel, self._parameters, self._values))
+                self._state = (qpos, qvel, programs.evaluation(self._function, qpos, qvel, self._parameters,
+                                                               self._values))
             self._state[2](t)
         block = k - self._block_start
         if plan.rated and not 0 <= block < self._weights.shape[1]:
             self._tabulate_weights(k)
             block = 0
-        plan.sum_terms(self._values, plan.terms, plan.slots, plan.targets, self._factors, k, self._weights, block,
-                       self._sums)
+        plan.sum_terms(k, block)
         if not plan.maps_acceleration:
             out[...] = self.torque  # an assignment costs half np.copyto's call on a few rows
             return
         mapped, site = self._mapped, self._map_acceleration
-        (site.call if mass is site.matrices else site.new)(mass, self.acceleration, mapped)
+        if mass is site.matrices:  # its vectors and output are this object's buffers
+            site.call()
+        else:
+            site.new(mass, self.acceleration, mapped)
         np.add(self.torque, mapped, out=out)
         if plan.maps_fault_acceleration:
             if not plan.same_acceleration_sums:
                 site = self._map_fault_acceleration
-                (site.call if mass is site.matrices else site.new)(mass, self._fault_acceleration, mapped)
+                if mass is site.matrices:
+                    site.call()
+                else:
+                    site.new(mass, self._fault_acceleration, mapped)
             self.fault_force += mapped
-
-
-_announced = False
-
-
-def announce_compilation() -> None:
-    """One line on stderr, once per process, when the terms' interpreter (:mod:`ftc_mj.config.programs`) will
-    compile: the first run on a machine, or after an update."""
-    global _announced
-    if _announced:
-        return
-    _announced = True
-    if cache_is_cold(programs.INTERPRETER, programs.__file__):
-        where = getattr(programs.INTERPRETER._cache, "_cache_path", "Numba's cache")
-        print(f"compiling the plant terms' interpreter (first run on this machine, a few seconds; cached in {where})",
-              file=sys.stderr, flush=True)
 
 
 #: Samples of the rate parameters' weights tabulated at once (:meth:`PlantTerms._tabulate_weights`): a block
@@ -346,26 +337,22 @@ class _Plan:
     maps_acceleration: bool
     maps_fault_acceleration: bool
     same_acceleration_sums: bool
-    #: :func:`_sum_terms` compiled for this plan's argument types, called past Numba's dispatcher.
-    sum_terms: Callable[..., None] | None = None
+    #: :func:`sum_terms` on the plant terms' buffers and this plan (with the fast paths on, its accelerator
+    #: bound to them), called with the sample and its block of weights.
+    sum_terms: Callable[[int, int], None] | None = None
 
 
-@numba.njit(cache=True, nogil=True, **WITHOUT_RUNTIME)
-def _sum_terms(values: np.ndarray, terms: np.ndarray, slots: np.ndarray, targets: np.ndarray, factors: np.ndarray,
-               k: int, weights: np.ndarray, block: int, sums: np.ndarray) -> None:
+def sum_terms(values: np.ndarray, terms: np.ndarray, slots: np.ndarray, targets: np.ndarray, factors: np.ndarray,
+              weights: np.ndarray, sums: np.ndarray, k: int, block: int) -> None:
     """Every sum from zero, then term by term in the file's order: its values ``(rows, terms x n)`` times its
     sign x weight of sample k (``factors`` ``(terms, samples, n)``, or each row's weight of a rate parameter,
     the sample's ``block`` of its slot in ``weights`` ``(slots, block, rows)``), added to each of its sums
-    ``(sums, rows, n)``: one product and one sum per element, as NumPy's ``value *= factor; target += value``
-    (the same bits), in one pass."""
+    ``(sums, rows, n)``. (Accelerated by :func:`ftc_mj.fast.terms.sum_terms`.)"""
     sums[:] = 0.0
-    rows, n = sums.shape[1], sums.shape[2]
+    n = sums.shape[2]
     for step in range(len(terms)):
         term, slot = terms[step], slots[step]
-        for r in range(rows):
-            for j in range(n):
-                factor = weights[slot, block, r] if slot >= 0 else factors[term, k, j]
-                value = values[r, term * n + j] * factor
-                for target in range(sums.shape[0]):
-                    if targets[step, target]:
-                        sums[target, r, j] += value
+        factor = weights[slot, block][:, None] if slot >= 0 else factors[term, k]
+        value = values[:, term * n:(term + 1) * n] * factor
+        for target in np.flatnonzero(targets[step]):
+            sums[target] += value

@@ -46,7 +46,7 @@ from ftc_mj.effects import randomness
 from ftc_mj.effects.faults import ActuatorFaults
 from ftc_mj.effects.sensors import Measurement
 from ftc_mj.effects.terms import PlantTerms
-from ftc_mj.engine.copies import SampleCopies
+from ftc_mj.fast.copies import SampleCopies
 from ftc_mj.engine.rows import Layout
 from ftc_mj.engine.mass import MassAtReadings, mass_at_readings
 from ftc_mj.engine.members import Members

@@ -16,14 +16,17 @@ from __future__ import annotations
 
 import copy
 from collections.abc import Callable
+from functools import partial
 from typing import Protocol
 
 import mujoco
-import numba
 import numpy as np
 from mujoco.batch import Batch, SimulationError
 
-from ftc_mj.config.kernels import WITHOUT_RUNTIME, bound
+from ftc_mj import fast
+from ftc_mj.fast import plant as compiled
+from ftc_mj.fast.crossovers import PERSISTENT_ROWS
+from ftc_mj.fast.kernels import bound
 from ftc_mj.logs.trajectory import Log
 from ftc_mj.robot.model import position_sensor_addresses, velocity_sensor_addresses
 from ftc_mj.robot.nominal import DenseMass, scale_masses
@@ -88,15 +91,6 @@ class Plant(Protocol):
         ``acceleration`` ``(rows, n)``; the newly stopped rows (a mask), or None."""
 
 
-#: Up to this many rows the plant's batch keeps one MjData per row (``persistent``: a step continues from the
-#: stages the last one computed); beyond it, one MjData per thread that loads each row's state. Both give the
-#: same bits (the batch's guarantee). A persistent row's MjData is some 25 KB here: a few dozen fit in a core's
-#: cache and save the stages computed again, but a campaign batch's hundreds evict the loop's own arrays
-#: between two steps (``benchmarks/loop_phases.py``: the physics phase 17.8-19.0 against 22.0-23.4 us per
-#: row-period of 336 rows; a single row 20.5 against 23.3 us per period persistent).
-PERSISTENT_ROWS = 32
-
-
 class MuJoCoPlant(Plant):
     """:class:`Plant` simulated by MuJoCo: one simulation of a :class:`mujoco.batch.Batch` per row."""
 
@@ -133,7 +127,8 @@ class MuJoCoPlant(Plant):
         self._position, self._velocity = np.zeros_like(self.qpos), np.zeros_like(self.qvel)
         self._ids: np.ndarray | None = None  # None: all rows step
         self.running = rows
-        self._within = bound(_within, self.qpos, self.qvel, self.alive, float(max_position), float(max_velocity))
+        arguments = (self.qpos, self.qvel, self.alive, float(max_position), float(max_velocity))
+        self._within = bound(compiled.within, *arguments) if fast.enabled() else partial(within, *arguments)
 
     def reset(self, q0: np.ndarray, qd0: np.ndarray) -> None:
         self.batch.reset(stage=_NO_STAGE)  # MuJoCo's defaults, warnings cleared; the state is written next
@@ -370,18 +365,8 @@ def _kinematics(model: mujoco.MjModel, positions: np.ndarray) -> tuple[np.ndarra
     return xpos, xquat
 
 
-@numba.njit(cache=True, nogil=True, **WITHOUT_RUNTIME)
-def _within(qpos: np.ndarray, qvel: np.ndarray, alive: np.ndarray, max_position: float, max_velocity: float) -> bool:
+def within(qpos: np.ndarray, qvel: np.ndarray, alive: np.ndarray, max_position: float, max_velocity: float) -> bool:
     """Whether every |qpos| <= max_position and every |qvel| <= max_velocity (NaN is not) in the rows still
     ``alive``: a stopped row keeps the state it stopped in, which would otherwise send every later period to
-    the row-by-row comparison."""
-    for r in range(qpos.shape[0]):
-        if not alive[r]:
-            continue
-        for j in range(qpos.shape[1]):
-            if not abs(qpos[r, j]) <= max_position:
-                return False
-        for j in range(qvel.shape[1]):
-            if not abs(qvel[r, j]) <= max_velocity:
-                return False
-    return True
+    the row-by-row comparison. (Accelerated by :func:`ftc_mj.fast.plant.within`.)"""
+    return bool((np.abs(qpos[alive]) <= max_position).all() and (np.abs(qvel[alive]) <= max_velocity).all())

@@ -27,17 +27,9 @@ from ftc_mj.analysis.diagnosis import diagnose_result, diagnosis_metrics
 from ftc_mj.analysis.metrics import RecordedSeries, compute_metrics, onsets_per_joint, series_metrics
 from ftc_mj.engine.loop import BatchRun, ChunkCallback, ProgressCallback, simulate
 from ftc_mj.engine.members import Members, single
+from ftc_mj.fast.crossovers import INTERLEAVED_ROWS, METRICS_ROWS
 from ftc_mj.results import VariantResult
 from ftc_mj.scenario.definition import Scenario, Variant, series_bytes
-
-#: From this many rows (members x variants) a chunk on two or more threads is run as two interleaved halves
-#: (:func:`_interleaved`); below it the Python of the two halves would contend for the GIL more than their
-#: physics overlaps (the crossover measured on both sides: the performance page's change 8).
-INTERLEAVED_ROWS = 96
-
-#: Rows whose metrics are computed together (:func:`_finished_metrics`): side by side in one compiled pass, few
-#: enough that the pass's state per column (some thirty numbers) stays in a core's cache.
-METRICS_ROWS = 64
 
 #: Default memory for the series of one chunk of members [bytes].
 DEFAULT_MEMORY_BUDGET = 2 * 1024**3

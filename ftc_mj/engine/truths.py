@@ -15,20 +15,17 @@ before: the factorisation of every sample and row).
 
 from __future__ import annotations
 
-import os
+from collections.abc import Callable
+from dataclasses import dataclass
+from functools import partial
 
-os.environ.setdefault("NUMBA_DISABLE_INTEL_SVML", "1")  # before Numba is imported: ftc_mj.robot.rigid says why
+import numpy as np
 
-from collections.abc import Callable  # noqa: E402
-from dataclasses import dataclass  # noqa: E402
-
-import numba  # noqa: E402
-import numpy as np  # noqa: E402
-
-from ftc_mj.config.kernels import WITHOUT_RUNTIME, direct  # noqa: E402
-from ftc_mj.engine.plant import Plant  # noqa: E402
-from ftc_mj.robot.nominal import SparseSolver  # noqa: E402
-from ftc_mj.robot.rigid import solve_factored  # noqa: E402
+from ftc_mj import fast
+from ftc_mj.engine.plant import Plant
+from ftc_mj.fast import truths as compiled
+from ftc_mj.fast.kernels import bound
+from ftc_mj.robot.nominal import SparseSolver, solve_sparse
 
 
 @dataclass
@@ -42,10 +39,9 @@ class Truths:
     #: C qd + G of the right-hand side: the plant's ``bias`` itself, or a buffer its caller fills each period
     #: (C qd + G + F / c, with the nominal model's joint friction F, :mod:`ftc_mj.robot.friction`).
     bias: np.ndarray
-    #: The solve of a sample k (:meth:`record`), past Numba's dispatcher, and its arguments after k and the
-    #: fault flag.
-    _solve: Callable[..., None]
-    _arguments: tuple
+    #: The solve of a sample k (:meth:`record`): :func:`record` on the run's buffers, or its accelerator bound
+    #: to them (:func:`ftc_mj.fast.truths.record`), called with k and the fault flag.
+    _solve: Callable[[int, bool], None]
 
     @classmethod
     def allocate(cls, solver: SparseSolver, plant: Plant, scale: np.ndarray, tau: np.ndarray,
@@ -61,13 +57,17 @@ class Truths:
         bias = plant.bias if bias is None else bias
         arguments = (plant.factor, plant.diagonal_inverse, tau, bias, row_scale, not unit, force, luaf_true,
                      fault_torque, fault_acceleration, *solver.structure)
-        return cls(force, None if unit else row_scale, bias, direct(_record, 0, False, *arguments), arguments)
+        if fast.enabled():
+            solve = bound(compiled.record, *arguments, free=(0, False))
+        else:
+            solve = partial(record, *arguments)
+        return cls(force, None if unit else row_scale, bias, solve)
 
     def record(self, k: int, fault: bool) -> None:
         """At sample k's instant: M(q)^-1 (tau / c - C qd - G) of the plant for the command into the LUaF
         series' sample k (until :meth:`finish`); with ``fault``, the fault's acceleration M(q)^-1 of the fault
         torque's sample k into its own. After the period's fault torque is written and before the plant steps."""
-        self._solve(k, fault, *self._arguments)
+        self._solve(k, fault)
 
     @staticmethod
     def finish(qdd_true: np.ndarray, luaf_true: np.ndarray) -> None:
@@ -76,18 +76,19 @@ class Truths:
         np.subtract(qdd_true, luaf_true, out=luaf_true)
 
 
-@numba.njit(cache=True, nogil=True, fastmath=False, error_model="numpy", **WITHOUT_RUNTIME)
-def _record(k, fault, factor, diagonal_inverse, tau, bias, scale, scaled, force, luaf_true,  # noqa: ANN001, ANN202
-            fault_torque, fault_acceleration, rows, starts, addresses, columns):
-    """:meth:`Truths.record` of sample k: force = tau / c - bias (tau - bias where c = 1: no division), each an
-    IEEE operation as NumPy's; then MuJoCo's sparse solves (:func:`~ftc_mj.robot.rigid.solve_factored`)."""
-    for r in range(force.shape[0]):
-        for j in range(force.shape[1]):
-            if scaled:
-                force[r, j] = tau[r, j] / scale[r, 0] - bias[r, j]
-            else:
-                force[r, j] = tau[r, j] - bias[r, j]
-    solve_factored(factor, diagonal_inverse, force, luaf_true[k], rows, starts, addresses, columns)
+def record(factor: np.ndarray, diagonal_inverse: np.ndarray, tau: np.ndarray, bias: np.ndarray,
+           scale: np.ndarray, scaled: bool, force: np.ndarray, luaf_true: np.ndarray, fault_torque: np.ndarray,
+           fault_acceleration: np.ndarray, rows: np.ndarray, starts: np.ndarray, addresses: np.ndarray,
+           columns: np.ndarray, k: int, fault: bool) -> None:
+    """The definition of :meth:`Truths.record` at sample k: force = tau / c - bias (tau - bias where c = 1),
+    then M(q)^-1 of it into ``luaf_true[k]`` and, with ``fault``, of the fault torque's sample k into
+    ``fault_acceleration[k]``, by MuJoCo's sparse solve (:func:`~ftc_mj.robot.nominal.solve_sparse`)."""
+    if scaled:
+        np.divide(tau, scale, out=force)
+        force -= bias
+    else:
+        np.subtract(tau, bias, out=force)
+    structure = (rows, starts, addresses, columns)
+    solve_sparse(factor, diagonal_inverse, force, luaf_true[k], *structure)
     if fault:
-        solve_factored(factor, diagonal_inverse, fault_torque[k], fault_acceleration[k], rows, starts, addresses,
-                       columns)
+        solve_sparse(factor, diagonal_inverse, fault_torque[k], fault_acceleration[k], *structure)

@@ -20,6 +20,8 @@ from __future__ import annotations
 
 import os
 import sys
+from collections.abc import Iterator
+from contextlib import contextmanager
 
 os.environ.setdefault("NUMBA_DISABLE_INTEL_SVML", "1")  # before Numba is imported: the module docstring
 
@@ -36,6 +38,18 @@ def set_enabled(value: bool) -> None:
     """Use the fast paths (True) or the NumPy definitions only (False) in what is built from now on."""
     global _enabled
     _enabled = bool(value)
+
+
+@contextmanager
+def switched(value: bool) -> Iterator[None]:
+    """What is built inside uses the fast paths (True) or the NumPy definitions only (False); the switch as it
+    was afterwards (a test or a benchmark comparing the two in one process)."""
+    previous = _enabled
+    set_enabled(value)
+    try:
+        yield
+    finally:
+        set_enabled(previous)
 
 
 def announce_compilation(what: str, cold: bool, where: str = "Numba's cache") -> None:

@@ -16,7 +16,7 @@ import numpy as np
 import ftc_mj.fast  # noqa: F401  (sets Numba's options before Numba is imported)
 import numba  # noqa: E402
 
-from ftc_mj.config.kernels import for_any_layout  # noqa: E402
+from ftc_mj.fast.kernels import for_any_layout  # noqa: E402
 
 
 def series_pass(t: np.ndarray, columns: tuple[np.ndarray, ...], flags: np.ndarray, window_start: float,

@@ -5,8 +5,9 @@ evaluation points at once (:class:`NominalBatch`), and what one control period h
 The model is a private rigid-body copy of the robot's MjModel (:func:`rigid_body_model`), so evaluating it at
 an estimated state never touches the simulation. ``mass_scale`` scales every body's mass and inertia (and the
 joint armature) of the copy, which gives a controlled model mismatch (the scenario's ``nominal`` section,
-:class:`NominalSpec`). Two implementations evaluate it, chosen once by :func:`nominal_batch`: the compiled
-rigid-body algorithms (:class:`CompiledNominal`) and MuJoCo's own batch (:class:`MuJoCoNominal`).
+:class:`NominalSpec`). Two implementations evaluate it, chosen once by :func:`nominal_batch`: MuJoCo's own
+batch (:class:`MuJoCoNominal`, the definition) and, with the fast paths on (:mod:`ftc_mj.fast`), the compiled
+rigid-body algorithms (:class:`CompiledNominal`, equal to MuJoCo's to rounding).
 """
 
 from __future__ import annotations
@@ -14,105 +15,64 @@ from __future__ import annotations
 import copy
 from collections.abc import Callable
 from concurrent.futures import ThreadPoolExecutor
-from functools import lru_cache
+from functools import lru_cache, partial
 from typing import Protocol
 
 import mujoco
-import numba
 import numpy as np
 from mujoco.batch import Batch
 
-from ftc_mj.config.kernels import WITHOUT_RUNTIME, bound, direct
+from ftc_mj import fast
 from ftc_mj.config.types import PositiveFloat, Strict
+from ftc_mj.fast.crossovers import PAIRED_COLUMNS, POINTS_PER_THREAD
+from ftc_mj.fast.kernels import bound
+from ftc_mj.fast.matrices import gather, matvec_in_pairs
+from ftc_mj.fast.rigid import RigidTree, evaluation, solve_factored
 from ftc_mj.robot.friction import FrictionSpec
-from ftc_mj.robot.rigid import RigidTree, evaluation, solve_factored
-
-
-# np.einsum (optimize=False) calls this same C function, so the same bits, after a Python dispatch that costs
-# about as much again on a few rows; the public np.matmul and np.matvec sum in other orders (other bits).
-try:
-    from numpy._core.multiarray import c_einsum as _einsum
-except ImportError:  # pragma: no cover - another NumPy layout
-    _einsum = np.einsum
-
-#: Up to this many columns :func:`matvec` may be the compiled :func:`_matvec_in_pairs`; beyond it einsum's SIMD
-#: loop sums in an order of its own.
-PAIRED_COLUMNS = 7
 
 
 def matvec(matrices: np.ndarray, vectors: np.ndarray, out: np.ndarray) -> np.ndarray:
-    """Row by row, ``out[r] = matrices[r] @ vectors[r]`` (``(rows, n, n)`` by ``(rows, n)``), as ``np.einsum``
-    computes it (the same bits whatever the number of rows): by :func:`_matvec_in_pairs` where it gives
-    einsum's bits on the CPU it runs on (:func:`sums_in_pairs`), a call that costs a quarter of einsum's on a few rows,
-    else by einsum itself."""
-    if sums_in_pairs(matrices.shape[-1]):
-        _matvec_in_pairs(matrices, vectors, out)
+    """Row by row, ``out[r] = matrices[r] @ vectors[r]`` (``(rows, n, n)`` by ``(rows, n)``): the definition is
+    ``np.einsum("rij,rj->ri")``, each row summed alone (the same bits whatever the number of rows); with the
+    fast paths on and at most :data:`~ftc_mj.fast.crossovers.PAIRED_COLUMNS` joints, its accelerator
+    :func:`~ftc_mj.fast.matrices.matvec_in_pairs`."""
+    if matrices.shape[-1] <= PAIRED_COLUMNS and fast.enabled():
+        matvec_in_pairs(matrices, vectors, out)
         return out
-    return _einsum("rij,rj->ri", matrices, vectors, out=out)
+    return np.einsum("rij,rj->ri", matrices, vectors, out=out)
 
 
 class MatvecSite:
     """:func:`matvec` at one call site, past Numba's dispatcher once its matrices, vectors and output are the
     arrays of the call before (the same objects): a loop that maps the same buffers every period then pays the
-    compiled function's call alone (:func:`~ftc_mj.config.kernels.direct`). The caller compares the arrays
+    compiled function's call alone (:func:`~ftc_mj.fast.kernels.bound`). The caller compares the arrays
     with :attr:`matrices`, :attr:`vectors`, :attr:`out` inline (a method call would cost what it saves) and
-    calls :attr:`call` where they are the same, :meth:`new` where not; a caller whose own buffers never change
-    need compare only the others. The same bits either way; an array is not reshaped in place between two
-    calls (a view is another object)."""
+    calls :attr:`call` (no arguments: it is bound to those arrays) where they are the same, :meth:`new` where
+    not; a caller whose own buffers never change need compare only the others. The same bits either way."""
 
     __slots__ = ("matrices", "vectors", "out", "call", "_seen")
 
     def __init__(self) -> None:
-        #: The arrays :attr:`call` was compiled for (None: none yet), and the compiled function.
+        #: The arrays :attr:`call` is bound to (None: none yet), and the bound call.
         self.matrices: np.ndarray | None = None
         self.vectors: np.ndarray | None = None
         self.out: np.ndarray | None = None
-        self.call: Callable[[np.ndarray, np.ndarray, np.ndarray], None] = _matvec_in_pairs
+        self.call: Callable[[], None] = _unbound
         self._seen: tuple[np.ndarray, np.ndarray] | None = None
 
     def new(self, matrices: np.ndarray, vectors: np.ndarray, out: np.ndarray) -> np.ndarray:
-        """:func:`matvec` of arrays other than the compiled call's; where the vectors and output are those of the
-        last call too, the compiled function for these arrays is taken for the next calls."""
+        """:func:`matvec` of arrays other than the bound call's; where the vectors and output are those of the
+        last call too, the compiled product is bound to these arrays for the next calls (fast paths on)."""
         seen, self._seen = self._seen, (vectors, out)
-        if (seen is not None and seen[0] is vectors and seen[1] is out and sums_in_pairs(matrices.shape[-1])
-                and all(type(a) is np.ndarray for a in (matrices, vectors, out))):
+        if (seen is not None and seen[0] is vectors and seen[1] is out and matrices.shape[-1] <= PAIRED_COLUMNS
+                and fast.enabled() and all(type(a) is np.ndarray for a in (matrices, vectors, out))):
             self.matrices, self.vectors, self.out = matrices, vectors, out
-            self.call = direct(_matvec_in_pairs, matrices, vectors, out)
+            self.call = bound(matvec_in_pairs, matrices, vectors, out)
         return matvec(matrices, vectors, out)
 
 
-@lru_cache(maxsize=None)
-def sums_in_pairs(n: int) -> bool:
-    """Whether :func:`_matvec_in_pairs` gives ``np.einsum``'s bits for n columns here, checked once on random
-    numbers (einsum's order is NumPy's choice, made for the CPU's SIMD width)."""
-    if not 1 <= n <= PAIRED_COLUMNS:
-        return False
-    generator = np.random.default_rng(n)
-    matrices, vectors = generator.standard_normal((256, n, n)), generator.standard_normal((256, n))
-    expected, paired = np.empty((256, n)), np.empty((256, n))
-    _einsum("rij,rj->ri", matrices, vectors, out=expected)
-    _matvec_in_pairs(matrices, vectors, paired)
-    return bool(np.array_equal(expected, paired))
-
-
-@numba.njit(cache=True, nogil=True, **WITHOUT_RUNTIME)
-def _matvec_in_pairs(matrices: np.ndarray, vectors: np.ndarray, out: np.ndarray) -> None:
-    """``out[r, i] = sum_j matrices[r, i, j] vectors[r, j]`` summed as einsum's loop sums fewer than eight
-    products: even and odd products in two running sums, an odd count's last product into the even one, then
-    even + odd."""
-    n = matrices.shape[2]
-    for r in range(matrices.shape[0]):
-        for i in range(matrices.shape[1]):
-            even = 0.0
-            odd = 0.0
-            j = 0
-            while j + 1 < n:
-                even += matrices[r, i, j] * vectors[r, j]
-                odd += matrices[r, i, j + 1] * vectors[r, j + 1]
-                j += 2
-            if j < n:
-                even += matrices[r, i, j] * vectors[r, j]
-            out[r, i] = even + odd
+def _unbound() -> None:
+    raise RuntimeError("MatvecSite.call before MatvecSite.new bound it")
 
 
 #: The nominal quantities beyond M and Psi that an observer may declare in ``needs``
@@ -188,8 +148,8 @@ class StepModel:
     def apply_M(self, vector: np.ndarray, out: np.ndarray) -> np.ndarray:
         """M(x1) vector per member, into ``out``."""
         site = self._apply
-        if vector is site.vectors and out is site.out:  # M is the same buffer every call
-            site.call(self.M, vector, out)
+        if vector is site.vectors and out is site.out and self.M is site.matrices:
+            site.call()
             return out
         return site.new(self.M, vector, out)
 
@@ -294,7 +254,8 @@ class DenseMass:
         self._padded = np.zeros((rows, model.nM + 1)) if np.any(self._index == model.nM) else None
         self.out = np.zeros((rows, n, n))
         self._flat = self.out.reshape(rows, n * n)
-        #: The sparse values last filled from, and the compiled gather bound to them (:func:`_gather`).
+        #: The sparse values last filled from, and the gather bound to them (the definition ``numpy.take``; with the
+        #: fast paths on, its accelerator :func:`~ftc_mj.fast.matrices.gather`).
         self._source: np.ndarray | None = None
         self._gather: Callable[[], None] = lambda: None
 
@@ -302,26 +263,22 @@ class DenseMass:
         """Fill from the sparse values ``(rows, nM)`` and return the dense matrices."""
         if sparse is not self._source:  # callers fill from the same live buffer every period: bound once
             self._source = sparse
-            self._gather = bound(_gather, sparse if self._padded is None else self._padded, self._index, self._flat)
+            values = sparse if self._padded is None else self._padded
+            if fast.enabled():
+                self._gather = bound(gather, values, self._index, self._flat)
+            else:
+                self._gather = partial(values.take, self._index, 1, self._flat)
         if self._padded is not None:  # a tree: gather from the values with a zero appended
             self._padded[:, :-1] = sparse
         self._gather()
         return self.out
 
 
-@numba.njit(cache=True, nogil=True, **WITHOUT_RUNTIME)
-def _gather(values: np.ndarray, index: np.ndarray, out: np.ndarray) -> None:
-    """``out[r, e] = values[r, index[e]]``: ``values.take(index, axis=1, out=out)`` in one compiled pass."""
-    for r in range(out.shape[0]):
-        for e in range(out.shape[1]):
-            out[r, e] = values[r, index[e]]
-
-
 class SparseSolver:
     """M(q)^-1 v for many rows at once with MuJoCo's own factorisation ``qLD``, ``qLDiagInv`` of each row: the
-    operations of ``mj_solveM`` in its order (:func:`~ftc_mj.robot.rigid.solve_factored`, compiled), so each
-    row's answer is bit for bit what ``mj_solveM`` gives on one MjData (tested), in one call whatever the
-    batch size. The model is the one whose sparsity the factors have (any mass scale: only the structure is
+    operations of ``mj_solveM`` in its order (:func:`solve_sparse`; with the fast paths on, its accelerator
+    :func:`~ftc_mj.fast.rigid.solve_factored`), so each row's answer is bit for bit what ``mj_solveM`` gives on
+    one MjData (tested), in one call whatever the batch size. The model is the one whose sparsity the factors have (any mass scale: only the structure is
     used)."""
 
     def __init__(self, model: mujoco.MjModel):
@@ -341,7 +298,7 @@ class SparseSolver:
 
     @property
     def structure(self) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
-        """The flattened sparse structure :func:`~ftc_mj.robot.rigid.solve_factored` takes after ``out``: the rows
+        """The flattened sparse structure :func:`solve_sparse` takes after ``out``: the rows
         with entries left of the diagonal, their entries' starts, addresses in qLD and columns."""
         return self._structure
 
@@ -350,14 +307,50 @@ class SparseSolver:
         ``vector`` is ``(rows, n)`` or one ``(n,)`` for every row."""
         if vector.ndim == 1:
             vector = np.broadcast_to(vector, (len(out), self._n))
-        solve_factored(factor, diagonal_inverse, vector, out, *self._structure)
+        (solve_factored if fast.enabled() else solve_sparse)(factor, diagonal_inverse, vector, out,
+                                                              *self._structure)
         return out
 
     def bound(self, factor: np.ndarray, diagonal_inverse: np.ndarray, vector: np.ndarray,
               out: np.ndarray) -> Callable[[], None]:
-        """:meth:`solve` of these buffers (``vector`` ``(rows, n)``), as a call without arguments past Numba's
-        dispatcher (:func:`~ftc_mj.config.kernels.bound`): for a loop that solves the same buffers every period."""
-        return bound(solve_factored, factor, diagonal_inverse, vector, out, *self._structure)
+        """:meth:`solve` of these buffers (``vector`` ``(rows, n)``), as a call without arguments (with the fast
+        paths on, past Numba's dispatcher: :func:`~ftc_mj.fast.kernels.bound`): for a loop that solves the same
+        buffers every period."""
+        if fast.enabled():
+            return bound(solve_factored, factor, diagonal_inverse, vector, out, *self._structure)
+        return partial(solve_sparse, factor, diagonal_inverse, vector, out, *self._structure)
+
+
+def solve_sparse(factor: np.ndarray, diagonal_inverse: np.ndarray, vector: np.ndarray, out: np.ndarray,
+                 rows: np.ndarray, starts: np.ndarray, addresses: np.ndarray, columns: np.ndarray) -> None:
+    """The definition of :class:`SparseSolver`'s solve: ``out[r] = M_r^-1 vector[r]`` from MuJoCo's
+    factorisation M = L' D L of each row r (``qLD`` ``(rows, nM)``, ``qLDiagInv``), with ``mj_solveM``'s
+    operations in its order, on every row at once: x <- L'^-1 x from the last row up, x <- D^-1 x, x <- L^-1 x
+    from the first row down, each sparse dot product summed as ``mju_dotSparse`` sums it (four lanes over whole
+    groups of four, added as (0 + 2) + (1 + 3), then the rest; fewer than four from the left). The structure
+    is :attr:`SparseSolver.structure`."""
+    out[...] = vector
+    for k in range(len(rows) - 1, -1, -1):  # x <- L'^-1 x
+        x_i = out[:, rows[k]].copy()
+        for e in range(starts[k], starts[k + 1]):
+            out[:, columns[e]] -= factor[:, addresses[e]] * x_i
+    out *= diagonal_inverse  # x <- D^-1 x
+    for k in range(len(rows)):  # x <- L^-1 x
+        first, count = int(starts[k]), int(starts[k + 1] - starts[k])
+        term = lambda e: factor[:, addresses[e]] * out[:, columns[e]]  # noqa: E731
+        whole = count - count % 4
+        if whole:
+            lanes = [term(first + lane) for lane in range(4)]
+            for j in range(4, whole, 4):
+                for lane in range(4):
+                    lanes[lane] += term(first + j + lane)
+            dot = lanes[0] + lanes[2]
+            dot += lanes[1] + lanes[3]
+        else:
+            dot, whole = term(first), 1
+        for j in range(whole, count):
+            dot += term(first + j)
+        out[:, rows[k]] -= dot
 
 
 class NominalBatch(Protocol):
@@ -408,22 +401,18 @@ def nominal_batch(model: mujoco.MjModel, mass_scale: np.ndarray, nthread: int,
                   mass_points: np.ndarray | None = None) -> NominalBatch:
     """The nominal model of ``model`` at ``len(mass_scale)`` points, one mass scale each: the compiled
     rigid-body algorithms where the robot is a tree of hinge and slide joints (every shipped scenario's; not
-    Menagerie's Panda with its coupled fingers), MuJoCo's own batch (``nthread`` threads) otherwise.
+    Menagerie's Panda with its coupled fingers) and the fast paths are on, MuJoCo's own batch (``nthread``
+    threads) otherwise.
 
     ``momentum_points``: a ``(points,)`` mask of the points where C(q, qd)^T qd and G(q) are wanted as well
     (:data:`NEEDS`), or None: nowhere, at no cost. ``mass_points``: the mass scales of M-only points the
     compiled model evaluates in the same call (its ``at_readings``); MuJoCo's batch ignores them."""
     rigid = rigid_body_model(model)
     mass_scale = np.asarray(mass_scale, dtype=float)
-    tree = RigidTree.from_model(rigid)
+    tree = RigidTree.from_model(rigid) if fast.enabled() else None
     if tree is None:
         return MuJoCoNominal(rigid, mass_scale, nthread, mass_only, momentum_points)
     return CompiledNominal(tree, rigid, mass_scale, mass_only, momentum_points, nthread, mass_points)
-
-
-#: Fewest points per thread for :class:`CompiledNominal` to split its points over threads: below it, handing a
-#: slice to another thread costs more than evaluating it.
-POINTS_PER_THREAD = 64
 
 
 @lru_cache(maxsize=None)
@@ -433,7 +422,7 @@ def _threads(count: int) -> ThreadPoolExecutor:
 
 
 class CompiledNominal(NominalBatch):
-    """:class:`NominalBatch` by the compiled algorithms of :mod:`ftc_mj.robot.rigid`: about a quarter of
+    """:class:`NominalBatch` by the compiled algorithms of :mod:`ftc_mj.fast.rigid`: about a quarter of
     MuJoCo's forward pass per point and equal to it to rounding (1e-15), not bit for bit."""
 
     #: It rounds otherwise than MuJoCo: it evaluates its own M.
@@ -603,7 +592,7 @@ _INERTIA_SIGN = np.array([[1, 1, 1, 1, -1, 1], [1, 1, 1, 1, 1, -1], [1, 1, 1, -1
 
 class MuJoCoMomentumTerms:
     """C(q, qd)^T qd and G(q) on a :class:`mujoco.batch.Batch` after its forward pass, from MuJoCo's com-based
-    quantities, by the formulas of :mod:`ftc_mj.robot.rigid`: (C^T qd)_i = cdof_dot_i' h_i, h_i the spatial
+    quantities, by the formulas of :mod:`ftc_mj.fast.rigid`: (C^T qd)_i = cdof_dot_i' h_i, h_i the spatial
     momentum ``cinert cvel`` summed over the subtree of dof i's body (``cdof_dot`` = cvel x cdof is dS_i/dt for a
     hinge or slide joint), and G_i = cdof_i' (I^c a_0), the subtree's inertia times a_0 = [0; -gravity].
 
@@ -637,15 +626,15 @@ class MuJoCoMomentumTerms:
         spatial *= self._sign
         spatial = spatial.reshape(spatial.shape[:2] + (6, 6))
         momentum, weight = self._momentum, self._weight
-        _einsum("pbij,pbj->pbi", spatial, self._cvel, out=momentum)
-        _einsum("pbij,j->pbi", spatial, self._at_rest, out=weight)
+        np.einsum("pbij,pbj->pbi", spatial, self._cvel, out=momentum)
+        np.einsum("pbij,j->pbi", spatial, self._at_rest, out=weight)
         for body, parent in self._parents:  # children before their parents
             momentum[:, parent] += momentum[:, body]
             weight[:, parent] += weight[:, body]
         gathered = momentum.take(self._dof_body, axis=1, out=self._gathered)
-        _einsum("pik,pik->pi", self._cdof_dot, gathered, out=self.coriolis_transpose)
+        np.einsum("pik,pik->pi", self._cdof_dot, gathered, out=self.coriolis_transpose)
         gathered = weight.take(self._dof_body, axis=1, out=self._gathered)
-        _einsum("pik,pik->pi", self._cdof, gathered, out=self.gravity)
+        np.einsum("pik,pik->pi", self._cdof, gathered, out=self.gravity)
 
 
 def at_rest(batch: NominalBatch, points: np.ndarray) -> None:

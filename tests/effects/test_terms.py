@@ -12,8 +12,9 @@ import numpy as np
 import pytest
 import yaml
 
+from ftc_mj import fast
 from ftc_mj.config.errors import InputError
-from ftc_mj.config.expressions import SCALAR_ROWS
+from ftc_mj.fast.crossovers import PAIRED_COLUMNS, SCALAR_ROWS
 from ftc_mj.effects.terms import PlantTerms, TermSpec, active_term_sets, compile_terms
 from ftc_mj.engine.runner import simulate_variant
 from ftc_mj.scenario.loading import load_scenario
@@ -309,32 +310,6 @@ def test_closed_loop_parameter_rate_equals_the_numeric_rate(tmp_path: Path) -> N
     assert by_name.fault[-1, 0] > 1.0  # well into the fault: Phi_1 is about 9 here
 
 
-def test_the_compiled_sums_are_numpys_products_and_sums_bit_for_bit() -> None:
-    """_sum_terms against NumPy's ``value *= factor; target += value`` term by term: 5 rows, 3 joints, four terms
-    (one with a per-row weight read from its slot's block, one not active) going to different sums, random
-    values and factors."""
-    from ftc_mj.effects.terms import _SUMS, _sum_terms
-
-    generator = np.random.default_rng(7)
-    rows, n, samples, k, block = 5, 3, 4, 2, 1
-    values = generator.standard_normal((rows, 4 * n)) * 1e3
-    factors = generator.standard_normal((4, samples, n))
-    weights = generator.standard_normal((2, 3, rows))  # (slots, block, rows): term 2 has slot 1
-    active, slots = np.array([0, 2, 3]), np.array([-1, 1, -1])
-    targets = np.zeros((3, len(_SUMS)), dtype=bool)
-    targets[0, [0, 2, 3]] = targets[1, [1, 2, 4]] = targets[2, 0] = True
-    expected = np.full((len(_SUMS), rows, n), 0.0)
-    for step, term in enumerate(active):
-        value = values[:, term * n:(term + 1) * n].copy()
-        value *= weights[slots[step], block][:, None] if slots[step] >= 0 else factors[term, k]
-        for target in np.flatnonzero(targets[step]):
-            expected[target] += value
-    sums = np.full((len(_SUMS), rows, n), np.nan)
-    _sum_terms(values, active, slots, targets, factors, k, weights, block, sums)
-    np.testing.assert_array_equal(sums, expected)
-    assert np.all(expected[0] != 0.0)
-
-
 @pytest.mark.parametrize("sign", [1, -1])
 def test_the_tabulated_weights_are_each_periods_numpy_sequence_bit_for_bit(sign: int) -> None:
     """The rate parameters' weights, tabulated a block of samples at a time, against NumPy's sequence on
@@ -362,37 +337,6 @@ def test_the_tabulated_weights_are_each_periods_numpy_sequence_bit_for_bit(sign:
             plant._tabulate_weights(k)
             block = 0
         np.testing.assert_array_equal(plant._weights[0, block], expected[:, 0])
-
-
-def test_the_interpreters_first_compilation_is_announced_once(monkeypatch, capsys) -> None:
-    """Terms that run as a compiled program say, once per process, that the interpreter compiles when Numba's
-    cache holds none of it; a warm cache says nothing (whether it is cold: ``rigid.cache_is_cold``, tested
-    with a fresh cache in ``tests/robot/test_rigid.py``)."""
-    from ftc_mj.effects import terms as module
-
-    specs = [TermSpec(kind="fault", space="torque", sign=1, value=VALUE, onset=ONSET)]
-    compiled = compile_terms(specs, "test.yaml", NJ, PARAMETERS)
-    for cold, lines in ((False, 0), (True, 1)):
-        monkeypatch.setattr(module, "_announced", False)
-        monkeypatch.setattr(module, "cache_is_cold", lambda dispatcher, source, cold=cold: cold)
-        for _ in range(2):
-            PlantTerms(compiled, TIMES, 2, NJ, np.ones((2, 2)), PARAMETERS)
-        err = capsys.readouterr().err.splitlines()
-        assert len(err) == lines
-        assert all(line.startswith("compiling the plant terms' interpreter (first run on this machine") for line in err)
-    # What is asked (the interpreter, against its module's source) and the cache the line names.
-    from ftc_mj.config import programs
-
-    asked = []
-    monkeypatch.setattr(module, "_announced", False)
-    monkeypatch.setattr(module, "cache_is_cold", lambda dispatcher, source: asked.append((dispatcher, source)) or True)
-    PlantTerms(compiled, TIMES, 2, NJ, np.ones((2, 2)), PARAMETERS)
-    assert asked == [(programs.INTERPRETER, programs.__file__)]
-    assert capsys.readouterr().err.endswith(f"cached in {programs.INTERPRETER._cache._cache_path})\n")
-    monkeypatch.setattr(module, "_announced", False)
-    monkeypatch.setattr(programs.INTERPRETER, "_cache", object())  # a cache without a path of its own
-    PlantTerms(compiled, TIMES, 2, NJ, np.ones((2, 2)), PARAMETERS)
-    assert capsys.readouterr().err.endswith("cached in Numba's cache)\n")
 
 
 def test_the_terms_are_evaluated_on_the_buffers_given_bound_once_per_pair() -> None:
@@ -430,8 +374,6 @@ def test_the_mapped_terms_are_the_same_on_a_live_mass_buffer_and_on_new_ones() -
     friction = TermSpec(kind="friction", space="acceleration", sign=-1, value=["0.5*qd1", "sin(q2)", "qd3"])
     specs = [friction, TermSpec(kind="fault", space="acceleration", sign=1, value=VALUE, onset=ONSET, rate="zeta")]
     scale, zeta = np.array([1.0, 0.5, 2.0]), np.array([3.0, 1.0, 2.0])
-    from ftc_mj.robot.nominal import sums_in_pairs
-
     expected, _ = apply_terms(specs, scale, zeta)  # a new view of the masses each period
     rows = len(zeta)
     plant = PlantTerms(compile_terms(specs, "test.yaml", NJ, PARAMETERS), TIMES, rows, NJ,
@@ -445,7 +387,7 @@ def test_the_mapped_terms_are_the_same_on_a_live_mass_buffer_and_on_new_ones() -
         plant.apply(k, t, q[k], qd[k], buffer, out)
         np.testing.assert_array_equal(out, expected["applied"][k])
         np.testing.assert_array_equal(plant.fault_force, expected["fault_force"][k])
-    if sums_in_pairs(NJ):  # where the compiled product is einsum's: it ran for the live buffers
+    if NJ <= PAIRED_COLUMNS and fast.enabled():  # the compiled product, bound to the live buffers
         assert plant._map_acceleration.vectors is plant.acceleration and plant._map_acceleration.matrices is other
         assert plant._map_fault_acceleration.vectors is plant._fault_acceleration
 

@@ -73,7 +73,7 @@ class FractionalObserver(Observer):
 
 class RebindingObserver(FractionalObserver):
     """The same law, its estimates new arrays every period (``x = x + ...``, the same bits as ``x += ...``), and
-    the engine's copies of them into the series must follow (:class:`ftc_mj.engine.copies.SampleCopies`)."""
+    the engine's copies of them into the series must follow (:class:`ftc_mj.fast.copies.SampleCopies`)."""
 
     name: ClassVar[str] = "test_rebinding"
 

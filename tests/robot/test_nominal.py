@@ -480,52 +480,16 @@ def test_compiled_points_cut_over_threads_keep_their_bits(model, kind):
     assert np.all(three.factor != 0, axis=1).any() and np.all(three.diagonal_inverse != 1.0, axis=1).all()
 
 
-@pytest.mark.parametrize("n", range(1, 10))
-def test_matvec_gives_einsums_bits_for_any_size_and_layout(n):
-    """M v row by row has np.einsum's bits at every size (the compiled product up to PAIRED_COLUMNS where it
-    reproduces einsum here, einsum beyond), on contiguous rows, a strided slice and one vector broadcast to
-    every row; NaN stays NaN."""
-    from numpy._core.multiarray import c_einsum
-
-    from ftc_mj.robot.nominal import PAIRED_COLUMNS, matvec, sums_in_pairs
-
-    generator = np.random.default_rng(100 + n)
-    matrices, vectors = generator.standard_normal((40, n, n)), generator.standard_normal((40, n))
-    vectors[3, 0] = np.nan
-    cases = [(matrices, vectors), (matrices[::3], vectors[::3]),
-             (matrices[:5], np.broadcast_to(vectors[7], (5, n)))]
-    for m, v in cases:
-        expected, out = np.empty((len(m), n)), np.full((len(m), n), -1.0)
-        c_einsum("rij,rj->ri", m, v, out=expected)
-        assert matvec(m, v, out) is out
-        np.testing.assert_array_equal(out, expected)
-    if n > PAIRED_COLUMNS:
-        assert not sums_in_pairs(n)
-
-
-def test_the_compiled_product_sums_even_and_odd_products_apart():
-    """The order _matvec_in_pairs sums three products in, (a0 b0 + a2 b2) + a1 b1: 0 for 1, -1 and 1e-20,
-    where the left-to-right sum gives 1e-20; einsum sums so wherever the product stands in for it."""
-    from numpy._core.multiarray import c_einsum
-
-    from ftc_mj.robot.nominal import _matvec_in_pairs, sums_in_pairs
-
-    matrix, vector = np.array([[[1.0, -1.0, 1e-20]]]), np.ones((1, 3))
-    out, einsum = np.full((1, 1), np.nan), np.empty((1, 1))
-    _matvec_in_pairs(matrix, vector, out)
-    assert out[0, 0] == 0.0 and (1.0 + -1.0) + 1e-20 == 1e-20
-    c_einsum("rij,rj->ri", matrix, vector, out=einsum)
-    if sums_in_pairs(3):
-        assert einsum[0, 0] == 0.0
-
-
 @pytest.mark.parametrize("n", [3, 9])
-def test_a_matvec_site_gives_matvecs_bits_and_compiles_only_for_arrays_seen_twice(n):
-    """A call site's product is matvec's whatever it is called with: its own buffers (compiled for them from
-    their second call on), a new output each call (never compiled), another layout after the buffers (a
-    strided view: matvec again, then compiled for it). Beyond PAIRED_COLUMNS it never compiles."""
-    from ftc_mj.robot.nominal import MatvecSite, matvec, sums_in_pairs
+def test_a_matvec_site_gives_matvecs_bits_and_binds_only_arrays_seen_twice(n):
+    """A call site's product is matvec's whatever it is called with: its own buffers (bound to them from their
+    second call on), a new output each call (never bound), another layout after the buffers (a strided view:
+    matvec again, then bound to it). Beyond PAIRED_COLUMNS it never binds."""
+    from ftc_mj import fast
+    from ftc_mj.fast.crossovers import PAIRED_COLUMNS
+    from ftc_mj.robot.nominal import MatvecSite, matvec
 
+    binds = n <= PAIRED_COLUMNS and fast.enabled()
     generator = np.random.default_rng(n)
     matrices, vectors = generator.standard_normal((6, n, n)), generator.standard_normal((6, n))
     out, expected = np.empty((6, n)), np.empty((6, n))
@@ -534,14 +498,14 @@ def test_a_matvec_site_gives_matvecs_bits_and_compiles_only_for_arrays_seen_twic
     for step in range(3):
         vectors += 1.0
         matvec(matrices, vectors, expected)
-        if vectors is site.vectors and out is site.out:
-            site.call(matrices, vectors, out)
-            calls.append("compiled")
+        if vectors is site.vectors and out is site.out and matrices is site.matrices:
+            site.call()
+            calls.append("bound")
         else:
             site.new(matrices, vectors, out)
             calls.append("new")
         np.testing.assert_array_equal(out, expected)
-    assert calls == (["new", "new", "compiled"] if sums_in_pairs(n) else ["new"] * 3)
+    assert calls == (["new", "new", "bound"] if binds else ["new"] * 3)
     for step in range(3):  # a new output each call: matvec each time
         fresh = np.full((6, n), np.nan)
         site.new(matrices, vectors, fresh)
@@ -553,10 +517,9 @@ def test_a_matvec_site_gives_matvecs_bits_and_compiles_only_for_arrays_seen_twic
     for step in range(2):
         site.new(strided_matrices, strided, short_out)
         np.testing.assert_array_equal(short_out, short_expected)
-    assert (site.vectors is strided) == sums_in_pairs(n)
+    assert (site.vectors is strided) == binds
     short_out[...] = np.nan
-    site.call(strided_matrices, strided, short_out) if sums_in_pairs(n) else site.new(strided_matrices, strided,
-                                                                                       short_out)
+    site.call() if binds else site.new(strided_matrices, strided, short_out)
     np.testing.assert_array_equal(short_out, short_expected)
 
 

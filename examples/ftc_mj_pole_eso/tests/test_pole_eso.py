@@ -1,8 +1,9 @@
 """The example observer: its LUaF estimate follows a constant disturbance, its gains are the polynomial's, and a
-batch of members with their own gains gives each member's single run bit for bit."""
+batch of members with their own gains gives each member's single run bit for bit (ftc_mj.testing's check)."""
 
 import numpy as np
 
+from ftc_mj.testing import assert_batch_equals_single
 from ftc_mj_pole_eso.observer import PoleESO, PoleESOConfig
 
 
@@ -16,12 +17,10 @@ class ExactModel:
         return tau
 
 
-def simulate(bandwidth, damping, members=None, steps=3000, dt=1e-3, disturbance=2.0):
-    shape = (2,) if members is None else (members, 2)
-    # The engine hands a method its members' validated gains stacked as (members, n) arrays.
-    config = PoleESOConfig.model_construct(bandwidth=np.broadcast_to(bandwidth, shape).copy(),
-                                           damping=np.broadcast_to(damping, shape).copy())
-    observer = PoleESO(config, 2, dt, members)
+def simulate(bandwidth, damping, steps=3000, dt=1e-3, disturbance=2.0):
+    shape = (2,)
+    config = PoleESOConfig.model_validate(dict(bandwidth=bandwidth, damping=damping), context={"n_joints": 2})
+    observer = PoleESO(config, 2, dt)
     observer.reset(np.zeros(shape), np.zeros(shape))
     model = ExactModel(shape)
     q, qd, tau = np.zeros(shape), np.zeros(shape), np.zeros(shape)
@@ -47,9 +46,6 @@ def test_gains_are_the_characteristic_polynomial():
 
 
 def test_a_member_of_a_batch_is_its_single_run():
-    bandwidths, dampings = np.array([[20.0], [40.0], [80.0]]), np.array([[0.5], [0.7], [1.0]])
-    batch = simulate(bandwidths, dampings, members=3, steps=500)
-    for k in range(3):
-        alone = simulate(bandwidths[k, 0], dampings[k, 0], steps=500)
-        np.testing.assert_array_equal(batch.luaf_hat[k], alone.luaf_hat)
-        np.testing.assert_array_equal(batch.qd_hat[k], alone.qd_hat)
+    """Three members with their own gains (not as many as the joints), each against its run alone."""
+    assert_batch_equals_single(PoleESO, [dict(bandwidth=20.0, damping=0.5), dict(bandwidth=40.0, damping=0.7),
+                                         dict(bandwidth=80.0, damping=1.0)], n_joints=2, periods=500)

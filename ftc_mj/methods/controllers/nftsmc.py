@@ -32,8 +32,7 @@ from typing import ClassVar
 import numpy as np
 from pydantic import model_validator
 
-from ftc_mj.methods import compiled
-from ftc_mj.methods.compiled import entry, kernel
+from ftc_mj.fast import laws
 from ftc_mj.methods.controllers.base import SlidingModeController, SwitchingConfig
 from ftc_mj.methods.gains import Exponent, NonNegativeFloat, NonNegativeJoints, PositiveJoints
 from ftc_mj.methods.primitives import signed_power
@@ -76,40 +75,20 @@ class NFTSMC(SlidingModeController):
 
     def __init__(self, config: NFTSMCSurfaceConfig, n_joints: int, dt: float, members: int | None = None):
         super().__init__(config, n_joints, dt, members)
-        self._integral = np.zeros(self.shape)
+        #: The integral of A in the surface (5.15).
+        self.integral = np.zeros(self.shape)
         c = self.config
-        #: The fused law (:mod:`ftc_mj.methods.compiled`) and its buffers: e_dot, the bases |e|, |e_dot| and e
-        #: (stacked), their powers |e|^g1, |e_dot|^g2 and e^3 (stacked), and -u.
-        self._fused = compiled.fused(self, (NFTSMC,), c.beta1, c.beta2, c.beta3, c.beta4, c.gamma1, c.gamma2,
-                                     self._gain)
-        self._error_rate, self._negative_u = np.zeros(self.shape), np.zeros(self.shape)
-        self._bases, self._powers = np.zeros((3, *self.shape)), np.zeros((3, *self.shape))
-        self._magnitude, self._magnitude_rate, self._error = self._bases
-        self._power, self._power_rate, self._cube = self._powers
-        self._exponents = np.stack([np.broadcast_to(g, self.shape) for g in (c.gamma1, c.gamma2, 3.0)])
-        self._find_errors = compiled.call_site(self, "_find_errors", _errors)
-        self._find_negative_control = compiled.call_site(self, "_find_negative_control", _negative_control)
-        self._period = float(dt)
+        #: The law's accelerator (:mod:`ftc_mj.fast.laws`) registered for this class exactly, or None.
+        self._accelerator = laws.accelerator(self, c.beta1, c.beta2, c.beta3, c.beta4, c.gamma1, c.gamma2, self._gain)
 
     def reset(self) -> None:
         super().reset()
-        self._integral[:] = 0.0
+        self.integral[:] = 0.0
 
     def compute(self, t, q_ref, qd_ref, qdd_ref, q_meas, observer, model):
-        if not self._fused:
-            return super().compute(t, q_ref, qd_ref, qdd_ref, q_meas, observer, model)
-        c, e, e_dot = self.config, self._error, self._error_rate
-        self._find_errors(q_meas, q_ref, model.control_velocity(observer.qd_hat), qd_ref, e, e_dot, self._magnitude,
-                          self._magnitude_rate)
-        # The powers by NumPy, as signed_power and e**3 raise them, in one call: NumPy's pow per element (gains
-        # of the state's shape), the same bits stacked as apart (tested), into other arrays than the bases.
-        np.power(self._bases, self._exponents, self._powers)
-        compensation = self.observer_compensation(observer)
-        self._find_negative_control(e, e_dot, self._power, self._power_rate, self._cube, c.beta1, c.beta2, c.beta3,
-                                    c.beta4, self._period, self._integral, self.sliding, qdd_ref, model.psi_control,
-                                    e if compensation is None else compensation, compensation is not None,
-                                    self._gain, self._negative_u)
-        return model.apply_M(self._negative_u, out=self.tau)
+        if self._accelerator is not None:
+            return self._accelerator.compute(q_ref, qd_ref, qdd_ref, q_meas, observer, model)
+        return super().compute(t, q_ref, qd_ref, qdd_ref, q_meas, observer, model)
 
     def surface(self, t: float, e: np.ndarray, e_dot: np.ndarray) -> np.ndarray:
         c = self.config
@@ -119,8 +98,8 @@ class NFTSMC(SlidingModeController):
             + c.beta3 * e
             + c.beta4 * e**3
         )
-        np.add(e_dot, self._integral, out=self.sliding)
-        self._integral += self.dt * a
+        np.add(e_dot, self.integral, out=self.sliding)
+        self.integral += self.dt * a
         return a
 
 
@@ -165,31 +144,4 @@ class AdaptiveNFTSMC(NFTSMC):
         return self._gain
 
 
-@kernel
-def _errors(q_meas, q_ref, velocity, qd_ref, e, e_dot, magnitude, magnitude_rate):  # noqa: ANN001, ANN202
-    """e = x1 - x_d, e_dot = x2 - xd_d and their magnitudes (to be raised to gamma1, gamma2)."""
-    for i in range(e.shape[0]):
-        for j in range(e.shape[1]):
-            error = q_meas[i, j] - entry(q_ref, i, j)
-            error_rate = velocity[i, j] - entry(qd_ref, i, j)
-            e[i, j], e_dot[i, j] = error, error_rate
-            magnitude[i, j], magnitude_rate[i, j] = abs(error), abs(error_rate)
-
-
-@kernel
-def _negative_control(e, e_dot, power, power_rate, cube, beta1, beta2, beta3, beta4, dt,  # noqa: ANN001, ANN202
-                      integral, sliding, qdd_ref, psi_control, compensation, compensate, gain, negative_u):
-    """The surface (5.15) and -u = xdd_d - (Psi + A) - u_c - (bound + mu) sign(s) of (5.25)-(5.27), in the
-    reference's order of operations."""
-    for i in range(e.shape[0]):
-        for j in range(e.shape[1]):
-            a = (beta1[i, j] * np.copysign(power[i, j], e[i, j]) + beta2[i, j] * np.copysign(power_rate[i, j],
-                                                                                             e_dot[i, j])
-                 + beta3[i, j] * e[i, j] + beta4[i, j] * cube[i, j])
-            s = e_dot[i, j] + integral[i, j]
-            sliding[i, j] = s
-            integral[i, j] += dt * a
-            value = entry(qdd_ref, i, j) - (psi_control[i, j] + a)
-            if compensate:
-                value -= compensation[i, j]
-            negative_u[i, j] = value - gain[i, j] * compiled.sign(s)
+laws.register(NFTSMC, laws.NFTSMCLaw)

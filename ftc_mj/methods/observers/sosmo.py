@@ -20,8 +20,7 @@ from typing import ClassVar
 
 import numpy as np
 
-from ftc_mj.methods import compiled
-from ftc_mj.methods.compiled import kernel
+from ftc_mj.fast import laws
 from ftc_mj.methods.gains import PositiveFloat, SuperTwistingGains
 from ftc_mj.methods.observers.base import Observer
 from ftc_mj.methods.primitives import exp, signed_power
@@ -43,46 +42,28 @@ class SOSMO(Observer):
     def __init__(self, config: SOSMOConfig, n_joints: int, dt: float, members: int | None = None):
         super().__init__(config, n_joints, dt, members)
         self.k1, self.k2 = config.gains()
-        # Exact discretisation of d(luaf)/dt = (injection - luaf) / T over one period.
-        self._filter_weight = 1.0 - exp(-self.dt / config.filter_time_constant)
+        #: The LUaF filter's weight: the exact discretisation of d(luaf)/dt = (injection - luaf) / T over one period.
+        self.filter_weight = 1.0 - exp(-self.dt / config.filter_time_constant)
         self._q_hat_rate = np.zeros(self.shape)
-        # The fused law (:mod:`ftc_mj.methods.compiled`): the power 1/2 is sqrt in both, as signed_power takes it.
-        self._fused, self._period = compiled.fused(self, (SOSMO,), self.k1, self.k2, self._filter_weight), float(dt)
+        #: The law's accelerator (:mod:`ftc_mj.fast.laws`) registered for this class exactly, or None.
+        self._accelerator = laws.accelerator(self, self.k1, self.k2, self.filter_weight)
 
     def update(self, t: float, q_meas: np.ndarray, model: StepModel) -> None:
-        if self._fused:
-            _update(q_meas, self.q_hat, self.qd_hat, self.k1, self.k2, self._q_hat_rate, self.injection)
+        if self._accelerator is not None:
+            self._accelerator.update(q_meas, model)
             return
         error = q_meas - self.q_hat
         self._q_hat_rate[:] = self.qd_hat + self.k1 * signed_power(error, 0.5)
         self.injection[:] = self.k2 * np.sign(error)
 
     def advance(self, tau: np.ndarray, model: StepModel) -> None:
-        if self._fused:
-            _advance(model.psi_hat, model.command_acceleration(tau), self.injection, self._q_hat_rate, self._period,
-                     self._filter_weight, self.q_hat, self.qd_hat, self.luaf_hat)
+        if self._accelerator is not None:
+            self._accelerator.advance(tau, model)
             return
         qdd_hat = model.psi_hat + model.command_acceleration(tau) + self.injection
         self.q_hat += self.dt * self._q_hat_rate
         self.qd_hat += self.dt * qdd_hat
-        self.luaf_hat += self._filter_weight * (self.injection - self.luaf_hat)
+        self.luaf_hat += self.filter_weight * (self.injection - self.luaf_hat)
 
 
-@kernel
-def _update(q_meas, q_hat, qd_hat, k1, k2, q_hat_rate, injection):  # noqa: ANN001, ANN202
-    """The first line of (4.37) (into ``q_hat_rate``) and the injection k2 sign(x1~) of the second."""
-    for i in range(q_hat.shape[0]):
-        for j in range(q_hat.shape[1]):
-            error = q_meas[i, j] - q_hat[i, j]
-            q_hat_rate[i, j] = qd_hat[i, j] + k1[i, j] * np.copysign(np.sqrt(abs(error)), error)
-            injection[i, j] = k2[i, j] * compiled.sign(error)
-
-
-@kernel
-def _advance(psi_hat, command, injection, q_hat_rate, dt, filter_weight, q_hat, qd_hat,  # noqa: ANN001, ANN202
-             luaf_hat):
-    """One Euler period of (4.37) and the LUaF filter's exact step."""
-    for i in range(q_hat.shape[0]):
-        for j in range(q_hat.shape[1]):
-            compiled.euler_state(psi_hat, command, injection, q_hat_rate, dt, q_hat, qd_hat, i, j)
-            luaf_hat[i, j] += filter_weight[i, j] * (injection[i, j] - luaf_hat[i, j])
+laws.register(SOSMO, laws.SOSMOLaw)

@@ -22,8 +22,7 @@ from typing import ClassVar
 import numpy as np
 from pydantic import model_validator
 
-from ftc_mj.methods import compiled
-from ftc_mj.methods.compiled import kernel
+from ftc_mj.fast import laws
 from ftc_mj.methods.gains import GainConfig, NonNegativeFloat, PositiveJoints
 from ftc_mj.methods.observers.base import Observer
 from ftc_mj.methods.primitives import signed_power
@@ -72,29 +71,16 @@ class TOSMO(Observer):
         self.k1, self.k2, self.k3 = config.gains()
         self._luaf_step = self.dt * self.k3  # dt k3: the LUaF estimate's change per period, times sign(x1~)
         self._error = np.zeros(self.shape)
-        #: |x1~| raised to 2/3 and to 1/3, stacked for one call of NumPy's pow (the same bits as two calls with
-        #: the numbers, tested); the unfused law takes |x1~|^p sign(x1~) into the first, for each power in turn.
-        self._powers = np.zeros((2, *self.shape))
-        self._power, self._power_third = self._powers
-        self._exponents = np.stack([np.full(self.shape, 2 / 3), np.full(self.shape, 1 / 3)])
+        self._power = np.zeros(self.shape)
         self._sign = np.zeros(self.shape)
         self._q_hat_rate = np.zeros(self.shape)
         self._qdd_hat = np.zeros(self.shape)
-        self._gamma = getattr(config, "gamma", self.k1)  # Gamma of (5.6); unused (any array) in the TOSMO
-        self._fused = compiled.fused(self, (TOSMO, HighSpeedTOSMO), self.k1, self.k2, self._luaf_step, self._gamma)
-        self._linear_terms, self._period = type(self) is HighSpeedTOSMO, float(dt)
-        self._find_errors = compiled.call_site(self, "_find_errors", _errors)
-        self._find_injection = compiled.call_site(self, "_find_injection", _injection)
-        self._integrate = compiled.call_site(self, "_integrate", _advance)
+        #: The law's accelerator (:mod:`ftc_mj.fast.laws`) registered for this class exactly, or None.
+        self._accelerator = laws.accelerator(self, self.k1, self.k2, self._luaf_step)
 
     def update(self, t: float, q_meas: np.ndarray, model: StepModel) -> None:
-        if self._fused:
-            magnitude, magnitude_third = self._power, self._power_third
-            self._find_errors(q_meas, self.q_hat, self._error, self._sign, magnitude, magnitude_third)
-            # The powers by NumPy, in place, as signed_power raises them.
-            np.power(self._powers, self._exponents, self._powers)
-            self._find_injection(self._error, magnitude, magnitude_third, self.k1, self.k2, self._gamma,
-                                 self._linear_terms, self.qd_hat, self.luaf_hat, self._q_hat_rate, self.injection)
+        if self._accelerator is not None:
+            self._accelerator.update(q_meas, model)
             return
         error = np.subtract(q_meas, self.q_hat, out=self._error)
         np.sign(error, out=self._sign)
@@ -111,9 +97,8 @@ class TOSMO(Observer):
         return correction
 
     def advance(self, tau: np.ndarray, model: StepModel) -> None:
-        if self._fused:
-            self._integrate(model.psi_hat, model.command_acceleration(tau), self.injection, self._q_hat_rate,
-                            self._period, self._luaf_step, self._sign, self.q_hat, self.qd_hat, self.luaf_hat)
+        if self._accelerator is not None:
+            self._accelerator.advance(tau, model)
             return
         qdd_hat = np.add(model.psi_hat, model.command_acceleration(tau), out=self._qdd_hat)
         qdd_hat += self.injection
@@ -138,40 +123,6 @@ class HighSpeedTOSMO(TOSMO):
         return correction + self.linear_gain * signal
 
 
-@kernel
-def _errors(q_meas, q_hat, error, sign, magnitude, magnitude_third):  # noqa: ANN001, ANN202
-    """x1~ = x1 - x1_hat, its sign, and |x1~| twice (to be raised to 2/3 and 1/3)."""
-    for i in range(error.shape[0]):
-        for j in range(error.shape[1]):
-            e = q_meas[i, j] - q_hat[i, j]
-            error[i, j] = e
-            sign[i, j] = compiled.sign(e)
-            magnitude[i, j] = magnitude_third[i, j] = abs(e)
-
-
-@kernel
-def _injection(error, power, power_third, k1, k2, gamma, linear, qd_hat, luaf_hat, q_hat_rate,  # noqa: ANN001, ANN202
-               injection):
-    """The first line of (5.6) less the estimate (into ``q_hat_rate``) and the injection of the second, from
-    |x1~|^(2/3) and |x1~|^(1/3); with ``linear`` the Gamma terms, else the TOSMO (3.11)."""
-    for i in range(error.shape[0]):
-        for j in range(error.shape[1]):
-            e = error[i, j]
-            position_correction = k1[i, j] * np.copysign(power[i, j], e)
-            if linear:
-                position_correction = position_correction + gamma[i, j] * e
-            q_hat_rate[i, j] = qd_hat[i, j] + position_correction
-            velocity_correction = k2[i, j] * np.copysign(power_third[i, j], e)
-            if linear:
-                velocity_correction = velocity_correction + gamma[i, j] * position_correction
-            injection[i, j] = velocity_correction + luaf_hat[i, j]
-
-
-@kernel
-def _advance(psi_hat, command, injection, q_hat_rate, dt, luaf_step, sign, q_hat, qd_hat,  # noqa: ANN001, ANN202
-             luaf_hat):
-    """One Euler period of (5.6): x1_hat, x2_hat and the LUaF estimate (5.13)."""
-    for i in range(q_hat.shape[0]):
-        for j in range(q_hat.shape[1]):
-            compiled.euler_state(psi_hat, command, injection, q_hat_rate, dt, q_hat, qd_hat, i, j)
-            luaf_hat[i, j] += luaf_step[i, j] * sign[i, j]
+laws.register(TOSMO, lambda method: laws.TOSMOLaw(method, linear=False))
+laws.register(HighSpeedTOSMO, lambda method: laws.TOSMOLaw(method, linear=True)
+              if type(method.config.gamma) is np.ndarray and method.config.gamma.shape == method.shape else None)

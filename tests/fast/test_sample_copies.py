@@ -7,7 +7,7 @@ import gc
 import numpy as np
 import pytest
 
-from ftc_mj.engine.copies import SampleCopies, _copyable
+from ftc_mj.fast.copies import SampleCopies, _copyable
 
 STEPS, ROWS, N = 7, 5, 3  # rows != joints, so that a mixed-up axis shows
 

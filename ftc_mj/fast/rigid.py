@@ -38,15 +38,6 @@ The numbers equal MuJoCo's to rounding (about 1e-15 relative; tested on every sh
 bit. Every point is computed by the same compiled code whatever the number of points, so a member of a batch
 still gets exactly the bits of its single run.
 
-**Required process setting.** Importing this module sets ``NUMBA_DISABLE_INTEL_SVML=1`` in the environment
-(unless already set), for this process and the worker processes it starts. Where Intel's SVML library is
-installed, Numba vectorises loops of ``sin``/``cos`` with it, and a vectorised sine may round differently
-from the scalar one: a point's bits would then depend on its neighbours in the batch. Numba offers no
-per-function switch: it reads the setting once, when ``numba`` is first imported, and configures LLVM for
-the whole process. The setting is therefore made here, where the kernels are built, before Numba is
-imported; a program that imports Numba before ftc_mj must set the variable itself (without SVML installed,
-``numba.config.USING_SVML`` is False and nothing changes).
-
 **First run.** The kernel compiles on its first call on a machine and is cached by Numba: beside this file
 when its folder is writable (an editable install), else in the user's cache folder (a read-only install), or
 in ``NUMBA_CACHE_DIR`` when set. A call that has to compile says so in one line on stderr
@@ -55,19 +46,15 @@ in ``NUMBA_CACHE_DIR`` when set. A call that has to compile says so in one line 
 
 from __future__ import annotations
 
-import os
+from collections.abc import Callable
+from dataclasses import dataclass
 
-os.environ.setdefault("NUMBA_DISABLE_INTEL_SVML", "1")  # before Numba is imported: see the module docstring
+import mujoco
+import numba
+import numpy as np
 
-import sys  # noqa: E402
-from collections.abc import Callable  # noqa: E402
-from dataclasses import dataclass  # noqa: E402
-
-import mujoco  # noqa: E402
-import numba  # noqa: E402
-import numpy as np  # noqa: E402
-
-from ftc_mj.config.kernels import WITHOUT_RUNTIME, bound  # noqa: E402
+from ftc_mj import fast
+from ftc_mj.fast.kernels import WITHOUT_RUNTIME, bound, cache_folder, cache_is_cold
 
 _HINGE, _SLIDE = int(mujoco.mjtJoint.mjJNT_HINGE), int(mujoco.mjtJoint.mjJNT_SLIDE)
 #: No point asks for the momentum terms: the kernel's arguments when none are wanted (types fixed for Numba).
@@ -218,32 +205,15 @@ def evaluate(arguments: tuple) -> None:
 
 def evaluation(arguments: tuple) -> Callable[[], None]:
     """:func:`evaluate` on ``arguments`` (the same buffers every call) as a call without arguments, past Numba's
-    dispatcher (:func:`~ftc_mj.config.kernels.bound`); it may compile the kernel now (said once)."""
+    dispatcher (:func:`~ftc_mj.fast.kernels.bound`); it may compile the kernel now (said once)."""
     if not _evaluate.overloads:
         announce_compilation()
     return bound(_evaluate, *arguments)
 
 
-def cache_is_cold(dispatcher: numba.core.registry.CPUDispatcher | None = None, source: str = __file__) -> bool:
-    """Whether the first call in this process of a cached kernel (default: the rigid-body kernel) will compile:
-    Numba's cache holds no index of it, or one older than its source file (Numba then compiles again)."""
-    cache = getattr(_evaluate if dispatcher is None else dispatcher, "_cache", None)
-    index = getattr(getattr(cache, "_cache_file", None), "_index_path", None)
-    if index is None:  # a Numba without this layout: say nothing rather than something wrong
-        return False
-    try:
-        return os.stat(index).st_mtime < os.stat(source).st_mtime
-    except OSError:
-        return True
-
-
 def announce_compilation() -> None:
-    """One line on stderr when the kernel is about to compile (the first run on a machine, or after an update):
-    where the compiled code is cached, so that the wait is explained and happens once."""
-    if cache_is_cold():
-        where = getattr(_evaluate._cache, "_cache_path", "Numba's cache")
-        print(f"compiling the rigid-body model (first run on this machine, some seconds; cached in {where})",
-              file=sys.stderr, flush=True)
+    """One line on stderr when the kernel is about to compile (the first run on a machine, or after an update)."""
+    fast.announce_compilation("the rigid-body model", cache_is_cold(_evaluate, __file__), cache_folder(_evaluate))
 
 
 @numba.njit(cache=True, nogil=True, inline="always")

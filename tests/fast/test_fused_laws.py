@@ -1,10 +1,12 @@
-"""The fused laws (ftc_mj.methods.compiled) against their NumPy reference, bit for bit.
+"""The fused laws (ftc_mj.fast.laws) against their method's NumPy law, member by member.
 
-Each shipped law with a fused path runs twice on the same random inputs, fused and built inside
-``reference_laws()``: B members (B != n) with their own gains, errors of every scale, exact zeros (sign(0)),
-negative and positive values, a member gone NaN (a stopped row of the engine). Every state and output must have
-the same bits every period. Then the rules of the switch: subclasses, standalone laws and ``reference_laws``
-take the reference; and the engine's series of a shipped scenario are the same either way.
+Each shipped law with an accelerator runs twice on the same random inputs, accelerated and built with the
+fast paths off (``fast.switched(False)``): B members (B != n) with their own gains, errors of every scale,
+exact zeros (sign(0)), negative and positive values, a member gone NaN (a stopped row of the engine). The
+stated tolerance is none: every state and output must have the same bits every period (the accelerator does
+the law's IEEE operations in the law's order and leaves the powers to NumPy). Then the rules of the
+registration: a subclass, standalone laws and the switch take the NumPy law; and the engine's series of a
+shipped scenario are the same either way.
 """
 
 from __future__ import annotations
@@ -15,11 +17,11 @@ from types import SimpleNamespace
 import numpy as np
 import pytest
 
-from ftc_mj import load_scenario
+from ftc_mj import fast, load_scenario
 from ftc_mj.engine.batching import stack
 from ftc_mj.engine.loop import simulate
 from ftc_mj.engine.members import single
-from ftc_mj.methods import compiled
+from ftc_mj.fast import laws
 from ftc_mj.methods.controllers import NFTSMC
 from ftc_mj.methods.controllers.nftsmc import AdaptiveNFTSMC
 from ftc_mj.methods.observers import SOSMO, HighSpeedTOSMO, TOSMO
@@ -40,7 +42,7 @@ NFTSMC_GAINS = [dict(beta1=15.0, beta2=10.0, beta3=10.0, beta4=5.0, gamma1=0.5, 
 def build(cls, member_gains: list[dict], reference: bool):
     configs = [cls.Config.model_validate(g, context={"n_joints": N}) for g in member_gains]
     if reference:
-        with compiled.reference_laws():
+        with fast.switched(False):
             return cls(stack(configs, N), N, DT, len(configs))
     return cls(stack(configs, N), N, DT, len(configs))
 
@@ -73,7 +75,7 @@ def assert_same(fused, reference, names: list[str], k: int) -> None:
 def test_fused_observer_equals_its_reference(cls, option):
     gains = member_gains(option)
     fused, reference = build(cls, gains, False), build(cls, gains, True)
-    assert fused._fused and not reference._fused
+    assert fused._accelerator is not None and reference._accelerator is None
     rng = np.random.default_rng(0)
     q0 = rng.normal(size=(MEMBERS, N))
     for observer in (fused, reference):
@@ -100,7 +102,7 @@ def test_fused_observer_equals_its_reference(cls, option):
 def test_fused_nftsmc_equals_its_reference(option, compensation, shared_reference):
     gains = [{**g, "compensation": compensation} for g in member_gains(option)]
     fused, reference = build(NFTSMC, gains, False), build(NFTSMC, gains, True)
-    assert fused._fused and not reference._fused
+    assert fused._accelerator is not None and reference._accelerator is None
     rng = np.random.default_rng(1)
     for controller in (fused, reference):
         controller.reset()
@@ -117,7 +119,7 @@ def test_fused_nftsmc_equals_its_reference(option, compensation, shared_referenc
         taus = [controller.compute(k * DT, q_ref, qd_ref, qdd_ref, q, observer, model).copy()
                 for controller in (fused, reference)]
         np.testing.assert_array_equal(taus[0], taus[1], err_msg=f"tau, period {k}")
-        assert_same(fused, reference, ["sliding", "_integral"], k)
+        assert_same(fused, reference, ["sliding", "integral"], k)
 
 
 def test_subclasses_standalone_laws_and_the_switch_take_the_reference():
@@ -128,15 +130,16 @@ def test_subclasses_standalone_laws_and_the_switch_take_the_reference():
             return 2.0 * correction
 
     gains = member_gains(OBSERVERS[TOSMO][0])
-    assert not build(DoubledTOSMO, gains, False)._fused
-    assert not build(AdaptiveNFTSMC, [dict(beta1=1.0, beta2=1.0, gamma1=0.5, rho=1.0, mu=0.5)] * 2, False)._fused
+    assert build(DoubledTOSMO, gains, False)._accelerator is None
+    assert build(AdaptiveNFTSMC, [dict(beta1=1.0, beta2=1.0, gamma1=0.5, rho=1.0, mu=0.5)] * 2,
+                 False)._accelerator is None
     standalone = TOSMO(TOSMO.Config.model_validate(dict(D=22.0), context={"n_joints": N}), N, DT)
-    assert not standalone._fused  # (n,) states: the reference law
-    with compiled.reference_laws():
-        with compiled.reference_laws():
+    assert standalone._accelerator is None  # (n,) states: the NumPy law
+    with fast.switched(False):
+        with fast.switched(False):
             pass
-        assert not build(TOSMO, gains, False)._fused  # still inside the outer one
-    assert build(TOSMO, gains, False)._fused
+        assert build(TOSMO, gains, False)._accelerator is None  # still inside the outer one
+    assert build(TOSMO, gains, False)._accelerator is not None
     doubled, plain = build(DoubledTOSMO, gains, False), build(TOSMO, gains, False)
     q = np.full((MEMBERS, N), 1e-3)
     for observer in (doubled, plain):
@@ -145,14 +148,44 @@ def test_subclasses_standalone_laws_and_the_switch_take_the_reference():
     np.testing.assert_array_equal(doubled.injection, 2.0 * plain.injection)
 
 
-def test_the_engine_gives_the_same_series_either_way():
+def test_a_subclass_keeps_the_accelerator_by_registering_it():
+    class RenamedTOSMO(TOSMO):
+        """A subclass that changes nothing of the law, and says so."""
+
+    laws.register(RenamedTOSMO, lambda method: laws.TOSMOLaw(method, linear=False))
+    try:
+        assert build(RenamedTOSMO, member_gains(OBSERVERS[TOSMO][0]), False)._accelerator is not None
+    finally:
+        laws._REGISTRY.pop(RenamedTOSMO)
+
+
+def test_the_tosmo_reads_no_field_of_its_subclass():
+    """The base class's construction asks its class's accelerator, which for the TOSMO needs no Gamma."""
+    observer = build(TOSMO, member_gains(OBSERVERS[TOSMO][0]), False)
+    assert not hasattr(observer.config, "gamma") and not hasattr(observer, "linear_gain")
+    assert observer._accelerator.linear is False
+
+def test_the_engine_gives_the_same_series_with_the_laws_accelerated_or_not():
+    """Only the laws switched (the rest of the fast paths on): the engine's series are the same bits."""
     scenario = load_scenario(SCENARIOS / "puma_fault.yaml", duration=0.5)
-    fused = simulate(scenario, single(scenario))
-    with compiled.reference_laws():
+    with laws.without_accelerators():
         reference = simulate(scenario, single(scenario))
+    fused = simulate(scenario, single(scenario))
     for name, values in fused.series.items():
         np.testing.assert_array_equal(values, reference.series[name], err_msg=name)
     assert np.abs(fused.series["luaf_hat"]).max() > 0.0
+
+
+def test_the_engine_with_every_fast_path_off_agrees_to_rounding():
+    """The switch off (MuJoCo's nominal model for the compiled one, NumPy for every kernel): the series agree
+    with the accelerated run's to rounding amplified by half a second of a sliding-mode loop."""
+    scenario = load_scenario(SCENARIOS / "puma_fault.yaml", duration=0.5)
+    fused = simulate(scenario, single(scenario))
+    with fast.switched(False):
+        scenario = load_scenario(SCENARIOS / "puma_fault.yaml", duration=0.5)
+        reference = simulate(scenario, single(scenario))
+    for name, values in fused.series.items():
+        np.testing.assert_allclose(values, reference.series[name], rtol=1e-6, atol=1e-9, err_msg=name)
 
 
 FIRST_CALL = """
@@ -185,84 +218,6 @@ def test_the_first_compilation_is_announced_once_per_law_and_cached(tmp_path):
         return [line for line in done.stderr.splitlines() if line.strip()]
 
     first = stderr()
-    assert len(first) == 1 and first[0].startswith("compiling the fused tosmo law (first run on this machine")
+    assert len(first) == 1 and first[0].startswith("compiling the fused TOSMO law (first run on this machine")
     assert str(tmp_path) in first[0]
     assert stderr() == []
-
-
-def test_fused_laws_call_their_kernels_past_the_dispatcher_after_the_first_period():
-    """Each call site of a fused law runs the dispatcher once, then the compiled function it left in its place."""
-    observer = build(HighSpeedTOSMO, member_gains(OBSERVERS[HighSpeedTOSMO][0]), False)
-    controller = build(NFTSMC, member_gains(NFTSMC_GAINS[0]), False)
-    sites = {observer: ("_find_errors", "_find_injection", "_integrate"),
-             controller: ("_find_errors", "_find_negative_control")}
-    for method, names in sites.items():
-        assert all(type(getattr(method, name)).__name__ == "function" for name in names)
-    rng = np.random.default_rng(3)
-    observer.reset(np.zeros((MEMBERS, N)), np.zeros((MEMBERS, N)))
-    controller.reset()
-    M = np.broadcast_to(np.eye(N), (MEMBERS, N, N)).copy()
-    model = SimpleNamespace(psi_hat=np.zeros((MEMBERS, N)), psi_control=np.zeros((MEMBERS, N)), M=M,
-                            control_velocity=lambda qd_hat: qd_hat, apply_M=lambda v, out: matvec(M, v, out),
-                            command_acceleration=lambda tau: tau)
-    for k in range(2):
-        q = rng.normal(size=(MEMBERS, N))
-        observer.update(k * DT, q, model)
-        controller.compute(k * DT, np.zeros(N), np.zeros(N), np.zeros(N), q, observer, model)
-        observer.advance(rng.normal(size=(MEMBERS, N)), model)
-        for method, names in sites.items():
-            assert all(type(getattr(method, name)).__name__ == "builtin_function_or_method" for name in names), k
-
-
-def test_the_kernel_decorator_compiles_without_fast_math_or_numbas_runtime_and_registers_the_kernel():
-    def divide_by_zero(x):  # noqa: ANN001, ANN202
-        return x / 0.0
-
-    compiled._KERNELS.pop(__name__, None)  # this module has no kernel of its own: its list starts with this one
-    try:
-        dispatcher = compiled.kernel(divide_by_zero)
-        kernels = compiled._KERNELS.get(__name__)
-    finally:
-        compiled._KERNELS.pop(__name__, None)
-    assert kernels == [dispatcher]
-    assert dispatcher.targetoptions == {"nogil": True, "fastmath": False, "error_model": "numpy", "nopython": True,
-                                        "boundscheck": None, "_nrt": False}
-    assert type(dispatcher._cache).__name__ == "FunctionCache"  # cached on disk (else a NullCache)
-    with np.errstate(divide="ignore"):
-        assert dispatcher(1.0) == np.inf  # NumPy's division: inf, not ZeroDivisionError
-
-
-def test_the_announcement_names_the_law_and_the_cold_kernels_cache(monkeypatch, capsys):
-    """In process (the fresh-cache run above is a subprocess): which kernels are asked about, what is said, once
-    per module and only when a kernel's cache is cold."""
-    from ftc_mj.methods.observers import tosmo
-
-    asked = []
-    kernels = compiled._KERNELS[tosmo.__name__]
-
-    def cold(dispatcher, source):  # noqa: ANN001, ANN202
-        asked.append((dispatcher, source))
-        return dispatcher is kernels[1]
-
-    monkeypatch.setattr(compiled, "cache_is_cold", cold)
-    monkeypatch.setattr(compiled, "_announced", set())
-    gains = member_gains(OBSERVERS[TOSMO][0])
-    build(TOSMO, gains, False)
-    build(TOSMO, gains, False)
-    assert asked == [(kernel, tosmo.__file__) for kernel in kernels]
-    err = capsys.readouterr().err
-    assert err == (f"compiling the fused tosmo law (first run on this machine, a second; cached in "
-                   f"{kernels[1]._cache._cache_path})\n")
-    assert compiled._announced == {tosmo.__name__}
-    build(TOSMO, gains, True)  # the reference law compiles nothing and says nothing
-    monkeypatch.setattr(compiled, "_announced", set())
-    build(TOSMO, gains, True)
-    assert compiled._announced == set() and capsys.readouterr().err == ""
-    # A cache without a path of its own is named as Numba's cache.
-    monkeypatch.setattr(kernels[1], "_cache", SimpleNamespace())
-    build(TOSMO, gains, False)
-    assert capsys.readouterr().err.endswith("cached in Numba's cache)\n")
-    monkeypatch.setattr(compiled, "cache_is_cold", lambda dispatcher, source: False)
-    monkeypatch.setattr(compiled, "_announced", set())
-    build(TOSMO, gains, False)
-    assert capsys.readouterr().err == "" and compiled._announced == {tosmo.__name__}

@@ -1,5 +1,6 @@
 """Expressions of the state run by one compiled interpreter: the fast form of a
-:class:`~ftc_mj.config.expressions.StateFunction` for any number of rows.
+:class:`~ftc_mj.config.expressions.StateFunction` (the definition) for any number of rows, and the choice
+between the fast forms (:func:`evaluation`).
 
 SymPy's lambdified code of a vector of expressions (common subexpressions first, then the list of values) is
 read back with :mod:`ast` and turned into a postfix program: a stack machine's instructions in the order in
@@ -20,20 +21,22 @@ NaN follow NumPy (``error_model="numpy"``: inf or NaN, never an exception).
 
 from __future__ import annotations
 
-import os
+import ast
+import inspect
+import math
+import operator
+import weakref
+from collections.abc import Callable
+from dataclasses import dataclass
 
-os.environ.setdefault("NUMBA_DISABLE_INTEL_SVML", "1")  # before Numba is imported: ftc_mj.robot.rigid says why
+import numba
+import numpy as np
 
-import ast  # noqa: E402
-import math  # noqa: E402
-import operator  # noqa: E402
-from collections.abc import Callable  # noqa: E402
-from dataclasses import dataclass  # noqa: E402
-
-import numba  # noqa: E402
-import numpy as np  # noqa: E402
-
-from ftc_mj.config.kernels import WITHOUT_RUNTIME, direct  # noqa: E402
+from ftc_mj import fast
+from ftc_mj.config.expressions import StateFunction
+from ftc_mj.fast.crossovers import SCALAR_ROWS
+from ftc_mj.fast.kernels import WITHOUT_RUNTIME, bound, cache_folder, cache_is_cold
+from ftc_mj.fast.rows import evaluate_rows, row_function
 
 # Opcodes. A load pushes one number; an operation pops its operands and pushes its result; a store pops one.
 LOAD_CONSTANT, LOAD_TIME, LOAD_POSITION, LOAD_VELOCITY, LOAD_PARAMETER, LOAD_TEMPORARY = range(6)
@@ -69,7 +72,7 @@ class Program:
     @classmethod
     def from_source(cls, source: str, n_joints: int, parameters: int) -> Program | None:
         """The program of SymPy's lambdified ``source`` (arguments ``t, q1..qn, qd1..qn, parameters``), or None
-        where it uses anything :mod:`this module <ftc_mj.config.programs>` does not run."""
+        where it uses anything :mod:`this module <ftc_mj.fast.programs>` does not run."""
         try:
             return _Compiler(source, n_joints, parameters).program()
         except (Unsupported, SyntaxError, RecursionError):
@@ -78,7 +81,7 @@ class Program:
     def evaluate(self, t: float, q: np.ndarray, qd: np.ndarray, parameters: np.ndarray, out: np.ndarray) -> None:
         """Every row of ``q``, ``qd`` ``(rows, n)`` and ``parameters`` ``(rows, p)`` into ``out``
         ``(rows, outputs)``."""
-        _run(self.code, self.constants, *self.buffers(len(out)), float(t), q, qd, parameters, out)
+        _run(self.code, self.constants, *self.buffers(len(out)), q, qd, parameters, out, float(t))
 
     def buffers(self, rows: int) -> tuple[np.ndarray, np.ndarray]:
         """The interpreter's working buffers for ``rows`` rows: the stack ``(stack, rows)`` and the temporaries
@@ -88,10 +91,8 @@ class Program:
     def evaluation(self, q: np.ndarray, qd: np.ndarray, parameters: np.ndarray,
                    out: np.ndarray) -> Callable[[float], None]:
         """:meth:`evaluate` of these buffers (the same objects every call) as a function of time alone, the
-        kernel called past Numba's dispatcher (:func:`~ftc_mj.config.kernels.direct`)."""
-        code, constants, (stack, saved) = self.code, self.constants, self.buffers(len(out))
-        run = direct(_run, code, constants, stack, saved, 0.0, q, qd, parameters, out)
-        return lambda t: run(code, constants, stack, saved, float(t), q, qd, parameters, out)
+        kernel bound to them past Numba's dispatcher (:func:`~ftc_mj.fast.kernels.bound`)."""
+        return bound(_run, self.code, self.constants, *self.buffers(len(out)), q, qd, parameters, out, free=(0.0,))
 
 
 class _Compiler:
@@ -236,8 +237,8 @@ def _constant_value(node: ast.expr) -> float | None:
 
 
 @numba.njit(cache=True, nogil=True, error_model="numpy", **WITHOUT_RUNTIME)
-def _run(code: np.ndarray, constants: np.ndarray, stack: np.ndarray, saved: np.ndarray, t: float, q: np.ndarray,
-         qd: np.ndarray, parameters: np.ndarray, out: np.ndarray) -> None:
+def _run(code: np.ndarray, constants: np.ndarray, stack: np.ndarray, saved: np.ndarray, q: np.ndarray,
+         qd: np.ndarray, parameters: np.ndarray, out: np.ndarray, t: float) -> None:
     """The stack machine (opcodes at the top of the module), each instruction over all rows at once: a stack
     slot holds a value per row; ``stack`` and ``saved`` (the temporaries) are the caller's buffers
     (:meth:`Program.buffers`), so the kernel allocates nothing."""
@@ -322,3 +323,52 @@ def _run(code: np.ndarray, constants: np.ndarray, stack: np.ndarray, saved: np.n
 
 #: The interpreter every program runs on (compiled at its first call in a process, or loaded from Numba's cache).
 INTERPRETER = _run
+
+
+def program_of(function: StateFunction) -> Program | None:
+    """The compiled program of ``function``'s NumPy code (made once per function), or None where that code
+    uses an operation this interpreter does not run as NumPy does."""
+    try:
+        return _PROGRAMS[function]
+    except KeyError:
+        pass
+    try:
+        source = inspect.getsource(function.columns)  # lambdify keeps the code it generated in linecache
+    except (OSError, TypeError):
+        program = None
+    else:
+        program = Program.from_source(source, function.n_joints, len(function.parameters))
+    _PROGRAMS[function] = program
+    return program
+
+
+#: :func:`program_of` of each function alive.
+_PROGRAMS: weakref.WeakKeyDictionary[StateFunction, Program | None] = weakref.WeakKeyDictionary()
+_ROWS: weakref.WeakKeyDictionary[StateFunction, Callable[..., list]] = weakref.WeakKeyDictionary()
+
+
+def evaluation(function: StateFunction, q: np.ndarray, qd: np.ndarray, parameters: np.ndarray,
+               out: np.ndarray) -> Callable[[float], None]:
+    """:meth:`StateFunction.evaluation <ftc_mj.config.expressions.StateFunction.evaluation>` of these buffers
+    (the same objects every call) in its cheapest form with the same bits: the compiled program where there is
+    one, else row by row on Python floats up to :data:`~ftc_mj.fast.crossovers.SCALAR_ROWS` rows
+    (:mod:`ftc_mj.fast.rows`), else the definition. With the fast paths off, the definition."""
+    if not fast.enabled():
+        return function.evaluation(q, qd, parameters, out)
+    program = program_of(function)
+    if program is not None:
+        announce_compilation()
+        return program.evaluation(q, qd, parameters, out)
+    if len(out) > SCALAR_ROWS:
+        return function.evaluation(q, qd, parameters, out)
+    row = _ROWS.get(function)
+    if row is None:
+        row = _ROWS[function] = row_function(function)
+    return lambda t: evaluate_rows(function, row, t, q, qd, parameters, out)
+
+
+def announce_compilation() -> None:
+    """One line on stderr, once per process, when the interpreter will compile (the first run on a machine, or
+    after an update)."""
+    fast.announce_compilation("the plant terms' interpreter", cache_is_cold(INTERPRETER, __file__),
+                              cache_folder(INTERPRETER))

@@ -4,7 +4,7 @@ Each control period the loop writes some ten small arrays into the series: the r
 torque, each variant's estimates and sliding variable, the bodies' poses; and the command into the plant's
 ``ctrl``. As NumPy assignments ``series[k] = source`` each costs about a third of a microsecond, nearly all
 of it NumPy's call (on a single run's row the copy itself is a few nanoseconds), and a compiled kernel that
-takes the arrays as arguments pays about as much again to unbox them (``config/kernels.py`` says why).
+takes the arrays as arguments pays about as much again to unbox them.
 :class:`SampleCopies` takes none: it keeps a table of the entries' addresses (source, destination at sample 0,
 the destination's bytes per sample, elements), built once, and one call of a kernel copies every entry for
 sample k.
@@ -19,22 +19,21 @@ know is that a caller's attribute now names another array (a plugin may rebind i
 into it): its caller compares them each period (``is``, a few tens of nanoseconds) and, where one differs,
 :meth:`SampleCopies.rebind` gives the entries the new arrays and moves them to the NumPy assignments for the
 rest of the run (the table is rebuilt once, not at every later rebinding).
+
+**The definition** is the NumPy assignment of every entry, which is what runs with the fast paths off.
 """
 
 from __future__ import annotations
 
-import os
+from collections.abc import Callable, Sequence
 
-os.environ.setdefault("NUMBA_DISABLE_INTEL_SVML", "1")  # before Numba is imported: ftc_mj.robot.rigid says why
+import numba
+import numpy as np
+from numba import types
+from numba.extending import intrinsic
 
-from collections.abc import Callable, Sequence  # noqa: E402
-
-import numba  # noqa: E402
-import numpy as np  # noqa: E402
-from numba import types  # noqa: E402
-from numba.extending import intrinsic  # noqa: E402
-
-from ftc_mj.config.kernels import direct  # noqa: E402
+from ftc_mj import fast
+from ftc_mj.fast.kernels import bound
 
 #: Columns of the table: source address, destination address at sample 0, destination bytes per sample (0:
 #: the same buffer every sample), elements.
@@ -90,20 +89,20 @@ class SampleCopies:
     def _build(self) -> Callable[[int], None]:
         """The table of the entries the kernel copies and the list NumPy copies; the call of both."""
         rows, numpy = [], []
-        entries = self._entries
+        entries, compiled = self._entries, fast.enabled()
         for index, (group, source, destination, per_sample) in enumerate(entries):
             target = destination[0] if per_sample else destination
-            if id(group) not in self._assigned and _copyable(source, target):
+            if compiled and id(group) not in self._assigned and _copyable(source, target):
                 rows.append((source.ctypes.data, target.ctypes.data, destination.strides[0] if per_sample else 0,
                              source.size))
             else:
                 numpy.append(index)
         table = np.array(rows, dtype=np.int64).reshape(len(rows), 4)
         self.kernel_entries = len(rows)
-        copy = direct(_copy, 0, table)
+        copy = bound(_copy, table, free=(0,)) if rows else _nothing
 
         def call(k: int) -> None:
-            copy(k, table)
+            copy(k)
             for index in numpy:
                 _, source, destination, per_sample = entries[index]
                 if per_sample:
@@ -133,8 +132,12 @@ def _pointer(typingctx, address):  # noqa: ANN001, ANN202 (Numba's typing)
     return signature, codegen
 
 
+def _nothing(k: int) -> None:
+    """No entry for the kernel."""
+
+
 @numba.njit(cache=True)
-def _copy(k, table):  # noqa: ANN001, ANN202
+def _copy(table, k):  # noqa: ANN001, ANN202
     """Every entry of ``table`` for sample ``k``: its elements from the source's address to the destination's
     address plus k times its stride."""
     for entry in range(table.shape[0]):

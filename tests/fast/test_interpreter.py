@@ -1,6 +1,7 @@
-"""The compiled program of a state function gives NumPy's bits: against the lambdified NumPy code on whole
-columns and row by row on floats, at states that include zeros of both signs, NaN, infinities and huge
-numbers; and it is refused (the NumPy forms stay) wherever an operation would round otherwise."""
+"""The fast forms of a state function (ftc_mj.fast.programs, ftc_mj.fast.rows) against its definition (the
+lambdified NumPy code on whole columns): the compiled program and the row-by-row form on floats give its bits
+(tolerance: none), at states that include zeros of both signs, NaN, infinities and huge numbers; a program is
+refused (the definition runs) wherever an operation would round otherwise."""
 
 from __future__ import annotations
 
@@ -10,8 +11,11 @@ import numpy as np
 import pytest
 
 from ftc_mj import load_scenario
-from ftc_mj.config.expressions import SCALAR_ROWS, ExpressionError, StateFunction, parse, state_variables
-from ftc_mj.config.programs import MAX_STACK, Program
+from ftc_mj import fast
+from ftc_mj.config.expressions import ExpressionError, StateFunction, parse, state_variables
+from ftc_mj.fast.crossovers import SCALAR_ROWS
+from ftc_mj.fast.programs import MAX_STACK, Program, evaluation, program_of
+from ftc_mj.fast.rows import row_function
 
 ROOT = Path(__file__).resolve().parents[2]
 N = 3
@@ -24,12 +28,13 @@ def numpy_forms(function: StateFunction, t: float, q: np.ndarray, qd: np.ndarray
     """The lambdified code on whole columns, and row by row on floats where Python does not raise."""
     rows, outputs = len(q), len(function.exprs)
     columns = np.empty((rows, outputs))
-    for column, values in enumerate(function._columns(t, *q.T, *qd.T, *p.T)):
+    for column, values in enumerate(function.columns(t, *q.T, *qd.T, *p.T)):
         columns[:, column] = values
     by_row = columns.copy()
+    row_form = row_function(function)
     for row in range(rows):
         try:
-            by_row[row] = function._row(float(t), *q[row].tolist(), *qd[row].tolist(), *p[row].tolist())
+            by_row[row] = row_form(float(t), *q[row].tolist(), *qd[row].tolist(), *p[row].tolist())
         except (ArithmeticError, ValueError):  # Python raises where NumPy gives inf or NaN: the columns' answer
             pass
     return columns, by_row
@@ -53,19 +58,20 @@ def same_bits(a: np.ndarray, b: np.ndarray) -> bool:
 
 def assert_program_matches(function: StateFunction, rng: np.random.Generator, rows_list=(1, 7, SCALAR_ROWS + 5),
                            n: int = N, parameters: int = 2) -> None:
-    assert function._program is not None
+    program = program_of(function)
+    assert program is not None
     with np.errstate(all="ignore"):
         for rows in rows_list:
             for special in (False, True):
                 q, qd, p = states(rng, rows, special, n, parameters)
                 t = float(rng.choice([0.0, 3.7, np.inf]) if special else rng.uniform(0, 30))
                 got = np.full((rows, len(function.exprs)), 7.0)
-                function.evaluate(t, q, qd, p, got)
+                program.evaluate(t, q, qd, p, got)
                 columns, by_row = numpy_forms(function, t, q, qd, p)
                 assert same_bits(got, columns), (function.exprs, rows, special)
                 # The loop's form: the same buffers as a function of time, past Numba's dispatcher.
                 again = np.full_like(got, 7.0)
-                function.evaluation(q, qd, p, again)(t)
+                evaluation(function, q, qd, p, again)(t)
                 assert same_bits(again, got), (function.exprs, rows, special)
                 # Row by row on floats, NaN is Python's (its sign bit may differ from NumPy's): equal values.
                 assert np.array_equal(got, by_row, equal_nan=True), (function.exprs, rows, special)
@@ -116,7 +122,7 @@ def test_random_expressions_run_as_programs_with_numpys_bits() -> None:
             except ExpressionError:  # e.g. sqrt of a negative literal: refused when the file loads
                 continue
         function = StateFunction(exprs, N, PARAMETERS)
-        if function._program is None:  # a power of time alone (t**(-1.0) for 1/t): Python's pow, not NumPy's
+        if program_of(function) is None:  # a power of time alone (t**(-1.0) for 1/t): Python's pow, not NumPy's
             refused += 1
             continue
         assert_program_matches(function, rng, rows_list=(1, SCALAR_ROWS + 2))
@@ -127,7 +133,7 @@ def test_shared_subexpressions_and_folded_literals() -> None:
     """SymPy's common subexpressions become temporaries; 1/3 and 2**3 are Python's numbers, folded."""
     exprs = [parse(s, NAMES) for s in ["sin(q1*q2) + q1/3", "2*sin(q1*q2) - (2**3)*qd1", "q1/2", "0", "pi*zeta"]]
     function = StateFunction(exprs, N, PARAMETERS)
-    assert function._program is not None and function._program.temporaries >= 1
+    assert program_of(function) is not None and program_of(function).temporaries >= 1
     assert_program_matches(function, np.random.default_rng(3))
 
 
@@ -135,11 +141,11 @@ def test_shared_subexpressions_and_folded_literals() -> None:
 def test_operations_that_round_otherwise_keep_the_numpy_forms(text: str) -> None:
     """Powers and SIMD transcendental functions are NumPy's to compute: no program, the same values as ever."""
     function = StateFunction([parse(text, NAMES), parse("sin(q1)", NAMES)], N, PARAMETERS)
-    assert function._program is None
+    assert program_of(function) is None
     rng = np.random.default_rng(0)
     q, qd, p = states(rng, 3, False)
     got = np.empty((3, 2))
-    function.evaluate(1.0, q, qd, p, got)
+    evaluation(function, q, qd, p, got)(1.0)  # row by row: 3 rows
     columns, _ = numpy_forms(function, 1.0, q, qd, p)
     np.testing.assert_array_equal(got, columns)
 
@@ -163,7 +169,7 @@ def test_division_by_zero_and_domain_errors_follow_numpy() -> None:
     qd = np.array([[0.0, -0.0, 1.0], [2.0, 0.0, 1.0]])
     got = np.empty((2, 5))
     with np.errstate(all="ignore"):
-        function.evaluate(0.0, q, qd, np.zeros((2, 2)), got)
+        program_of(function).evaluate(0.0, q, qd, np.zeros((2, 2)), got)
         columns, _ = numpy_forms(function, 0.0, q, qd, np.zeros((2, 2)))
     assert same_bits(got, columns)
     assert got[0, 0] == np.inf and got[1, 0] == -np.inf and np.isnan(got[0, 1]) and np.isnan(got[0, 2])
@@ -178,11 +184,22 @@ def test_without_the_generated_source_the_numpy_forms_run(monkeypatch: pytest.Mo
 
     monkeypatch.setattr(inspect, "getsource", unavailable)
     function = StateFunction([parse("sin(q1) + qd2", NAMES)], N, PARAMETERS)
-    assert function._program is None
+    assert program_of(function) is None
     got = np.empty((2, 1))
     q, qd, p = states(np.random.default_rng(0), 2, False)
     function.evaluate(0.5, q, qd, p, got)
     np.testing.assert_array_equal(got[:, 0], np.sin(q[:, 0]) + qd[:, 1])
     again = np.empty((2, 1))
-    function.evaluation(q, qd, p, again)(0.5)
+    evaluation(function, q, qd, p, again)(0.5)
     np.testing.assert_array_equal(again, got)
+
+
+def test_with_the_fast_paths_off_the_definition_runs(monkeypatch: pytest.MonkeyPatch) -> None:
+    """The switch: no program and no row form, the lambdified NumPy code on whole columns."""
+    function = StateFunction([parse("sin(q1) + qd2", NAMES)], N, PARAMETERS)
+    monkeypatch.setattr(fast, "_enabled", False)
+    q, qd, p = states(np.random.default_rng(0), 2, False)
+    calls = []
+    monkeypatch.setattr(StateFunction, "evaluate", lambda self, *arguments: calls.append(arguments))
+    evaluation(function, q, qd, p, np.empty((2, 1)))(0.5)
+    assert len(calls) == 1

@@ -1,4 +1,4 @@
-"""The compiled rigid-body algorithms against MuJoCo's forward pass (ftc_mj/robot/rigid.py)."""
+"""The compiled rigid-body algorithms against MuJoCo's forward pass (ftc_mj/fast/rigid.py)."""
 
 from __future__ import annotations
 
@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 
 from ftc_mj.robot.nominal import MuJoCoNominal, nominal_batch, rigid_body_model, scale_masses
-from ftc_mj.robot.rigid import RigidTree
+from ftc_mj.fast.rigid import RigidTree
 
 MODELS = Path(__file__).resolve().parents[2] / "models"
 
@@ -127,7 +127,7 @@ def test_a_points_numbers_do_not_depend_on_the_other_points():
 def test_the_kernel_refuses_a_scratch_buffer_of_another_length():
     """The working arrays are views of the caller's buffer, unchecked inside the kernel: a buffer that is not
     ``scratch_size(n)`` long is refused before anything is written."""
-    from ftc_mj.robot.rigid import evaluate, scratch_size
+    from ftc_mj.fast.rigid import evaluate, scratch_size
 
     model = rigid_body_model(mujoco.MjModel.from_xml_path(str(MODELS / "puma560.xml")))
     tree = RigidTree.from_model(model)
@@ -212,7 +212,7 @@ def test_the_momentum_terms_equal_mujocos_and_are_a_points_own(name):
 FIRST_CALL = """
 import mujoco, numpy as np
 from ftc_mj.robot.nominal import rigid_body_model
-from ftc_mj.robot.rigid import RigidTree
+from ftc_mj.fast.rigid import RigidTree
 model = rigid_body_model(mujoco.MjModel.from_xml_path({model!r}))
 tree = RigidTree.from_model(model)
 n, points = model.nv, 1
