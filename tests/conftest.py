@@ -30,3 +30,13 @@ def compiled_kernels() -> None:
 
     scenario = load_scenario(Path(__file__).resolve().parents[1] / "scenarios" / "puma_fault.yaml", duration=0.01)
     simulate(scenario, single(scenario))
+
+
+@pytest.fixture
+def fast_paths():
+    """The fast paths on whatever ``FTC_MJ_FAST`` says: for a test of an accelerator's own behaviour (which
+    kernel runs, its call sites, the compiled nominal model), not of a result."""
+    from ftc_mj import fast
+
+    with fast.switched(True):
+        yield

@@ -44,18 +44,21 @@ class MassAtReadings(Protocol):
 
 
 class PlantMass(MassAtReadings):
-    """M(x1) is the plant's M(q): the readings are the true positions and the models are the same."""
+    """M(x1) is the plant's M(q): the readings are the true positions and the models are the same. The
+    factorisation is copied out of the plant each period (the methods never see a view of the plant's state)."""
 
     def __init__(self, plant: Plant):
         self._plant = plant
-        self.M = plant.mass_matrices()  # the plant's buffer, refreshed by each mass_matrices() call
-        self.factor, self.diagonal_inverse = plant.factor, plant.diagonal_inverse
+        self.M = plant.mass_matrices()  # the plant's dense copy, refreshed by each mass_matrices() call
+        self.factor, self.diagonal_inverse = plant.factor.copy(), plant.diagonal_inverse.copy()
 
     def prepare(self, q_meas: np.ndarray, stopped: np.ndarray | None) -> None:
         """Nothing: the readings are the plant's state."""
 
     def evaluate(self) -> None:
         self._plant.mass_matrices()
+        self.factor[...] = self._plant.factor
+        self.diagonal_inverse[...] = self._plant.diagonal_inverse
 
     def true_mass(self) -> np.ndarray:
         return self.M  # this period's, and the plant has not moved since

@@ -110,6 +110,7 @@ def test_the_limits_are_inclusive_and_stop_only_their_rows():
     assert plant.running == 0 and not plant.alive.any()
 
 
+@pytest.mark.usefixtures("fast_paths")
 def test_a_stopped_rows_state_past_the_limits_keeps_the_check_on_its_compiled_pass(monkeypatch):
     """Once a row stopped past a limit, the running rows within it are checked by the compiled pass alone (the
     row-by-row comparison is not reached), and a running row past a limit still stops."""

@@ -209,7 +209,8 @@ def test_the_first_compilation_is_announced_once_per_law_and_cached(tmp_path):
     import subprocess
     import sys
 
-    env = {**os.environ, "NUMBA_CACHE_DIR": str(tmp_path), "PYTHONPATH": str(Path(__file__).resolve().parents[2])}
+    env = {**os.environ, "NUMBA_CACHE_DIR": str(tmp_path), "PYTHONPATH": str(Path(__file__).resolve().parents[2]),
+           "FTC_MJ_FAST": "1"}
 
     def stderr() -> list[str]:
         done = subprocess.run([sys.executable, "-c", FIRST_CALL], env=env, capture_output=True, text=True,

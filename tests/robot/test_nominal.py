@@ -158,6 +158,7 @@ def test_step_model_solves_with_M_at_the_measured_position(model):
             np.testing.assert_allclose(step.apply_M(v[None], np.zeros((1, 3)))[0], M_meas @ v, rtol=0, atol=1e-10)
 
 
+@pytest.mark.usefixtures("fast_paths")
 def test_nominal_batch_is_the_single_state_model_at_every_point(model):
     """Each point of the engine's batched evaluation (the compiled rigid-body algorithms on the PUMA560): qacc
     with no applied force is Psi of NominalModel (MuJoCo on one MjData) to rounding, M its dense M; with an
@@ -359,6 +360,7 @@ def _mass(model: mujoco.MjModel, q: np.ndarray) -> np.ndarray:
     return out
 
 
+@pytest.mark.usefixtures("fast_paths")
 @pytest.mark.parametrize("backend", ["compiled", "mujoco"])
 @pytest.mark.parametrize("name", ["puma560.xml", "ur5e.xml"])
 def test_coriolis_transpose_is_the_derivative_of_M_along_a_trajectory_less_C_qd(name, backend):
@@ -401,6 +403,7 @@ def test_coriolis_transpose_is_the_derivative_of_M_along_a_trajectory_less_C_qd(
     assert np.abs(c_qd).max() > 0.1 and np.abs(expected - c_qd).max() > 0.1  # C^T qd is not C qd
 
 
+@pytest.mark.usefixtures("fast_paths")
 def test_the_momentum_terms_are_computed_only_where_asked_and_change_nothing_else(model):
     """Without ``momentum_points`` the batch has no C^T qd or G and costs nothing more; with a mask, only the
     masked points are written, and M, the factorisation and Psi keep their bits; a mass-only batch refuses a
@@ -448,12 +451,13 @@ def test_the_mujoco_momentum_terms_of_a_point_do_not_depend_on_the_other_points(
         nominal_batch(ball, np.ones(2), 1, momentum_points=np.ones(2, bool))
 
 
+@pytest.mark.usefixtures("fast_paths")
 @pytest.mark.parametrize("kind", ["psi", "mass_only", "psi and M-only points"])
 def test_compiled_points_cut_over_threads_keep_their_bits(model, kind):
     """With threads the compiled batch cuts its points into shares evaluated at once (an equal share of the
     points with velocity terms and of the M-only points per thread): every output keeps the bits of the
     one-thread batch, the momentum terms included, and each share writes only its own points."""
-    from ftc_mj.robot.nominal import POINTS_PER_THREAD
+    from ftc_mj.fast.crossovers import POINTS_PER_THREAD
     mass_only = kind == "mass_only"
     psi_points = 3 * POINTS_PER_THREAD + 5
     rng = np.random.default_rng(21)
