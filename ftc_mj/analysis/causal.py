@@ -52,6 +52,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from typing import TYPE_CHECKING
 
 import numpy as np
 
@@ -59,8 +60,11 @@ from ftc_mj import fast
 from ftc_mj.config.errors import InputError
 from ftc_mj.results import Diagnosis
 
+if TYPE_CHECKING:  # the section's module imports this one
+    from ftc_mj.analysis.diagnosis import Diagnoser
 
-def require_causal(diagnoser, monitoring_start: float, file: str) -> None:
+
+def require_causal(diagnoser: Diagnoser, monitoring_start: float, file: str) -> None:
     """Refuse (one line, :class:`InputError`) a diagnosis that an online diagnoser starting at
     ``monitoring_start`` [s] cannot compute: its baseline window starts before the first sample it sees (it
     would learn from samples it never had), or it is armed before the baseline's end."""
@@ -80,7 +84,7 @@ class CausalDiagnoser:
     """The ``diagnosis`` section of a scenario stepped one sample at a time over ``rows`` rows (the module
     docstring); ``diagnoser`` is its compiled form (:class:`~ftc_mj.analysis.diagnosis.Diagnoser`)."""
 
-    def __init__(self, diagnoser, rows: int = 1):
+    def __init__(self, diagnoser: Diagnoser, rows: int = 1):
         require_causal(diagnoser, -math.inf, "the scenario")
         n = len(diagnoser.fixed)
         self.diagnoser = diagnoser
@@ -277,7 +281,7 @@ class DiagnosisSeries:
                          injected=injected)
 
 
-def run_causal(diagnoser, t: np.ndarray, estimate: np.ndarray, q_meas: np.ndarray,
+def run_causal(diagnoser: Diagnoser, t: np.ndarray, estimate: np.ndarray, q_meas: np.ndarray,
                qd_hat: np.ndarray) -> DiagnosisSeries:
     """The component stepped over recorded ``(T, rows, n)`` arrays, sample by sample: the definition of the
     post-run diagnosis (:meth:`~ftc_mj.analysis.diagnosis.Diagnoser.diagnose_rows` runs its accelerator where
@@ -309,7 +313,7 @@ class RecordedDiagnoser:
     ``steps`` samples (:attr:`series`, ``(steps, rows, n)``): what the post-run diagnosis computes afterwards,
     made during the run, where a controller can read it (:attr:`component`) before it commands."""
 
-    def __init__(self, diagnoser, rows: int, steps: int):
+    def __init__(self, diagnoser: Diagnoser, rows: int, steps: int):
         self.component = CausalDiagnoser(diagnoser, rows)
         n = self.component.n
         self.series = DiagnosisSeries(*(np.full((steps, rows, n), np.nan) for _ in range(4)),

@@ -37,6 +37,7 @@ def test_a_registered_metric_is_in_the_names_units_and_docs(peak_torque):
         metric("peak_torque", "N m", "the whole run")(lambda run: None)
 
 
+@pytest.mark.slow
 def test_a_registered_metric_is_in_the_runs_table_and_json(peak_torque, tmp_path, capsys, monkeypatch):
     from ftc_mj.run import main
 
@@ -49,6 +50,7 @@ def test_a_registered_metric_is_in_the_runs_table_and_json(peak_torque, tmp_path
     assert len(values) == 3 and all(v > 0 for v in values)
 
 
+@pytest.mark.slow
 def test_a_registered_metric_is_in_a_campaigns_rows_and_statistics(peak_torque, tmp_path):
     import pyarrow.parquet as pq
 
