@@ -171,6 +171,8 @@ def stack(configs: Sequence[GainConfig], n_joints: int) -> GainConfig:
             raise ValueError(f"{name}: given for some members and not for others")
         elif isinstance(column[0], np.ndarray):
             values[name] = np.stack([np.asarray(value, dtype=float) for value in column])
+        elif isinstance(column[0], GainConfig):  # a plugin's gains inside another's (a supervisor's controllers)
+            values[name] = stack(column, n_joints)
         elif isinstance(column[0], (bool, str)):
             if any(value != column[0] for value in column):
                 raise ValueError(f"{name}: differs between members ({column[0]!r}, ...); it selects the law's form")
@@ -185,7 +187,8 @@ def stack(configs: Sequence[GainConfig], n_joints: int) -> GainConfig:
 
 def stack_select(config: GainConfig, chosen: slice | np.ndarray) -> GainConfig:
     """The members ``chosen`` (a slice or indices) of a stacked configuration."""
-    values = {name: (value[chosen] if isinstance(value, np.ndarray) else value) for name, value in config}
+    values = {name: (value[chosen] if isinstance(value, np.ndarray) else
+                     stack_select(value, chosen) if isinstance(value, GainConfig) else value) for name, value in config}
     return type(config).model_construct(**values)
 
 

@@ -143,7 +143,8 @@ def test_builtins_are_found_without_any_entry_point(thirdparty) -> None:
         "do", "eso", "sosmo", "tosmo", "hs_tosmo", "levant", "ndob", "ndob_levant", "kalman", "momentum",
         "momentum_levant"}
     assert set(registry.controller_types()) == set(controllers.BUILTIN) == {
-        "smc", "ntsmc", "nftsmc", "a_nftsmc", "sigmoid_nftsmc", "computed_torque", "super_twisting", "pid"}
+        "smc", "ntsmc", "nftsmc", "a_nftsmc", "sigmoid_nftsmc", "computed_torque", "super_twisting", "pid",
+        "event_nftsmc", "supervisor", "loe_accommodation"}
     assert set(groups_asked) == {registry.OBSERVER_GROUP, registry.CONTROLLER_GROUP}
     assert registry.OBSERVER_GROUP == "ftc_mj.observers" and registry.CONTROLLER_GROUP == "ftc_mj.controllers"
 
