@@ -266,6 +266,8 @@ def _gains_table(config: type[BaseModel]) -> list[str]:
     for name, info in config.model_fields.items():
         rows.append(f"| `{name}` | {_cell(kinds.name(info.annotation))} | {_cell(_default(info))} | "
                     f"{_cell(comments.get(name) or info.description or '')} |")
+    for model in kinds.models:  # a section inside the gains (a supervisor's controllers): its own table
+        rows += ["", f"#### {model.__name__}", "", _rst_to_md(_doc(model)), ""] + _gains_table(model)
     return rows
 
 
