@@ -4,7 +4,7 @@
     PYTHONPATH=. python benchmarks/monitor_latency.py                     # the DO, 500 Hz, 10 s
     PYTHONPATH=. python benchmarks/monitor_latency.py --variant tosmo --rate 1000 --seconds 5
 
-The real UR10's free-motion log (scenarios/real/ur10_free_motion.yaml, its grid set to the rate) is published
+The real UR10's free-motion log (scenarios/real/ur10e_free_motion.yaml, its grid set to the rate) is published
 row after row at the rate, each message stamped on the grid (the rows replayed faster than they were logged:
 the numbers are not the point, their cost is). The node runs in this process on one executor thread; the
 publisher is a child process. Printed: the latency (the middleware's receive stamp to the residual's
@@ -26,7 +26,7 @@ from pathlib import Path
 import numpy as np
 
 ROOT = Path(__file__).resolve().parents[1]
-SCENARIO = ROOT / "scenarios/real/ur10_free_motion.yaml"
+SCENARIO = ROOT / "scenarios/real/ur10e_free_motion.yaml"
 
 PUBLISHER = textwrap.dedent("""
     import sys, time

@@ -17,7 +17,7 @@ maps a source's joint names and units (the scenario's ``log`` section) to them.
     from ftc_mj import load_scenario
     from ftc_mj.online import Monitor
 
-    monitor = Monitor(load_scenario("scenarios/real/ur10_pushed.yaml"), variant="do")
+    monitor = Monitor(load_scenario("scenarios/real/ur10e_pushed.yaml"), variant="do")
     for t, q, qd, tau in samples:
         for period in monitor.push(t, q, qd, tau):
             print(period.time, period.residual, period.alarm)

@@ -10,14 +10,9 @@ import pytest
 
 from ftc_mj import load_scenario, run_scenario
 from ftc_mj.cli.main import main
-from ftc_mj.robot.packages import resolve_package_uri
 
 ROOT = Path(__file__).resolve().parents[2]
-FREE = ROOT / "scenarios/real/ur10_free_motion.yaml"
-
-pytestmark = pytest.mark.skipif(
-    resolve_package_uri("package://example-robot-data/robots/ur_description/urdf/ur10_robot.urdf") is None,
-    reason="example-robot-data is not installed (the robots extra)")
+FREE = ROOT / "scenarios/real/ur10e_free_motion.yaml"
 
 
 def test_streaming_the_log_prints_the_replays_alarms_as_they_come(capsys):
@@ -30,7 +25,7 @@ def test_streaming_the_log_prints_the_replays_alarms_as_they_come(capsys):
     expected = [[f"{replay.t[k]:.3f}", "s", f"{joints[j]}:", "alarm", "raised" if steps[k, j] > 0 else "cleared"]
                 for k, j in np.argwhere(steps)]
     assert len(expected) >= 4 and printed == expected
-    assert lines[-1].startswith("567 periods of 0.01 s; isolated: shoulder_lift_joint, elbow_joint")
+    assert lines[-1].startswith("567 periods of 0.01 s; isolated: shoulder_pan_joint, shoulder_lift_joint, elbow_joint")
 
 
 @pytest.mark.parametrize("options, message", [

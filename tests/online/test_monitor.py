@@ -13,14 +13,9 @@ from ftc_mj import load_scenario, run_scenario
 from ftc_mj.config.errors import InputError
 from ftc_mj.logs.readers import read_csv
 from ftc_mj.online import InputMap, Monitor, SampleError
-from ftc_mj.robot.packages import resolve_package_uri
 
 ROOT = Path(__file__).resolve().parents[2]
-FREE, PUSHED = ROOT / "scenarios/real/ur10_free_motion.yaml", ROOT / "scenarios/real/ur10_pushed.yaml"
-
-pytestmark = pytest.mark.skipif(
-    resolve_package_uri("package://example-robot-data/robots/ur_description/urdf/ur10_robot.urdf") is None,
-    reason="example-robot-data is not installed (the robots extra)")
+FREE, PUSHED = ROOT / "scenarios/real/ur10e_free_motion.yaml", ROOT / "scenarios/real/ur10e_pushed.yaml"
 
 
 def stream_log(scenario, variant: str) -> dict[str, np.ndarray]:

@@ -23,14 +23,9 @@ from ftc_mj import load_scenario, run_scenario  # noqa: E402
 from ftc_mj.logs.readers import read_csv  # noqa: E402
 from ftc_mj.online import InputMap, Monitor  # noqa: E402
 from ftc_mj.online.ros import MonitorNode, Topics  # noqa: E402
-from ftc_mj.robot.packages import resolve_package_uri  # noqa: E402
 
 ROOT = Path(__file__).resolve().parents[2]
-FREE = ROOT / "scenarios/real/ur10_free_motion.yaml"
-
-pytestmark = pytest.mark.skipif(
-    resolve_package_uri("package://example-robot-data/robots/ur_description/urdf/ur10_robot.urdf") is None,
-    reason="example-robot-data is not installed (the robots extra)")
+FREE = ROOT / "scenarios/real/ur10e_free_motion.yaml"
 
 
 @pytest.fixture
