@@ -16,7 +16,6 @@ from __future__ import annotations
 import dataclasses
 from pathlib import Path
 
-import mujoco
 import numpy as np
 
 from ftc_mj.engine.loop import _Run, quiet_warnings
@@ -32,19 +31,8 @@ _SAMPLES = 2
 
 class StreamPlant(LogPlant):
     """:class:`LogPlant` whose period's readings and torque are given one period at a time (:meth:`feed`)
-    instead of read from a log. No true state, no truths, no poses beyond the robot's at rest."""
-
-    def __init__(self, model: mujoco.MjModel, rows: int):
-        n = model.nv
-        self.qpos, self.qvel = np.full((rows, n), np.nan), np.full((rows, n), np.nan)
-        self.ctrl, self.applied = np.zeros((rows, n)), np.zeros((rows, n))
-        self.bias = np.full((rows, n), np.nan)
-        self.factor = self.diagonal_inverse = np.zeros((rows, 0))
-        self.torque = np.zeros((rows, n))
-        self._position, self._velocity = np.zeros((rows, n)), np.zeros((rows, n))
-        self.alive = np.ones(rows, dtype=bool)
-        self.running = rows
-        self._pose = np.zeros((rows, model.nbody, 3)), np.zeros((rows, model.nbody, 4))
+    instead of read from its log (a stand-in of two samples, which gives only the buffers' shapes). No true
+    state, no truths."""
 
     def feed(self, position: np.ndarray, velocity: np.ndarray | None, torque: np.ndarray) -> None:
         """The readings and the applied torque of the next period, ``(n,)`` each (every row reads the same)."""
@@ -87,7 +75,7 @@ class PeriodStepper:
         self.measures_velocity = velocity
         with quiet_warnings():
             run = _Run.set_up(streamed, single(streamed), record_poses=False, nthread=1, diagnose_in_loop=True)
-        self.plant = StreamPlant(scenario.model, run.rows)
+        self.plant = StreamPlant(scenario.model, log, run.rows)
         run.plant = self.plant
         for block in run.blocks:
             block.controller.follow(self.plant.torque[block.rows])

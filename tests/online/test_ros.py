@@ -99,7 +99,7 @@ def _wait(condition, seconds: float = 10.0) -> None:
         time.sleep(0.01)
 
 
-def test_a_log_published_at_its_real_rate_gives_the_replays_residuals_and_alarm_times(ros):
+def test_a_log_published_at_its_real_rate_gives_the_replays_residuals_and_alarm_times(ros, tmp_path):
     scenario = load_scenario(FREE, variants=["tosmo"])  # its residuals cross the thresholds on this log
     replay = run_scenario(scenario, record_poses=False)[0].diagnosis
     node, received, publisher = _node(ros, scenario, "tosmo")
@@ -125,10 +125,32 @@ def test_a_log_published_at_its_real_rate_gives_the_replays_residuals_and_alarm_
     expected = [(replay.t[k], joints[j], bool(alarm[k, j])) for k, j in changes]
     assert len(expected) >= 4  # the TOSMO's false alarms on this log: raised and cleared
     assert node.events == expected
+    _bag_reads_back(tmp_path, received, replay, count)
     summary = node.latency_summary()
     assert summary["messages"] >= len(messages) - 60  # a message between two grid instants completes none
     print(f"loopback latency, message to residual: {summary['latency_median'] * 1e3:.3f} ms median, "
           f"{summary['latency_p99'] * 1e3:.3f} ms p99")
+
+
+def _bag_reads_back(folder: Path, received: list[JointState], replay, count: int) -> None:
+    """The node's residual messages, serialised as ROS 2 serialises them, in a rosbag2 bag: the log readers read
+    the residual back from ``position`` and the threshold from ``velocity``."""
+    from rclpy.serialization import serialize_message
+    from rosbags.rosbag2 import Writer
+    from rosbags.typesys import Stores, get_typestore
+
+    from ftc_mj.logs.readers import read_joint_states
+
+    bag = folder / "residual_bag"
+    with Writer(bag, version=8) as writer:
+        connection = writer.add_connection("/ftc_mj/residual", "sensor_msgs/msg/JointState",
+                                           typestore=get_typestore(Stores.ROS2_HUMBLE))
+        for message in received:
+            stamp = message.header.stamp
+            writer.write(connection, stamp.sec * 10**9 + stamp.nanosec, serialize_message(message))
+    read = read_joint_states(bag, "rosbag2", "/ftc_mj/residual", list(received[0].name), "header")
+    np.testing.assert_array_equal(read.position, replay.residual[:count])
+    np.testing.assert_array_equal(read.velocity, replay.threshold[:count])
 
 
 @pytest.mark.parametrize("change, problem", [
