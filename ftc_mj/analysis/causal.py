@@ -3,7 +3,8 @@
 This is the definition of the scenario's ``diagnosis`` section (:mod:`ftc_mj.analysis.diagnosis` has the
 section, its compiled form :class:`~ftc_mj.analysis.diagnosis.Diagnoser` and the metrics). The engine steps it
 inside the loop where a controller reads it; the post-run diagnosis is this component run over the recorded
-estimate (:meth:`~ftc_mj.analysis.diagnosis.Diagnoser.diagnose_rows`), so both give the same alarms, delays and isolation.
+estimate (:meth:`~ftc_mj.analysis.diagnosis.Diagnoser.diagnose_rows`), so both give the same alarms, delays
+and isolation.
 
 **Interface** (stable; ``ftc_mj.online`` and the controllers that reconfigure read it)::
 
@@ -24,6 +25,13 @@ the observer's velocity estimate (for an adaptive threshold ``bound``). The attr
 own arrays, updated in place at every step: read them, copy them to keep them. :meth:`CausalDiagnoser.reset`
 goes back to before the first sample. Every row is a diagnoser of its own: a row's outputs depend on its own
 inputs only (the batch-equals-single guarantee).
+
+**In the loop.** A controller class that sets ``reads_diagnosis = True`` gets its variant's component (one row
+per member) as ``self.diagnosis`` before the run; each control period the engine steps it on the observer's
+estimate of that period, after the observer's ``update`` and before the controller's ``compute``, so
+``self.diagnosis.alarm`` in ``compute`` is this period's. A scenario without a ``diagnosis`` section is then
+refused in one line. Where the fast paths are on, a step's arithmetic runs compiled
+(:mod:`ftc_mj.fast.analysis_diagnosis`, the same bits).
 
 Per sample k at time t_k, per row and joint (the module docstring of :mod:`ftc_mj.analysis.diagnosis` gives the
 section's fields):
