@@ -97,27 +97,41 @@ def test_supervisor_switches_on_isolation_and_stays_switched():
         np.testing.assert_array_equal(supervisor.sliding[1], (nftsmc if k >= 50 else pid).sliding[1])
 
 
-def test_supervisor_batch_equals_its_members_with_nested_gains_stacked():
+BATCHES = {
+    "supervisor": (Supervisor, lambda m: {"nominal": {"type": "pid", "gains": {**PID_GAINS, "kp": 1000.0 + 100 * m}},
+                                          "reconfigured": {"type": "nftsmc", "gains": {**COMPENSATED, "mu": 0.5 + 0.1 * m}}}),
+    "event_nftsmc": (EventCompensatedNFTSMC, lambda m: {**COMPENSATED, "bound_healthy": 20.0 + m, "mu": 0.5 + 0.1 * m}),
+    "loe_accommodation": (EffectivenessAccommodation, lambda m: {
+        "controller": {"type": "pid", "gains": {**PID_GAINS, "kd": 100.0 + 10 * m}}, "forgetting": 0.99 + 0.001 * m}),
+}
+
+
+@pytest.mark.parametrize("name", list(BATCHES))
+def test_a_batch_equals_its_members_nested_gains_stacked(name):
+    cls, gains_of = BATCHES[name]
     rng = np.random.default_rng(3)
-    gains = [{"nominal": {"type": "pid", "gains": {**PID_GAINS, "kp": 1000.0 + 100 * m}},
-              "reconfigured": {"type": "nftsmc", "gains": {**COMPENSATED, "mu": 0.5 + 0.1 * m}}} for m in range(5)]
-    batch = build(Supervisor, gains)
+    gains = [gains_of(m) for m in range(5)]  # 5 members, 3 joints
+    batch = build(cls, gains)
     batch.diagnosis = found = diagnosis(5)
-    singles = [build(Supervisor, [g]) for g in gains]
+    singles = [build(cls, [g]) for g in gains]
     alone = [diagnosis() for _ in gains]
     for single, own in zip(singles, alone):
         single.diagnosis = own
     for k in range(100):
         found.isolated[k % 5, 1] |= k > 40
+        found.fault_estimate[:] = rng.normal(size=(5, N))
         arguments = inputs(rng, 5)
         tau = batch.compute(k * DT, *arguments).copy()
         for m, single in enumerate(singles):
             alone[m].isolated[:] = found.isolated[m]
+            alone[m].fault_estimate[:] = found.fault_estimate[m]
             q_ref, qd_ref, qdd_ref, q, observer, model = arguments
             rows = slice(m, m + 1)
             member = SimpleNamespace(**{name: getattr(observer, name)[rows] for name in ("qd_hat", "luaf_hat", "injection")})
             np.testing.assert_array_equal(tau[rows], single.compute(k * DT, q_ref, qd_ref, qdd_ref, q[rows], member,
                                                                     step_model(model.M[rows], model.psi_hat[rows])))
+            for signal, values in batch.signals.items():
+                np.testing.assert_array_equal(values[rows], single.signals[signal], err_msg=f"{signal}, member {m}")
 
 
 def test_accommodation_estimates_the_loss_and_divides_the_command_on_the_isolated_joint():
