@@ -67,7 +67,7 @@ import numpy as np
 from pydantic import Field, StrictInt, model_validator
 
 from ftc_mj import fast
-from ftc_mj.analysis.causal import CausalDiagnoser, run_causal
+from ftc_mj.analysis.causal import DiagnosisSeries, run_causal
 from ftc_mj.analysis.registry import metric, of_kind
 from ftc_mj.config.errors import InputError
 from ftc_mj.config.expressions import StateFunction, state_variables
@@ -229,7 +229,7 @@ class Diagnoser:
         return series.of_row(0, self.space, t, np.asarray(injected, dtype=float))
 
     def diagnose_rows(self, t: np.ndarray, estimate: np.ndarray, q_meas: np.ndarray,
-                      qd_hat: np.ndarray) -> "DiagnosisSeries":
+                      qd_hat: np.ndarray) -> DiagnosisSeries:
         """The causal component (:class:`~ftc_mj.analysis.causal.CausalDiagnoser`) over ``(T, rows, n)``
         recorded arrays, every row its own diagnoser: stepped sample by sample (the definition), or its
         accelerator (:func:`ftc_mj.fast.analysis_diagnosis.causal_pass`, the same bits) where the fast paths
@@ -237,7 +237,6 @@ class Diagnoser:
         t = np.asarray(t, dtype=float)
         if not fast.enabled() or (t.size > 1 and not np.all(t[1:] > t[:-1])):
             return run_causal(self, t, estimate, q_meas, qd_hat)
-        from ftc_mj.analysis.causal import DiagnosisSeries
         from ftc_mj.fast.analysis_diagnosis import causal_pass
 
         steps, rows, n = estimate.shape
@@ -248,12 +247,8 @@ class Diagnoser:
             for j, column in enumerate(self.bound(t, q_meas.transpose(2, 1, 0), qd_hat.transpose(2, 1, 0))):
                 bound[:, :, j] = np.broadcast_to(column, (rows, steps)).T
         a = math.exp(-self.dt / self.filter_time_constant) if self.filter_time_constant > 0 else 0.0
-        return DiagnosisSeries(*causal_pass(t, estimate, bound, self.fixed, self.k, self.start, self.baseline, self.dt, a,
-                                            self.rule == "cusum", self.drift, self.h, self.persistence))
-
-    def causal(self, rows: int = 1) -> CausalDiagnoser:
-        """This diagnoser as a causal component over ``rows`` rows, to step one sample at a time."""
-        return CausalDiagnoser(self, rows)
+        return DiagnosisSeries(*causal_pass(t, estimate, bound, self.fixed, self.k, self.start, self.baseline,
+                                            self.dt, a, self.rule == "cusum", self.drift, self.h, self.persistence))
 
 
 def compile_diagnoser(spec: DiagnosisSpec, dt: float, estimation_window_start: float, file: str, n: int,

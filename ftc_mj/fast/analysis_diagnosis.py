@@ -19,8 +19,8 @@ def causal_pass(t: np.ndarray, estimate: np.ndarray, bound: np.ndarray | None, f
                 drift: float, h: float, samples: int) -> tuple[np.ndarray, ...]:
     """The component's outputs over ``(T, rows, n)`` ``estimate`` at increasing times ``t``: ``signal,
     fault_estimate, residual, threshold, alarm, armed, mean, std`` (the last two ``(rows, n)``). ``bound``
-    ``(T, rows, n)`` or None; ``dt`` the period; ``a`` the filter's pole (0: no filter). Checks its arguments' shapes, dtypes
-    and the times' order (a ValueError otherwise)."""
+    ``(T, rows, n)`` or None; ``dt`` the period; ``a`` the filter's pole (0: no filter). Checks its arguments'
+    shapes, dtypes and the times' order (a ValueError otherwise)."""
     t = np.ascontiguousarray(t, dtype=np.float64)
     estimate = np.ascontiguousarray(estimate, dtype=np.float64)
     if estimate.ndim != 3 or t.shape != (estimate.shape[0],):
@@ -52,8 +52,8 @@ def causal_pass(t: np.ndarray, estimate: np.ndarray, bound: np.ndarray | None, f
 
 
 @numba.njit(cache=True, nogil=True, error_model="numpy")
-def _pass(t, estimate, bound, fixed, k, first, stop, learned_at, has_baseline, a, b0, cusum_rule, drift, h, samples, armed,
-          signal, fault_estimate, residual, threshold, alarm, mean, std):  # pragma: no cover - compiled
+def _pass(t, estimate, bound, fixed, k, first, stop, learned_at, has_baseline, a, b0, cusum_rule, drift, h, samples,
+          armed, signal, fault_estimate, residual, threshold, alarm, mean, std):  # pragma: no cover - compiled
     steps, rows, n = estimate.shape
     with_bound = bound.shape[0] > 0
     for r in range(rows):
