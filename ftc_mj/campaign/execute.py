@@ -504,25 +504,26 @@ def _execute(campaign: Campaign, out: Path, start: float, batch_size: int | None
     return summary
 
 
-def results(tasks: list[Task], workers: int, scheduler: str | None) -> Iterator[tuple[Task, list[dict]]]:
-    """Each task with its rows, as they finish: in this process (one worker), on a process pool, or on the
-    Dask cluster at ``scheduler``."""
+def results(tasks: list[Task], workers: int, scheduler: str | None,
+            work: Callable[[Task], Any] = run_task) -> Iterator[tuple[Task, Any]]:
+    """Each task with its rows (what ``work`` makes of it: :func:`run_task` by default), as they finish: in this
+    process (one worker), on a process pool, or on the Dask cluster at ``scheduler``."""
     if scheduler is not None:
         from dask.distributed import Client, as_completed
 
         with Client(scheduler, timeout="20s") as client:
-            futures = {client.submit(run_task, task, pure=False): task for task in tasks}
+            futures = {client.submit(work, task, pure=False): task for task in tasks}
             for future in as_completed(futures):
                 yield futures[future], future.result()
         return
     if workers == 1 or len(tasks) <= 1:
         for task in tasks:
-            yield task, run_task(task)
+            yield task, work(task)
         return
     context = multiprocessing.get_context("spawn")  # no fork of a process holding MuJoCo's thread pools
     pool = ProcessPoolExecutor(max_workers=workers, mp_context=context, initializer=_ignore_interrupts)
     try:
-        running: dict[Future, Task] = {pool.submit(run_task, task): task for task in tasks}
+        running: dict[Future, Task] = {pool.submit(work, task): task for task in tasks}
         while running:
             finished, _ = wait(running, return_when=FIRST_COMPLETED)
             for future in finished:

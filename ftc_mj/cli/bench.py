@@ -1,7 +1,7 @@
 """The benchmark: ``ftc-mj bench [BENCH.yaml] [--tier quick|full] [--out DIR]`` (also ``python -m ftc_mj.ranking``).
 
 Scores every entry of the bench file (default: every built-in observer and pair,
-``ftc_mj/ranking/suites/v1-entries.yaml``) on its suite, simulating only what ``DIR`` does not hold yet (an
+``ftc_mj/ranking/suites/v2-entries.yaml``) on its suite, simulating only what ``DIR`` does not hold yet (an
 entry already scored under the same protocol is not simulated again), and writes the leaderboard into
 ``DIR`` (default ``results/bench/<suite>-<tier>/``): ``leaderboard.md``, ``.csv``, ``.parquet``, figures and
 ``bench.json``.
@@ -27,7 +27,7 @@ def build_parser(prog: str = PROG) -> argparse.ArgumentParser:
     parser = ArgumentParser(prog=prog, description="Score observers (fault diagnosis) and observer-controller "
                             "pairs (tracking under faults) on a versioned benchmark suite.")
     parser.add_argument("bench", type=Path, nargs="?", metavar="BENCH.yaml",
-                        help="the entries to score (default: every built-in method on suite v1)")
+                        help="the entries to score (default: every built-in method on suite v2)")
     parser.add_argument("--tier", choices=("quick", "full"), default="quick",
                         help="quick: fewer runs, the same protocol; full: the reported numbers (default: quick)")
     parser.add_argument("--out", type=Path, metavar="DIR", help="output directory (default: results/bench/"
@@ -61,6 +61,10 @@ def main(argv: Sequence[str] | None = None, prog: str = PROG) -> int:
             raise InputError("command line", "--workers", f"must be at least 1, not {args.workers}")
         bench = load_bench(args.bench)
         bench.suite.tier(args.tier)
+        if bench.suite.calibrated and bench.of("diagnosis"):
+            from ftc_mj.ranking.sizing import check_faults_act
+
+            check_faults_act(bench.suite, args.tier)  # a fault case that would not act: refused
         out = args.out or Path("results") / "bench" / f"{bench.suite.version}-{args.tier}"
         _check_out(out)
         start = time.perf_counter()

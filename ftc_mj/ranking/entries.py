@@ -1,6 +1,6 @@
 """The bench file: which methods to score, by name, with their gains per robot of the suite. Example::
 
-    suite: v1                      # a shipped suite's version, or a suite file relative to this one
+    suite: v2                      # a shipped suite's version, or a suite file relative to this one
     diagnosis:                     # observers, scored in the suite's reference loop
       levant:
         type: levant               # a built-in or a third-party entry point (default: the entry's name)
@@ -36,15 +36,25 @@ from ftc_mj.config.types import Strict
 from ftc_mj.config.yaml import read_yaml_mapping
 from ftc_mj.methods.registry import PluginError, controller_types, observer_types
 
-#: The bench file scored when none is given: every built-in observer and pair on suite v1.
-DEFAULT_ENTRIES = Path(__file__).resolve().parent / "suites" / "v1-entries.yaml"
+#: The bench file scored when none is given: every built-in observer and pair on suite v2.
+DEFAULT_ENTRIES = Path(__file__).resolve().parent / "suites" / "v2-entries.yaml"
 Text = Annotated[StrictStr, Field(min_length=1)]
+
+
+#: What an observer may read: encoder positions, tachometer velocities, the commanded torque.
+Reading = Literal["encoders", "tachometers", "torque"]
 
 
 class ObserverEntrySpec(Strict):
     #: The observer's registered name: a built-in or an ``ftc_mj.observers`` entry point (default: the entry's
     #: name).
     type: StrictStr | None = None
+    #: What it reads (the leaderboard's "reads" column); default: encoders and torque, and tachometers for an
+    #: observer that takes the raw readings (overrides ``measure``).
+    reads: list[Reading] | None = None
+    #: The tuning file its gains come from, relative to this file: its runs' seeds may not be ones the suite
+    #: scores or calibrates on (suite v2: they are the ``tune`` population's).
+    tuned_with: StrictStr | None = None
     #: Where the gains come from: the source's design rule, a shipped scenario, or a tuning.
     gains_from: Text
     #: Robot of the suite -> the observer's gains on it; every robot needs its gains.
@@ -59,6 +69,8 @@ class PairGains(Strict):
 
 
 class PairEntrySpec(Strict):
+    #: As an observer entry's: the tuning its gains come from (its seeds are checked).
+    tuned_with: StrictStr | None = None
     #: The observer's registered name (built-in or ``ftc_mj.observers`` entry point).
     observer: StrictStr
     #: The controller's registered name (built-in or ``ftc_mj.controllers`` entry point).
@@ -73,7 +85,7 @@ class PairEntrySpec(Strict):
 
 class BenchSpec(Strict):
     #: The versioned suite the entries are scored on (``ftc_mj/ranking/suites/<suite>.yaml``).
-    suite: StrictStr = "v1"
+    suite: StrictStr = "v2"
     #: Free text.
     description: str = ""
     #: Observers scored on fault diagnosis, by entry name.
@@ -92,6 +104,8 @@ class Entry:
     label: str
     gains_from: str
     sections: dict[str, dict[str, Any]]
+    #: What it reads (diagnosis entries): encoders, tachometers, torque.
+    reads: tuple[str, ...] = ()
 
     def identity(self, robot: str) -> str:
         """What its runs on ``robot`` are made of (its name aside): the key its results are found by."""
@@ -135,6 +149,48 @@ def _method(file: str, type_field: str, gains_field: str, kind: str, name: str, 
     return {"type": name, "gains": gains}
 
 
+def tuning_seeds(tuning_file: Path) -> set[int]:
+    """Every seed a tuning's runs use (its training conditions and its held-out check)."""
+    from ftc_mj.campaign.population import population
+    from ftc_mj.campaign.schema import load_campaign
+    from ftc_mj.tuning.schema import load_tuning
+
+    tuning = load_tuning(tuning_file)
+    campaign = load_campaign(tuning_file.parent / tuning.campaign, tuning.conditions + tuning.held_out)
+    seed = campaign.seed if campaign.seed is not None else 0
+    return {run.seed for run in population(campaign, seed)[: tuning.conditions + tuning.held_out]}
+
+
+def check_tuning_seeds(tuning_file: Path, suite: Suite, file: str, field: str) -> None:
+    """Refuse a tuning that used a seed the suite scores or calibrates on (suite v2's disjoint populations).
+
+    Raises:
+        InputError: naming the bench file, the field and the first shared seed.
+    """
+    from ftc_mj.ranking.suite import seed_ranges
+
+    if not tuning_file.is_file():
+        raise InputError(file, field, f"no such file: {tuning_file}")
+    scored = {name: span for name, span in seed_ranges(suite.spec).items() if name != "tune"}
+    used = tuning_seeds(tuning_file)
+    for name, span in scored.items():
+        shared = sorted(seed for seed in used if seed in span)
+        if shared:
+            raise InputError(file, field, f"the tuning {tuning_file.name} used seed {shared[0]}, one of the suite "
+                             f"{suite.version}'s {name} seeds ({span.start}-{span.stop - 1}): tune on the suite's "
+                             "tune seeds, never on scored ones")
+
+
+def _reads(kind: str) -> tuple[str, ...]:
+    """What an observer reads by default: encoders and the command, and the tachometers when it takes the raw
+    readings (its class overrides :meth:`~ftc_mj.methods.observers.base.Observer.measure`)."""
+    from ftc_mj.methods.observers.base import Observer
+
+    plugin = observer_types()[kind]
+    takes_readings = getattr(plugin, "measure", Observer.measure) is not Observer.measure
+    return ("encoders", "tachometers", "torque") if takes_readings else ("encoders", "torque")
+
+
 def load_bench(path: str | Path | None = None) -> Bench:
     """Read and check a bench file (default: :data:`DEFAULT_ENTRIES`) and its suite.
 
@@ -152,6 +208,15 @@ def load_bench(path: str | Path | None = None) -> Bench:
         suite_ref = str((path.parent / suite_ref).resolve())
     suite = load_suite(suite_ref, file)
     entries = []
+    for task, named in (("diagnosis", spec.diagnosis), ("tracking", spec.tracking)):
+        for name in named:
+            if name.startswith("oracle") or name == "null":
+                raise InputError(file, f"{task}.{name}", "oracle* and null are the benchmark's sanity rows (they "
+                                 "read the engine's truth): choose another name")
+    for task, named in (("diagnosis", spec.diagnosis), ("tracking", spec.tracking)):
+        for name, entry in named.items():
+            if entry.tuned_with is not None:
+                check_tuning_seeds(path.parent / entry.tuned_with, suite, file, f"{task}.{name}.tuned_with")
     for name, entry in spec.diagnosis.items():
         field = f"diagnosis.{name}"
         _robots_covered(file, f"{field}.gains", entry.gains, suite)
@@ -159,7 +224,8 @@ def load_bench(path: str | Path | None = None) -> Bench:
         sections = {robot: _method(file, f"{field}.type", f"{field}.gains.{robot}", "observer", kind,
                                    entry.gains[robot], suite.joints(robot))
                     for robot in suite.spec.robots}
-        entries.append(Entry("diagnosis", name, kind, entry.gains_from, sections))
+        entries.append(Entry("diagnosis", name, kind, entry.gains_from, sections,
+                             tuple(entry.reads) if entry.reads is not None else _reads(kind)))
     for name, entry in spec.tracking.items():
         field = f"tracking.{name}"
         _robots_covered(file, f"{field}.gains", entry.gains, suite)

@@ -20,6 +20,7 @@ import pyarrow.parquet as pq
 from matplotlib.figure import Figure
 
 from ftc_mj.ranking import score as sc
+from ftc_mj.ranking import windowed
 from ftc_mj.ranking.execute import Found
 from ftc_mj.ranking.entries import Bench
 from ftc_mj.outputs.files import parquet_bytes, write_atomic
@@ -27,6 +28,8 @@ from ftc_mj.outputs.palette import CAMPAIGN_LINE_STYLES, ORDER, assign_colours
 
 PACKAGES = ("ftc_mj", "mujoco", "numpy")
 SCORES = {"diagnosis": sc.DIAGNOSIS_SCORES, "tracking": sc.TRACKING_SCORES}
+#: Per robot and tracking entry: the median faulty RMS per fault kind.
+KindMedians = dict[str, dict[str, dict[str, float]]]
 
 
 @lru_cache(maxsize=64)
@@ -89,14 +92,18 @@ def tracking_runs(healthy: dict[str, np.ndarray], faults: dict[str, np.ndarray])
         faulty_rms=ok(faults, sc.arm_rms(_per_joint(faults, "rms_error_converged"))),
         fault_peak=ok(faults, fault_peak),
         chattering=ok(healthy, np.mean(_per_joint(healthy, "chattering"), axis=1)),
-        diverged=np.concatenate([_diverged(healthy), _diverged(faults)]))
+        diverged=np.concatenate([_diverged(healthy), _diverged(faults)]),
+        faulty_kind=np.asarray(faults["kind"]).astype(str) if "kind" in faults else None)
 
 
 def scores(bench: Bench, done: dict[tuple[str, str, str, str], Found], resamples: int = sc.BOOTSTRAP
-           ) -> tuple[list[dict[str, Any]], dict[str, dict[str, sc.DiagnosisRuns]]]:
-    """One row per task, robot, entry and score; and the diagnosis runs per robot and entry (for the ROC)."""
-    out, roc_runs = [], {}
+           ) -> tuple[list[dict[str, Any]], dict[str, dict[str, sc.DiagnosisRuns]], KindMedians]:
+    """One row per task, robot, entry and score; the diagnosis runs per robot and entry (for the ROC); the
+    tracking entries' median faulty RMS per fault kind."""
+    out, roc_runs, medians = [], {}, {}
     for entry in bench.entries:
+        if entry.task == "diagnosis" and bench.suite.calibrated:
+            continue  # suite v2: windowed.py
         for robot in bench.suite.spec.robots:
             healthy = entry_rows(done[entry.task, robot, "healthy", entry.name])
             faults = entry_rows(done[entry.task, robot, "faults", entry.name])
@@ -105,14 +112,16 @@ def scores(bench: Bench, done: dict[tuple[str, str, str, str], Found], resamples
                 roc_runs.setdefault(robot, {})[entry.name] = runs
                 values = sc.diagnosis_scores(runs, resamples)
             else:
-                values = sc.tracking_scores(tracking_runs(healthy, faults), resamples)
+                pair = tracking_runs(healthy, faults)
+                values = sc.tracking_scores(pair, resamples)
+                medians.setdefault(robot, {})[entry.name] = sc.kind_medians(pair)
             for name, s in values.items():
                 label, unit, higher = SCORES[entry.task][name]
                 out.append({"task": entry.task, "robot": robot, "entry": entry.name, "method": entry.label,
                             "score": name, "label": label, "unit": unit, "higher_is_better": higher,
                             "value": s.value, "low": s.low, "high": s.high, "n": s.count,
                             "gains_from": entry.gains_from})
-    return out, roc_runs
+    return out, roc_runs, medians
 
 
 def _text(value: float, low: float, high: float) -> str:
@@ -129,17 +138,28 @@ def ranked(rows: list[dict[str, Any]], task: str, robot: str) -> list[str]:
     return sorted(values, key=lambda e: (not np.isfinite(values[e]), -values[e] if higher else values[e]))
 
 
-def markdown(bench: Bench, tier: str, rows: list[dict[str, Any]], info: dict[str, Any]) -> str:
+def markdown(bench: Bench, tier: str, rows: list[dict[str, Any]], info: dict[str, Any],
+             boards: dict[str, "windowed.RobotBoard"] | None = None, medians: KindMedians | None = None) -> str:
     suite = bench.suite
-    lines = [f"# Benchmark {suite.version} ({tier} tier)", "", suite.spec.description.strip(), "",
-             f"- suite {suite.version}; " + ", ".join(f"{k} {v}" for k, v in info["versions"].items()),
-             f"- {info['simulated_runs']} runs simulated this time ({info['simulated_members']} members) in "
-             f"{info['wall_time']:.0f} s on {info['workers']} worker(s); the rest reused", "",
-             "Scores with 95% intervals (Wilson for proportions, bootstrap otherwise), ranked by the AUC for "
-             "diagnosis and by the faulty runs' RMS error for tracking. Definitions: `ftc_mj/ranking/score.py`.", ""]
+    lines = [f"# Benchmark {suite.version} ({tier} tier)", ""]
+    if suite.spec.superseded_by:
+        lines += [f"**Superseded by suite {suite.spec.superseded_by}** (CHANGELOG.md says why): its diagnosis "
+                  "scores are properties of its protocol, not of the methods.", ""]
+    lines += [suite.spec.description.strip(), "",
+              f"- suite {suite.version}; " + ", ".join(f"{k} {v}" for k, v in info["versions"].items()),
+              f"- {info['simulated_runs']} runs simulated this time ({info['simulated_members']} members) in "
+              f"{info['wall_time']:.0f} s on {info['workers']} worker(s); the rest reused", "",
+              "Scores with 95% intervals (Wilson for proportions, bootstrap otherwise), ranked by the AUC for "
+              "diagnosis and by the faulty runs' RMS error for tracking. Definitions: `ftc_mj/ranking/score.py`"
+              + (" and `ftc_mj/ranking/calibrated.py`." if suite.calibrated else "."), ""]
     for task in ("diagnosis", "tracking"):
         entries = {e.name: e for e in bench.of(task)}
         if not entries:
+            continue
+        if task == "diagnosis" and boards is not None:
+            lines += windowed.markdown(bench, boards)
+            lines += [f"### {task.capitalize()} entries: where the gains come from", ""]
+            lines += [f"- `{name}` ({entry.label}): {entry.gains_from}" for name, entry in entries.items()] + [""]
             continue
         names = list(SCORES[task])
         header = ["entry", "method"] + [SCORES[task][n][0] + (f" [{SCORES[task][n][1]}]" if SCORES[task][n][1] else "")
@@ -154,12 +174,30 @@ def markdown(bench: Bench, tier: str, rows: list[dict[str, Any]], info: dict[str
                                                                     by_score[n]["high"]) for n in names]
                 lines.append("| " + " | ".join(cells) + " |")
             lines.append("")
+            if task == "tracking":
+                lines += _kind_table((medians or {}).get(robot, {}))
         lines += [f"### {task.capitalize()} entries: where the gains come from", ""]
         lines += [f"- `{name}` ({entry.label}): {entry.gains_from}" for name, entry in entries.items()] + [""]
-    if bench.of("diagnosis"):
+    if bench.of("diagnosis") and boards is None:
         lines += ["![ROC per robot](figures/roc.png)", ""]
     lines += ["![Ranked scores](figures/ranked.png)", ""]
     return "\n".join(lines) + "\n"
+
+
+def _kind_table(medians: dict[str, dict[str, float]]) -> list[str]:
+    """Per fault kind, each pair's median faulty RMS error, the winner marked, and each pair's wins."""
+    kinds = sorted({kind for by_kind in medians.values() for kind in by_kind})
+    if not kinds:
+        return []
+    winners = {kind: min(medians, key=lambda e: medians[e].get(kind, np.inf)) for kind in kinds}
+    lines = [f"Median RMS error [rad] of the faulty runs per fault kind (a diverged run at {sc.DIVERGED_RMS:g} rad; "
+             "**bold**: the lowest), and the kinds each pair wins:", "",
+             "| entry | " + " | ".join(kinds) + " | wins |", "|" + "---|" * (len(kinds) + 2)]
+    for name, by_kind in medians.items():
+        cells = [f"**{by_kind[k]:.3g}**" if winners[k] == name else f"{by_kind.get(k, np.nan):.3g}" for k in kinds]
+        wins = sum(winners[k] == name for k in kinds)
+        lines.append(f"| `{name}` | " + " | ".join(cells) + f" | {wins} |")
+    return lines + [""]
 
 
 def _colours(entries: list[str]) -> dict[str, tuple[str, str]]:
@@ -208,7 +246,7 @@ def ranked_figure(bench: Bench, rows: list[dict[str, Any]]) -> Figure:
         styles = _colours([e.name for e in bench.of(task)])
         for r, robot in enumerate(robots):
             ax = axes[t][r]
-            order = ranked(rows, task, robot)
+            order = [name for name in ranked(rows, task, robot) if name in styles]  # sanity rows: their table
             by_entry = {row["entry"]: row for row in rows if row["task"] == task and row["robot"] == robot
                         and row["score"] == key}
             for y, name in enumerate(reversed(order)):
@@ -255,10 +293,14 @@ def _save(fig: Figure, path: Path) -> Path:
 def write(bench: Bench, tier: str, out: Path, done: dict[tuple[str, str, str, str], Found],
           info: dict[str, Any], resamples: int = sc.BOOTSTRAP) -> list[Path]:
     """Every output of the leaderboard into ``out``; the files written."""
-    rows, roc_runs = scores(bench, done, resamples)
+    rows, roc_runs, medians = scores(bench, done, resamples)
+    boards = None
+    if bench.suite.calibrated and bench.of("diagnosis"):
+        boards = {robot: windowed.robot_board(bench, robot, done) for robot in bench.suite.spec.robots}
+        rows = windowed.rows(bench, boards) + rows
     info = {**info, "versions": versions()}
     written = [out / "leaderboard.md", out / "leaderboard.csv", out / "leaderboard.parquet", out / "bench.json"]
-    write_atomic(written[0], markdown(bench, tier, rows, info).encode())
+    write_atomic(written[0], markdown(bench, tier, rows, info, boards, medians).encode())
     write_atomic(written[1], _csv(rows))
     write_atomic(written[2], parquet_bytes(pa.Table.from_pylist(rows)))
     meta = {"suite": bench.suite.version, "suite_file": str(bench.suite.path), "bench_file": str(bench.path),
@@ -269,5 +311,13 @@ def write(bench: Bench, tier: str, out: Path, done: dict[tuple[str, str, str, st
     write_atomic(written[3], (json.dumps(meta, indent=2) + "\n").encode())
     if roc_runs:
         written.append(_save(roc_figure(bench, roc_runs), out / "figures" / "roc.png"))
+    if boards:
+        alpha = bench.suite.spec.calibration.false_alarm
+        written.append(_save(windowed.roc_figure(boards), out / "figures" / "roc.png"))
+        written.append(_save(windowed.detectability_figure(boards, alpha), out / "figures" / "detectability.png"))
+        written.append(_save(windowed.front_figure(boards), out / "figures" / "front.png"))
+    if boards is not None:
+        meta["gate"] = {robot: {"passed": b.gate.passed, "conditions": b.gate.conditions()} for robot, b in boards.items()}
+        write_atomic(written[3], (json.dumps(meta, indent=2) + "\n").encode())
     written.append(_save(ranked_figure(bench, rows), out / "figures" / "ranked.png"))
     return written

@@ -24,10 +24,15 @@ times the threshold iff z > c):
 Tracking (per run, the metrics of :mod:`ftc_mj.analysis.metrics`, joints combined as the arm's RMS):
 
 * ``rms_healthy``, ``rms_faulty``: sqrt(mean over joints of ``rms_error_converged``^2) over the healthy and the
-  faulty runs [rad] (bootstrap of the mean);
+  faulty runs [rad] (bootstrap of the mean); a run that diverged counts at the capped penalty
+  :data:`DIVERGED_RMS` (never left out, which would flatter the method that diverges), and so does any RMS
+  above it;
+* ``rms_faulty_median``: the median of the faulty runs' RMS (the mean is heavy-tailed: one fault kind can make
+  it); per fault kind the medians and which entry wins each kind are in the leaderboard
+  (:func:`kind_medians`);
 * ``fault_peak``: the largest ``fault_peak_error`` of the faulty joints [rad];
 * ``chattering``: the mean over joints of ``chattering`` [N m / s] on the healthy runs;
-* ``divergence_rate``: the share of runs that diverged (Wilson); the other scores leave them out.
+* ``divergence_rate``: the share of runs that diverged (Wilson); ``fault_peak`` and ``chattering`` leave them out.
 """
 
 from __future__ import annotations
@@ -58,10 +63,14 @@ DIAGNOSIS_SCORES: dict[str, tuple[str, str, bool]] = {
 TRACKING_SCORES: dict[str, tuple[str, str, bool]] = {
     "rms_healthy": ("RMS error, healthy", "rad", False),
     "rms_faulty": ("RMS error, faulty", "rad", False),
+    "rms_faulty_median": ("RMS error, faulty, median", "rad", False),
     "fault_peak": ("fault peak error", "rad", False),
     "chattering": ("chattering", "N m/s", False),
     "divergence_rate": ("divergence rate", "", False),
 }
+#: The RMS error [rad] a diverged run counts at (and the cap of every run's): a tracking error of a radian on
+#: every joint is a lost task, whatever larger number the run reached before it stopped.
+DIVERGED_RMS = 1.0
 #: The score each task's leaderboard is ranked by.
 RANKED_BY = {"diagnosis": "auc", "tracking": "rms_faulty"}
 
@@ -188,18 +197,37 @@ class TrackingRuns:
     fault_peak: np.ndarray
     chattering: np.ndarray
     diverged: np.ndarray  # every run, healthy and faulty
+    #: Each faulty run's fault kind ("" where unknown).
+    faulty_kind: np.ndarray | None = None
 
 
 def tracking_scores(runs: TrackingRuns, resamples: int = BOOTSTRAP) -> dict[str, Score]:
     """Every tracking score (see the module docstring)."""
     out = {}
-    for name, values in (("rms_healthy", runs.healthy_rms), ("rms_faulty", runs.faulty_rms),
+    healthy, faulty = capped(runs.healthy_rms), capped(runs.faulty_rms)
+    for name, values in (("rms_healthy", healthy), ("rms_faulty", faulty),
                          ("fault_peak", runs.fault_peak), ("chattering", runs.chattering)):
         s = st.summarise(values, resamples)
         out[name] = Score.of(s.mean, s.count) if s.count else Score.missing()
+    s = st.summarise(faulty, resamples)
+    out["rms_faulty_median"] = Score.of(s.median, s.count) if s.count else Score.missing()
     n = int(runs.diverged.size)
     out["divergence_rate"] = Score.of(st.proportion(float(runs.diverged.sum()), n), n) if n else Score.missing()
     return out
+
+
+def capped(rms: np.ndarray) -> np.ndarray:
+    """RMS values with a diverged run (NaN) and any value above it at :data:`DIVERGED_RMS`."""
+    values = np.asarray(rms, dtype=float)
+    return np.where(np.isnan(values), DIVERGED_RMS, np.minimum(values, DIVERGED_RMS))
+
+
+def kind_medians(runs: TrackingRuns) -> dict[str, float]:
+    """The median capped faulty RMS per fault kind [rad]."""
+    if runs.faulty_kind is None:
+        return {}
+    faulty = capped(runs.faulty_rms)
+    return {str(kind): float(np.median(faulty[runs.faulty_kind == kind])) for kind in np.unique(runs.faulty_kind)}
 
 
 def arm_rms(per_joint: np.ndarray) -> np.ndarray:

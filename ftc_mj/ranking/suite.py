@@ -72,6 +72,9 @@ class ProtocolSpec(Strict):
 class FaultLibrary(Strict):
     loss_of_effectiveness: list[Share] = []
     bias: list[PositiveFloat] = []
+    #: What a bias's size multiplies: the faulty joint's ``torque_scale`` (suite v1) or its ``residual_unit``,
+    #: the healthy residual's 99th percentile (suite v2: sizes from undetectable to easy on every robot).
+    bias_relative_to: Literal["torque_scale", "residual_unit"] = "torque_scale"
     saturation: list[Fraction] = []
     lock: StrictBool = False
     float: StrictBool = False
@@ -83,6 +86,29 @@ class TierSpec(Strict):
     fault_runs: PositiveInt
     tracking_healthy_runs: PositiveInt
     tracking_fault_runs: PositiveInt
+    #: Healthy runs the thresholds are calibrated on (suite v2; never scored).
+    calibration_runs: Annotated[StrictInt, Field(ge=0)] = 0
+    #: Runs reserved for tuning (suite v2: their seeds are a tuning's, never scored).
+    tune_runs: Annotated[StrictInt, Field(ge=0)] = 0
+
+
+class PopulationSeeds(Strict):
+    #: Run k of the population has seed ``seed + k``.
+    seed: Annotated[StrictInt, Field(ge=0)]
+    #: The seed of its scrambled Sobol points (the controller model's mass scales).
+    sobol_seed: Annotated[StrictInt, Field(ge=0)]
+
+
+class CalibrationSpec(Strict):
+    """Suite v2's diagnosis protocol: windows scored alike healthy and faulty, thresholds calibrated per entry on
+    healthy runs the scoring never sees (:mod:`ftc_mj.ranking.windows`)."""
+
+    #: The common false-alarm probability per window and joint at which every entry's threshold is set.
+    false_alarm: Fraction
+    #: Window lengths [s]: each (fault joint, onset) of the protocol and each length is a stratum.
+    windows: Annotated[list[PositiveFloat], Field(min_length=1)]
+    #: oracle_fault's white noise, as a share of the robot's smallest residual unit.
+    oracle_noise: PositiveFloat = 0.01
 
 
 class RobotSpec(Strict):
@@ -94,11 +120,18 @@ class RobotSpec(Strict):
     terms: list[StrictStr] = []
     fault_joints: Annotated[list[Annotated[StrictInt, Field(ge=1)]], Field(min_length=1)]
     torque_scale: Annotated[list[PositiveFloat], Field(min_length=1)]
+    #: Per fault joint, the healthy residual's 99th percentile over the scored windows [N m] (suite v2: the unit
+    #: of the bias sizes; ``python -m ftc_mj.ranking.sizing SUITE`` measures it).
+    residual_unit: list[PositiveFloat] = []
+    #: What the robot's nominal model leaves out (the declared healthy uncertainty), in words.
+    uncertainty: StrictStr = ""
 
     @model_validator(mode="after")
     def _per_joint(self) -> "RobotSpec":
         if len(self.torque_scale) != len(self.fault_joints):
             raise ValueError("torque_scale: one per fault joint")
+        if self.residual_unit and len(self.residual_unit) != len(self.fault_joints):
+            raise ValueError("residual_unit: one per fault joint")
         return self
 
 
@@ -109,13 +142,60 @@ class SuiteSpec(Strict):
     faults: FaultLibrary
     tiers: dict[Literal["quick", "full"], TierSpec]
     robots: Annotated[dict[Name, RobotSpec], Field(min_length=1)]
+    #: Suite v2: calibrated thresholds on scored windows (absent: suite v1's per-run statistics).
+    calibration: CalibrationSpec | None = None
+    #: Suite v2: each population's own seeds (``tune``, ``calibrate``, ``healthy``, ``faults``), disjoint.
+    populations: dict[Literal["tune", "calibrate", "healthy", "faults"], PopulationSeeds] = {}
+    #: Whether a newer suite replaces this one (said in its leaderboards).
+    superseded_by: StrictStr = ""
 
     @model_validator(mode="after")
     def _onsets_per_robot(self) -> "SuiteSpec":
         for name, robot in self.robots.items():
             if len(robot.fault_joints) != len(self.protocol.onsets):
                 raise ValueError(f"robots.{name}.fault_joints: one per protocol onset ({len(self.protocol.onsets)})")
+        if self.calibration is None:
+            return self
+        missing = [p for p in POPULATIONS_V2 if p not in self.populations]
+        if missing:
+            raise ValueError(f"populations: {', '.join(missing)} missing (each population has its own seeds)")
+        for tier_name, tier in self.tiers.items():
+            if tier.calibration_runs < 1:
+                raise ValueError(f"tiers.{tier_name}.calibration_runs: at least 1 with a calibration")
+        _disjoint_seeds(self)
+        for name, robot in self.robots.items():
+            if self.faults.bias_relative_to == "residual_unit" and not robot.residual_unit:
+                raise ValueError(f"robots.{name}.residual_unit: needed for biases relative to it")
         return self
+
+
+#: Suite v2's populations, each with its own seeds: ``tune`` (a tuning's), ``calibrate`` (the thresholds'),
+#: ``healthy`` and ``faults`` (the scored ones).
+POPULATIONS_V2 = ("tune", "calibrate", "healthy", "faults")
+
+
+def seed_ranges(spec: "SuiteSpec") -> dict[str, range]:
+    """Each population's seeds over the suite's largest tier (a fault case's runs share its draws' seeds)."""
+    largest = {"tune": "tune_runs", "calibrate": "calibration_runs", "healthy": "healthy_runs",
+               "faults": "fault_runs"}
+    out = {}
+    for population, seeds in spec.populations.items():
+        count = max(max(getattr(t, largest[population]), getattr(t, "tracking_" + largest[population], 0))
+                    for t in spec.tiers.values())
+        out[population] = range(seeds.seed, seeds.seed + max(count, 1))
+    return out
+
+
+def _disjoint_seeds(spec: "SuiteSpec") -> None:
+    ranges = list(seed_ranges(spec).items())
+    for i, (a, first) in enumerate(ranges):
+        for b, second in ranges[i + 1:]:
+            if first.start < second.stop and second.start < first.stop:
+                raise ValueError(f"populations.{b}.seed: its seeds {second.start}-{second.stop - 1} overlap "
+                                 f"{a}'s {first.start}-{first.stop - 1}")
+    sobol = [seeds.sobol_seed for seeds in spec.populations.values()]
+    if len(set(sobol)) != len(sobol):
+        raise ValueError("populations: each population needs its own sobol_seed")
 
 
 class Suite:
@@ -170,6 +250,17 @@ class Suite:
         return {"base": str(self.scenarios[robot]), "variants": None, "terms": None, "parameters": None,
                 "actuator_faults": None, "sensors": None, "diagnosis": None, "metrics": None, "figures": None}
 
+    @property
+    def calibrated(self) -> bool:
+        """Whether the suite scores diagnosis on calibrated windows (suite v2) rather than per run (v1)."""
+        return self.spec.calibration is not None
+
+    def populations(self, task: str) -> tuple[str, ...]:
+        """The populations a task simulates: v2's diagnosis adds the calibration runs."""
+        if task == "diagnosis" and self.calibrated:
+            return ("calibrate",) + POPULATIONS
+        return POPULATIONS
+
     def scenario(self, robot: str, task: str, tier: str, variants: dict[str, Any]) -> dict[str, Any]:
         """The task's scenario on ``base: stage.yaml`` (:meth:`stage`) with the given variants."""
         protocol, base = self.spec.protocol, self.resolved[robot]
@@ -199,11 +290,14 @@ class Suite:
         protocol, library, spec = self.spec.protocol, self.spec.faults, self.spec.robots[robot]
         count = len(protocol.onsets) if task == "diagnosis" else protocol.tracking_onsets
         cases = []
-        for onset, joint, scale in list(zip(protocol.onsets, spec.fault_joints, spec.torque_scale))[:count]:
+        units = spec.residual_unit or spec.torque_scale
+        for onset, joint, scale, unit in list(zip(protocol.onsets, spec.fault_joints, spec.torque_scale,
+                                                  units))[:count]:
             profile = {"onset": onset, "end": onset + protocol.fault_length}
+            bias_unit = unit if library.bias_relative_to == "residual_unit" else scale
             kinds: list[tuple[str, float, dict[str, Any]]] = []
             kinds += [("loss_of_effectiveness", a, {"alpha": a}) for a in library.loss_of_effectiveness]
-            kinds += [("bias", b, {"offset": b * scale}) for b in library.bias]
+            kinds += [("bias", b, {"offset": b * bias_unit}) for b in library.bias]
             kinds += [("saturation", s, {"limit": s * scale}) for s in library.saturation]
             kinds += [(kind, 1.0, {}) for kind in ("lock", "float") if getattr(library, kind)]
             for kind, size, values in kinds:
@@ -214,21 +308,29 @@ class Suite:
                               "set": {"actuator_faults": [fault]}})
         return cases
 
+    def runs(self, task: str, population: str, tier: str) -> int:
+        """The runs of a population (a fault population's per case: its draws)."""
+        tiers = self.tier(tier)
+        if population == "calibrate":
+            return tiers.calibration_runs
+        if task == "diagnosis":
+            return tiers.healthy_runs if population == "healthy" else tiers.fault_runs
+        return tiers.tracking_healthy_runs if population == "healthy" else tiers.tracking_fault_runs
+
     def campaign(self, robot: str, task: str, population: str, tier: str, variants: list[str]) -> dict[str, Any]:
         """The campaign of one population (on ``scenario.yaml`` beside it)."""
-        protocol, tiers = self.spec.protocol, self.tier(tier)
-        if task == "diagnosis":
-            runs = tiers.healthy_runs if population == "healthy" else tiers.fault_runs
-        else:
-            runs = tiers.tracking_healthy_runs if population == "healthy" else tiers.tracking_fault_runs
+        protocol, runs = self.spec.protocol, self.runs(task, population, tier)
         low, high = protocol.mass_scale
+        if self.spec.populations:  # each population its own seeds and mass scales, disjoint (checked)
+            seed, sobol_seed = self.spec.populations[population].seed, self.spec.populations[population].sobol_seed
+        else:  # v1: healthy and faulty runs on seeds of their own, the mass scales shared
+            seed, sobol_seed = protocol.seed + (0 if population == "faults" else 100_000), 0
         out: dict[str, Any] = {
             "name": f"bench_{self.version}_{tier}_{task}_{robot}_{population}",
             "scenario": "scenario.yaml",
             "variants": variants,
-            # Healthy and faulty runs on seeds of their own: a healthy run shares no noise with a faulty one.
-            "seed": protocol.seed + (0 if population == "faults" else 100_000),
-            "samples": {"runs": runs, "method": "sobol", "seed": 0,
+            "seed": seed,
+            "samples": {"runs": runs, "method": "sobol", "seed": sobol_seed,
                         "fields": {"nominal.mass_scale": {"uniform": [low, high]}}},
             "diagnosis": {"threshold_scales": [1.0]},
             "report": {"metrics": ["rms_error_converged"]},

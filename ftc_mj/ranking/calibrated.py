@@ -1,0 +1,355 @@
+"""Suite v2's diagnosis scores: one statistic for healthy and faulty windows, thresholds calibrated per entry on
+healthy runs the scoring never sees, intervals clustered by draw. Plain NumPy on the envelopes of
+:mod:`ftc_mj.ranking.windows`.
+
+A **stratum** is (robot, faulty joint j, onset o, window length L): a faulty run's window [o, o + L) on joint j
+after its fault's onset, and every healthy run's window at the same nominal onset on the same joint. A window's
+**peak** is its largest held residual (an alarm at c held for the persistence is raised in it iff peak > c).
+
+* **Threshold** c(s, k) of an entry for stratum s and joint k: the population quantile (NumPy's ``higher``) at
+  1 - alpha of the peaks of the ``calibrate`` runs' windows, alpha the suite's common false-alarm probability
+  per window and joint; the scored runs never enter it.
+* ``auc``: the Mann-Whitney area of the faulty against the healthy windows' z = peak / c(s, j), pooled over the
+  strata (per stratum: the raw peaks); 1 perfect, 1/2 useless.
+* ``pd``: the share of faulty windows with z > 1 (P_d at the common false-alarm probability); ``false_alarm``:
+  the share of the scored healthy windows with z > 1, the realised rate beside the nominal alpha, and
+  ``specificity`` = 1 - ``false_alarm``.
+* ``isolation``: among detected faulty windows, the share whose alarmed joints (peak > c(s, k), every joint k)
+  are exactly the faulty one (the DX competition's convention).
+* ``delay_median``: of the first block over c after the onset [s], over the detected windows whose alarm was not
+  already on at the onset; ``on_at_onset``: the detected windows whose alarm was on in the block before the onset
+  (a false alarm still on, not a detection with delay 0).
+* ``alarms_per_hour``: alarms raised (rising edges: alarms re-arm) in the scored healthy windows per hour of them;
+  ``latched``: the share of healthy windows whose alarm is on in every block (a latched alarm, not a rate).
+
+Intervals: 95% percentile bootstrap, clustered by draw (a healthy run's windows share its run; the fault cases'
+runs share their draws' seeds and mass scales, so a draw is resampled with all its cases); the thresholds are
+held at their calibrated values. Runs whose reference loop diverged are counted apart and never scored.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from ftc_mj.ranking.score import BOOTSTRAP_SEED, Score, mann_whitney
+
+#: Score -> (label, unit, higher is better): the v2 leaderboard's columns, in order.
+SCORES: dict[str, tuple[str, str, bool]] = {
+    "auc": ("AUC (pooled windows)", "", True),
+    "pd": ("P_d at the common FA", "", True),
+    "false_alarm": ("realised FA per window", "", False),
+    "specificity": ("specificity", "", True),
+    "isolation": ("isolation accuracy", "", True),
+    "delay_median": ("delay median", "s", False),
+    "on_at_onset": ("alarm on at onset", "", False),
+    "alarms_per_hour": ("false alarms per hour", "1/h", False),
+    "latched": ("latched healthy windows", "", False),
+}
+RESAMPLES = 1000
+#: The false-alarm probabilities of the delay-against-false-alarm front.
+FRONT = (0.005, 0.01, 0.02, 0.05, 0.1, 0.2, 0.3)
+
+
+@dataclass(frozen=True)
+class Population:
+    """One population's windows reduction (a ``windows.npz``), its diverged runs left out."""
+
+    #: ``(runs, blocks, n)`` held-residual envelope per estimator.
+    envelopes: dict[str, np.ndarray]
+    draw: np.ndarray
+    kind: np.ndarray
+    size: np.ndarray
+    joint: np.ndarray
+    onset: np.ndarray
+    fault_effect: np.ndarray
+    #: Runs left out because the reference loop diverged (by case label where faulty).
+    diverged: int
+    block_seconds: float
+    diverged_cases: dict[str, int] = field(default_factory=dict)
+
+    @classmethod
+    def of(cls, data: dict[str, np.ndarray]) -> "Population":
+        ok = ~np.isfinite(data["diverged_at"])
+        dt, steps = data["times"]
+        envelopes = {name.split("/", 1)[1]: values[ok] for name, values in data.items() if name.startswith("envelope/")}
+        blocks = next(iter(envelopes.values())).shape[1]
+        count = int(ok.size)
+
+        def case(name: str, fill: object) -> np.ndarray:
+            values = data.get(f"case/{name}")
+            return (values if values is not None else np.full(count, fill))[ok]
+
+        diverged_cases: dict[str, int] = {}
+        if "case/kind" in data:
+            for kind, size in zip(data["case/kind"][~ok], data["case/fault_size"][~ok]):
+                label = f"{kind} {float(size):g}"
+                diverged_cases[label] = diverged_cases.get(label, 0) + 1
+        return cls(envelopes, data["draw"][ok], case("kind", ""), case("fault_size", np.nan).astype(float),
+                   case("fault_joint", 0).astype(int), case("onset", np.nan).astype(float), data["fault_effect"][ok],
+                   int((~ok).sum()), float(dt * steps / blocks), diverged_cases)
+
+
+@dataclass(frozen=True)
+class Stratum:
+    joint: int  # 1-based
+    onset: float
+    length: float
+
+    @property
+    def label(self) -> str:
+        return f"j{self.joint} t{self.onset:g} L{self.length:g}"
+
+
+def strata(onsets: list[float], joints: list[int], lengths: list[float]) -> list[Stratum]:
+    return [Stratum(j, o, L) for o, j in zip(onsets, joints) for L in lengths]
+
+
+def _blocks(stratum: Stratum, block_seconds: float) -> slice:
+    first = int(round(stratum.onset / block_seconds))
+    return slice(first, first + max(1, int(round(stratum.length / block_seconds))))
+
+
+def peaks(envelope: np.ndarray, stratum: Stratum, block_seconds: float) -> np.ndarray:
+    """Each run's window peak on every joint, ``(runs, n)`` (0 where a window holds nothing finite)."""
+    window = envelope[:, _blocks(stratum, block_seconds)]
+    finite = np.isfinite(window)
+    return np.where(finite.any(axis=1), np.max(np.where(finite, window, -np.inf), axis=1), 0.0).astype(float)
+
+
+def quantile_threshold(values: np.ndarray, alpha: float) -> np.ndarray:
+    """The population quantile at 1 - alpha along axis 0 (NumPy's ``higher``: an observed peak)."""
+    if values.shape[0] == 0:
+        return np.full(values.shape[1:], np.inf)
+    return np.quantile(values, 1.0 - alpha, axis=0, method="higher")
+
+
+@dataclass
+class Windows:
+    """One entry's scored windows on one robot, pooled over the strata (one element per window)."""
+
+    #: Healthy windows: z = peak / c on the stratum's joint, the run (cluster) and the stratum index.
+    healthy_z: np.ndarray
+    healthy_cluster: np.ndarray
+    healthy_stratum: np.ndarray
+    #: Rising edges over c inside the window, and whether the alarm is on in every block.
+    healthy_alarms: np.ndarray
+    healthy_latched: np.ndarray
+    #: Faulty windows: z, the draw (cluster), the stratum, kind and size, isolated right, delay [s] (NaN: not
+    #: detected or on at the onset), alarm on at the onset, acts (the fault put torque on the plant).
+    fault_z: np.ndarray
+    fault_cluster: np.ndarray
+    fault_stratum: np.ndarray
+    fault_kind: np.ndarray
+    fault_size: np.ndarray
+    isolated: np.ndarray
+    delay: np.ndarray
+    on_at_onset: np.ndarray
+    acts: np.ndarray
+    window_seconds: np.ndarray = field(default_factory=lambda: np.zeros(0))
+
+
+def _rising(over: np.ndarray, before: np.ndarray) -> np.ndarray:
+    """Rising edges of ``over`` ``(runs, blocks)`` given the state of the block before each window."""
+    previous = np.concatenate([before[:, None], over[:, :-1]], axis=1)
+    return (over & ~previous).sum(axis=1)
+
+
+def windows(name: str, calibrate: Population, healthy: Population, faults: Population, layers: list[Stratum],
+            alpha: float, acts_at: float) -> tuple[Windows, np.ndarray]:
+    """An entry's scored windows (see the module docstring) and its thresholds ``(strata, n)``."""
+    bs = healthy.block_seconds
+    parts: dict[str, list] = {key: [] for key in Windows.__dataclass_fields__}
+    thresholds = []
+    for index, stratum in enumerate(layers):
+        j = stratum.joint - 1
+        c = quantile_threshold(peaks(calibrate.envelopes[name], stratum, bs), alpha)
+        thresholds.append(c)
+        blocks = _blocks(stratum, bs)
+        before = slice(blocks.start - 1, blocks.start)
+        # healthy
+        env = healthy.envelopes[name][:, :, j]
+        z = peaks(healthy.envelopes[name], stratum, bs)[:, j] / c[j]
+        over = np.nan_to_num(env[:, blocks], nan=-np.inf) > c[j]
+        on_before = (np.nan_to_num(env[:, before], nan=-np.inf) > c[j])[:, 0]
+        parts["healthy_z"].append(z)
+        parts["healthy_cluster"].append(np.arange(len(z)))
+        parts["healthy_stratum"].append(np.full(len(z), index))
+        parts["healthy_alarms"].append(_rising(over, on_before))
+        parts["healthy_latched"].append(over.all(axis=1))
+        parts["window_seconds"].append(np.full(len(z), stratum.length))
+        # faulty
+        mine = (faults.joint == stratum.joint) & np.isclose(faults.onset, stratum.onset)
+        fenv = faults.envelopes[name][mine]
+        fpeaks = peaks(fenv, stratum, bs)
+        fz = fpeaks[:, j] / c[j]
+        detected = fz > 1.0
+        alarmed = fpeaks > c[None, :]
+        right = alarmed[:, j] & (alarmed.sum(axis=1) == 1)
+        fover = np.nan_to_num(fenv[:, blocks, j], nan=-np.inf) > c[j]
+        on_onset = (np.nan_to_num(fenv[:, before, j], nan=-np.inf) > c[j])[:, 0] & fover[:, 0]
+        first = np.argmax(fover, axis=1)
+        delay = np.where(detected & ~on_onset, (blocks.start + first + 1) * bs - stratum.onset, np.nan)
+        parts["fault_z"].append(fz)
+        parts["fault_cluster"].append(faults.draw[mine])
+        parts["fault_stratum"].append(np.full(len(fz), index))
+        parts["fault_kind"].append(faults.kind[mine])
+        parts["fault_size"].append(faults.size[mine])
+        parts["isolated"].append(right)
+        parts["delay"].append(delay)
+        parts["on_at_onset"].append(on_onset)
+        parts["acts"].append(faults.fault_effect[mine, j] >= acts_at)
+    return Windows(**{key: np.concatenate(values) if values else np.zeros(0) for key, values in parts.items()}), \
+        np.array(thresholds)
+
+
+# ------------------------------------------------------------------------------------------------ scores
+
+
+def _point(w: Windows, hours_per_window: np.ndarray) -> dict[str, float]:
+    """Every score's value on one (re)sample of windows."""
+    out = {name: np.nan for name in SCORES}
+    if w.healthy_z.size and w.fault_z.size:
+        out["auc"] = mann_whitney(w.healthy_z, w.fault_z)
+    if w.fault_z.size:
+        detected = w.fault_z > 1.0
+        out["pd"] = float(detected.mean())
+        if detected.any():
+            out["isolation"] = float(w.isolated[detected].mean())
+            out["on_at_onset"] = float(w.on_at_onset[detected].mean())
+            delays = w.delay[detected & np.isfinite(w.delay)]
+            if delays.size:
+                out["delay_median"] = float(np.median(delays))
+    if w.healthy_z.size:
+        out["false_alarm"] = float(np.mean(w.healthy_z > 1.0))
+        out["specificity"] = 1.0 - out["false_alarm"]
+        out["alarms_per_hour"] = float(w.healthy_alarms.sum() / hours_per_window.sum())
+        out["latched"] = float(w.healthy_latched.mean())
+    return out
+
+
+def _take(w: Windows, healthy: np.ndarray, fault: np.ndarray) -> Windows:
+    return Windows(**{key: (getattr(w, key)[healthy] if key.startswith("healthy") or key == "window_seconds"
+                            else getattr(w, key)[fault]) for key in Windows.__dataclass_fields__})
+
+
+def clustered(w: Windows, statistic: Callable[[Windows], dict[str, float]], resamples: int = RESAMPLES
+              ) -> dict[str, tuple[float, float]]:
+    """Each statistic's 95% percentile interval, healthy runs and fault draws resampled as clusters."""
+    rng = np.random.default_rng(BOOTSTRAP_SEED)
+    h_ids, h_inverse = np.unique(w.healthy_cluster, return_inverse=True)
+    f_ids, f_inverse = np.unique(w.fault_cluster, return_inverse=True)
+    h_members = [np.flatnonzero(h_inverse == i) for i in range(h_ids.size)]
+    f_members = [np.flatnonzero(f_inverse == i) for i in range(f_ids.size)]
+    draws: dict[str, list[float]] = {}
+    for _ in range(resamples):
+        h = np.concatenate([h_members[i] for i in rng.integers(0, len(h_members), len(h_members))]) \
+            if h_members else np.zeros(0, int)
+        f = np.concatenate([f_members[i] for i in rng.integers(0, len(f_members), len(f_members))]) \
+            if f_members else np.zeros(0, int)
+        for name, value in statistic(_take(w, h, f)).items():
+            draws.setdefault(name, []).append(value)
+    out = {}
+    for name, values in draws.items():
+        finite = np.asarray(values, dtype=float)
+        finite = finite[np.isfinite(finite)]
+        out[name] = (float(np.percentile(finite, 2.5)), float(np.percentile(finite, 97.5))) if finite.size \
+            else (np.nan, np.nan)
+    return out
+
+
+def scores(w: Windows, resamples: int = RESAMPLES) -> dict[str, Score]:
+    """Every v2 diagnosis score with its clustered interval."""
+    def statistic(sample: Windows) -> dict[str, float]:
+        return _point(sample, sample.window_seconds / 3600.0)
+
+    values = statistic(w)
+    intervals = clustered(w, statistic, resamples)
+    counts = {"auc": w.healthy_z.size + w.fault_z.size, "pd": w.fault_z.size, "isolation": int((w.fault_z > 1).sum()),
+              "on_at_onset": int((w.fault_z > 1).sum()), "delay_median": int(np.isfinite(w.delay).sum())}
+    return {name: Score(values[name], *intervals.get(name, (np.nan, np.nan)), counts.get(name, w.healthy_z.size))
+            if np.isfinite(values[name]) else Score.missing() for name in SCORES}
+
+
+def per_stratum(w: Windows, count: int) -> list[dict[str, float]]:
+    """Per stratum: AUC on the raw peaks (z of one stratum is the peak over one threshold), P_d and the realised
+    false-alarm rate, with the windows' numbers."""
+    out = []
+    for s in range(count):
+        h, f = w.healthy_z[w.healthy_stratum == s], w.fault_z[w.fault_stratum == s]
+        out.append({"auc": mann_whitney(h, f) if h.size and f.size else np.nan,
+                    "pd": float(np.mean(f > 1)) if f.size else np.nan,
+                    "false_alarm": float(np.mean(h > 1)) if h.size else np.nan, "healthy": h.size, "faulty": f.size})
+    return out
+
+
+def detectability(w: Windows, kind: str = "bias") -> list[tuple[float, float, float, float, int]]:
+    """P_d at the common false-alarm probability against the fault size of one kind: (size, P_d, low, high,
+    windows), Wilson intervals."""
+    from ftc_mj.campaign import statistics as st
+
+    out = []
+    mine = w.fault_kind == kind
+    for size in np.unique(w.fault_size[mine]):
+        chosen = mine & (w.fault_size == size)
+        estimate = st.proportion(float((w.fault_z[chosen] > 1).sum()), int(chosen.sum()))
+        out.append((float(size), float(estimate.value), float(estimate.low), float(estimate.high), int(chosen.sum())))
+    return out
+
+
+def front(name: str, calibrate: Population, healthy: Population, faults: Population, layers: list[Stratum],
+          acts_at: float, levels: tuple[float, ...] = FRONT) -> list[tuple[float, float, float, float]]:
+    """The delay-against-false-alarm front: per nominal false-alarm probability, (nominal, realised FA on the
+    scored healthy windows, P_d, median delay [s] of the detected windows)."""
+    out = []
+    for alpha in levels:
+        w, _ = windows(name, calibrate, healthy, faults, layers, alpha, acts_at)
+        point = _point(w, w.window_seconds / 3600.0)
+        out.append((alpha, point["false_alarm"], point["pd"], point["delay_median"]))
+    return out
+
+
+def per_kind(w: Windows) -> dict[str, float]:
+    """P_d at the common false-alarm probability per fault kind (all sizes)."""
+    return {str(kind): float(np.mean(w.fault_z[w.fault_kind == kind] > 1)) for kind in np.unique(w.fault_kind)}
+
+
+@dataclass(frozen=True)
+class Gate:
+    """The sanity rows' verdict on one robot: each condition and whether it holds."""
+
+    oracle_fault_auc: float
+    oracle_fault_pd: float
+    null_auc: tuple[float, float, float]
+    #: Entries whose AUC interval lies above oracle_luaf's (none where the pipeline is sound).
+    beating_oracle_luaf: tuple[str, ...]
+
+    @property
+    def passed(self) -> bool:
+        return (self.oracle_fault_auc >= 0.99 and self.oracle_fault_pd >= 0.95
+                and self.null_auc[1] <= 0.5 <= self.null_auc[2] and not self.beating_oracle_luaf)
+
+    def conditions(self) -> list[tuple[str, bool]]:
+        return [(f"oracle_fault AUC {self.oracle_fault_auc:.3f} >= 0.99", self.oracle_fault_auc >= 0.99),
+                (f"oracle_fault P_d {self.oracle_fault_pd:.3f} >= 0.95 on faults that act",
+                 self.oracle_fault_pd >= 0.95),
+                (f"null AUC {self.null_auc[0]:.3f} [{self.null_auc[1]:.3f}, {self.null_auc[2]:.3f}] contains 0.5",
+                 self.null_auc[1] <= 0.5 <= self.null_auc[2]),
+                ("no entry's AUC interval above oracle_luaf's" + (f" (above: {', '.join(self.beating_oracle_luaf)})"
+                                                                   if self.beating_oracle_luaf else ""),
+                 not self.beating_oracle_luaf)]
+
+
+def gate(by_entry: dict[str, dict[str, Score]], acting: dict[str, Windows]) -> Gate:
+    """The sanity gate from every row's scores (sanity rows included) and oracle_fault's windows."""
+    oracle = acting["oracle_fault"]
+    acts = oracle.acts
+    fault_only = _take(oracle, np.arange(oracle.healthy_z.size), np.flatnonzero(acts))
+    point = _point(fault_only, fault_only.window_seconds / 3600.0)
+    null = by_entry["null"]["auc"]
+    ceiling = by_entry["oracle_luaf"]["auc"].high
+    beating = tuple(name for name, s in by_entry.items() if name not in ("oracle_luaf", "oracle_fault", "null")
+                    and np.isfinite(s["auc"].low) and s["auc"].low > ceiling)
+    return Gate(point["auc"], point["pd"], (null.value, null.low, null.high), beating)

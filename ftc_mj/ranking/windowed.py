@@ -1,0 +1,265 @@
+"""Suite v2's diagnosis leaderboard: every entry's window scores at calibrated thresholds
+(:mod:`ftc_mj.ranking.calibrated`) beside the three sanity rows and their gate, per robot; the per-stratum
+table, P_d per fault kind, the runs whose reference loop diverged (apart, never scored), and the figures: the
+pooled ROC, the detectability curves (P_d at the common false-alarm probability against the bias size in
+residual units) and the delay-against-false-alarm front."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from functools import lru_cache
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+from matplotlib.figure import Figure
+
+from ftc_mj.ranking import calibrated as cal
+from ftc_mj.ranking.entries import Bench, Entry
+from ftc_mj.ranking.execute import WINDOWS, Found
+from ftc_mj.ranking.sizing import ACTS
+from ftc_mj.ranking.windows import SANITY, load
+
+#: What each sanity row is, for the leaderboard.
+SANITY_ROWS = {"oracle_fault": "the true fault torque + 1% white noise (a perfect fault detector)",
+               "oracle_luaf": "the true LUaF in torque space (a perfect LUaF estimator)",
+               "null": "white noise (a useless detector)"}
+
+
+@lru_cache(maxsize=64)
+def _population(path: Path) -> cal.Population:
+    return cal.Population.of(load(path))
+
+
+@dataclass
+class RobotBoard:
+    """One robot's v2 diagnosis results."""
+
+    robot: str
+    layers: list[cal.Stratum]
+    #: Entry (sanity rows first) -> its windows and scores.
+    windows: dict[str, cal.Windows] = field(default_factory=dict)
+    scores: dict[str, dict[str, Any]] = field(default_factory=dict)
+    fronts: dict[str, list[tuple[float, float, float, float]]] = field(default_factory=dict)
+    gate: cal.Gate | None = None
+    diverged: dict[str, int] = field(default_factory=dict)
+    diverged_cases: dict[str, int] = field(default_factory=dict)
+    rate: float = 1000.0
+
+
+def robot_board(bench: Bench, robot: str, done: dict[tuple[str, str, str, str], Found],
+                resamples: int = cal.RESAMPLES) -> RobotBoard:
+    suite = bench.suite
+    spec, calibration = suite.spec.robots[robot], suite.spec.calibration
+    layers = cal.strata(suite.spec.protocol.onsets, spec.fault_joints, calibration.windows)
+    unit = min(spec.residual_unit or spec.torque_scale)
+    board = RobotBoard(robot, layers, rate=1.0 / float(suite.resolved[robot].get("control_dt", 0.001)))
+    names = list(SANITY) + [e.name for e in bench.of("diagnosis")]
+    for name in names:
+        populations = [_population(done["diagnosis", robot, population, name].results / WINDOWS)
+                       for population in ("calibrate", "healthy", "faults")]
+        w, _ = cal.windows(name, *populations, layers, calibration.false_alarm, ACTS * unit)
+        board.windows[name] = w
+        board.scores[name] = cal.scores(w, resamples)
+        board.fronts[name] = cal.front(name, *populations, layers, ACTS * unit)
+        if name == SANITY[0]:
+            board.diverged = {population: pop.diverged for population, pop in
+                              zip(("calibrate", "healthy", "faults"), populations)}
+            board.diverged_cases = populations[2].diverged_cases
+    board.gate = cal.gate(board.scores, board.windows)
+    return board
+
+
+def rows(bench: Bench, boards: dict[str, RobotBoard]) -> list[dict[str, Any]]:
+    """The leaderboard's rows (as the v1 leaderboard's: one per robot, entry and score)."""
+    out = []
+    labels = {e.name: e for e in bench.of("diagnosis")}
+    for robot, board in boards.items():
+        for name, by_score in board.scores.items():
+            entry = labels.get(name)
+            for score, s in by_score.items():
+                label, unit, higher = cal.SCORES[score]
+                out.append({"task": "diagnosis", "robot": robot, "entry": name,
+                            "method": entry.label if entry else "sanity row", "score": score, "label": label,
+                            "unit": unit, "higher_is_better": higher, "value": s.value, "low": s.low,
+                            "high": s.high, "n": s.count,
+                            "gains_from": entry.gains_from if entry else SANITY_ROWS[name]})
+    return out
+
+
+def _text(s: Any) -> str:
+    if not np.isfinite(s.value):
+        return "-"
+    return f"{s.value:.3g} [{s.low:.3g}, {s.high:.3g}]"
+
+
+def _fa_cell(s: Any, alpha: float) -> str:
+    """The realised false-alarm rate, and whether it is within two binomial standard errors of the nominal."""
+    if not np.isfinite(s.value):
+        return "-"
+    se = np.sqrt(alpha * (1 - alpha) / max(s.count, 1))
+    mark = "" if abs(s.value - alpha) <= 2 * se else " (off)"
+    return f"{s.value:.3g}{mark}"
+
+
+def reads(entry: Entry | None) -> str:
+    return "truth" if entry is None else ", ".join(entry.reads)
+
+
+def markdown(bench: Bench, boards: dict[str, RobotBoard]) -> list[str]:
+    """The v2 diagnosis sections of ``leaderboard.md``."""
+    suite = bench.suite
+    alpha = suite.spec.calibration.false_alarm
+    entries = {e.name: e for e in bench.of("diagnosis")}
+    lines = [
+        f"Diagnosis is scored on windows ({', '.join(f'{L:g} s' for L in suite.spec.calibration.windows)} from each "
+        "onset, the same statistic for healthy and faulty runs) at each entry's thresholds, calibrated on "
+        f"healthy runs that are never scored at {alpha:g} false alarms per window and joint. Intervals: 95% "
+        "bootstrap clustered by draw. `specificity` is 1 - the realised false-alarm rate per window; "
+        "\"(off)\" marks a realised rate more than two binomial standard errors from the nominal one. "
+        "\"alarm on at onset\": detected windows whose alarm was already on before the fault (a false alarm "
+        "still on, left out of the delays). \"latched\": healthy windows alarmed from end to end. The first "
+        "three rows are the benchmark's sanity rows (they read the engine's truth; no plugin can).", ""]
+    names = list(cal.SCORES)
+    header = ["entry", "reads", "rate [Hz]"] + [cal.SCORES[n][0] + (f" [{cal.SCORES[n][1]}]" if cal.SCORES[n][1]
+                                                                     else "") for n in names]
+    for robot, board in boards.items():
+        gate = board.gate
+        verdict = "passed" if gate.passed else "FAILED"
+        lines += [f"## Diagnosis: {robot}", "",
+                  f"Declared healthy uncertainty: {suite.spec.robots[robot].uncertainty or 'not declared'}.", "",
+                  f"**Sanity gate {verdict}:** " + "; ".join(f"{text} ({'yes' if ok else 'NO'})"
+                                                           for text, ok in gate.conditions()), ""]
+        lines += ["| " + " | ".join(header) + " |", "|" + "---|" * len(header)]
+        order = list(SANITY) + sorted((n for n in board.scores if n not in SANITY),
+                                      key=lambda n: -np.nan_to_num(board.scores[n]["auc"].value, nan=-1.0))
+        for name in order:
+            s = board.scores[name]
+            cells = [f"`{name}`" + (" (sanity)" if name in SANITY else ""), reads(entries.get(name)),
+                     f"{board.rate:g}"]
+            for score in names:
+                cells.append(_fa_cell(s[score], alpha) if score == "false_alarm" else _text(s[score]))
+            lines.append("| " + " | ".join(cells) + " |")
+        lines += ["", f"Per stratum (joint, onset, window length): AUC / P_d / realised FA.", "",
+                  "| entry | " + " | ".join(layer.label for layer in board.layers) + " |",
+                  "|" + "---|" * (len(board.layers) + 1)]
+        for name in order:
+            cells = [f"{p['auc']:.3g} / {p['pd']:.3g} / {p['false_alarm']:.3g}"
+                     for p in cal.per_stratum(board.windows[name], len(board.layers))]
+            lines.append(f"| `{name}` | " + " | ".join(cells) + " |")
+        kinds = sorted(np.unique(board.windows[SANITY[0]].fault_kind).tolist())
+        lines += ["", "P_d at the common false-alarm probability per fault kind (every size):", "",
+                  "| entry | " + " | ".join(kinds) + " |", "|" + "---|" * (len(kinds) + 1)]
+        for name in order:
+            by_kind = cal.per_kind(board.windows[name])
+            lines.append(f"| `{name}` | " + " | ".join(f"{by_kind.get(k, np.nan):.3g}" for k in kinds) + " |")
+        apart = ", ".join(f"{case}: {count}" for case, count in sorted(board.diverged_cases.items())) or "none"
+        lines += ["", f"Runs whose reference loop diverged (apart, not scored): calibration "
+                  f"{board.diverged.get('calibrate', 0)}, healthy {board.diverged.get('healthy', 0)}, faulty "
+                  f"{board.diverged.get('faults', 0)} ({apart}).", ""]
+    lines += ["![ROC per robot, pooled windows](figures/roc.png)", "",
+              "![Detectability: P_d at the common false-alarm probability against the bias size](figures/"
+              "detectability.png)", "",
+              "![Median delay against the false-alarm probability](figures/front.png)", ""]
+    return lines
+
+
+def _styles(names: list[str]) -> dict[str, tuple[str, str, str | None]]:
+    """Colour, line style and marker per row: the sanity rows grey and black, entries the palette's order with
+    a marker each, so that identical curves stay apart."""
+    from ftc_mj.ranking.leaderboard import _colours
+
+    base = _colours([n for n in names if n not in SANITY])
+    markers = ("o", "s", "^", "v", "D", "x", "+", "<", ">", "P", "*", "h")
+    out: dict[str, tuple[str, str, str | None]] = {
+        "oracle_fault": ("#000000", ":", None), "oracle_luaf": ("#7f7f7f", "--", None), "null": ("#bbbbbb", ":", None)}
+    for i, name in enumerate(n for n in names if n not in SANITY):
+        out[name] = (base[name][0], base[name][1], markers[i % len(markers)])
+    return out
+
+
+def roc_figure(boards: dict[str, RobotBoard]) -> Figure:
+    robots = list(boards)
+    fig = Figure(figsize=(3.4 * len(robots), 4.2))
+    axes = fig.subplots(1, len(robots), squeeze=False)[0]
+    for ax, robot in zip(axes, robots):
+        board = boards[robot]
+        styles = _styles(list(board.windows))
+        for name, w in board.windows.items():
+            if not (w.healthy_z.size and w.fault_z.size):
+                continue
+            thresholds = np.unique(np.concatenate([w.healthy_z, w.fault_z, [np.inf]]))
+            p_fa = np.array([np.mean(w.healthy_z > c) for c in thresholds])
+            p_d = np.array([np.mean(w.fault_z > c) for c in thresholds])
+            colour, style, _ = styles[name]
+            ax.plot(np.concatenate(([1.0], p_fa)), np.concatenate(([1.0], p_d)), color=colour, linestyle=style,
+                    linewidth=1.2, label=f"{name} ({board.scores[name]['auc'].value:.2f})")
+        ax.plot([0, 1], [0, 1], color="#dddddd", linewidth=0.6)
+        ax.set_xlabel("false-alarm probability per window", fontsize=8)
+        ax.set_title(robot, fontsize=9)
+        ax.grid(alpha=0.3)
+        ax.legend(fontsize=5.5, loc="lower right")
+    axes[0].set_ylabel("detection probability", fontsize=8)
+    fig.suptitle("ROC of the pooled windows (z = peak / calibrated threshold); AUC in brackets", fontsize=9)
+    fig.tight_layout()
+    return fig
+
+
+def detectability_figure(boards: dict[str, RobotBoard], alpha: float) -> Figure:
+    robots = list(boards)
+    fig = Figure(figsize=(3.4 * len(robots), 3.8))
+    axes = fig.subplots(1, len(robots), squeeze=False)[0]
+    for ax, robot in zip(axes, robots):
+        board = boards[robot]
+        styles = _styles(list(board.windows))
+        names = list(board.windows)
+        for i, name in enumerate(names):
+            curve = cal.detectability(board.windows[name])
+            if not curve:
+                continue
+            size, pd = np.array([c[0] for c in curve]), np.array([c[1] for c in curve])
+            # Entries a little apart along x (a few percent) so that identical curves stay visible.
+            shift = 1.0 + 0.025 * (i - len(names) / 2) / max(len(names), 1)
+            colour, style, marker = styles[name]
+            ax.plot(size * shift, pd, color=colour, linestyle=style, marker=marker, markersize=3.5, linewidth=1.0,
+                    label=name)
+        ax.axhline(alpha, color="#999999", linewidth=0.6)
+        ax.set_xscale("log")
+        ax.set_ylim(-0.03, 1.03)
+        ax.set_xlabel("bias size [residual units]", fontsize=8)
+        ax.set_title(robot, fontsize=9)
+        ax.grid(alpha=0.3)
+    axes[0].set_ylabel(f"P_d at {alpha:g} false alarms per window", fontsize=8)
+    axes[-1].legend(fontsize=5.5, loc="lower right")
+    fig.suptitle("Detectability: P_d at the common false-alarm probability against the bias size "
+                 "(1 unit = the healthy residual's 99th percentile)", fontsize=9)
+    fig.tight_layout()
+    return fig
+
+
+def front_figure(boards: dict[str, RobotBoard]) -> Figure:
+    robots = list(boards)
+    fig = Figure(figsize=(3.4 * len(robots), 3.8))
+    axes = fig.subplots(1, len(robots), squeeze=False)[0]
+    for ax, robot in zip(axes, robots):
+        board = boards[robot]
+        styles = _styles(list(board.windows))
+        for name, points in board.fronts.items():
+            if name == "null":
+                continue
+            fa = np.array([p[1] for p in points])
+            delay = np.array([p[3] for p in points])
+            keep = np.isfinite(fa) & np.isfinite(delay)
+            colour, style, marker = styles[name]
+            ax.plot(fa[keep], delay[keep] * 1000.0, color=colour, linestyle=style, marker=marker, markersize=3.5,
+                    linewidth=1.0, label=name)
+        ax.set_xscale("log")
+        ax.set_yscale("log")
+        ax.set_xlabel("realised false-alarm probability per window", fontsize=8)
+        ax.set_title(robot, fontsize=9)
+        ax.grid(alpha=0.3, which="both")
+    axes[0].set_ylabel("median detection delay [ms]", fontsize=8)
+    axes[-1].legend(fontsize=5.5, loc="upper right")
+    fig.suptitle("Delay against false alarms: thresholds calibrated at 0.5-30% per window", fontsize=9)
+    fig.tight_layout()
+    return fig

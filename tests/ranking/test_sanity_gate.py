@@ -1,0 +1,113 @@
+"""Suite v2's sanity gate on every robot, on a reduced protocol with the same statistics: suite v2's robots,
+loops, encoders, model mismatch and diagnosis, shortened (2.3 s runs, 0.4 s windows, 20 calibration and 20
+healthy runs, a bias of 1 and 10 residual units and a float on each fault joint, 2 draws). The three sanity rows
+and one entry, a noise observer written as a third-party plugin, are scored by ``ftc-mj bench``.
+
+It fails the suite unless, on every robot: oracle_fault's AUC >= 0.99 and its P_d at the common false-alarm
+probability >= 0.95 on the faults that act; null's AUC interval holds 1/2; no entry's AUC interval lies above
+oracle_luaf's; and the third-party noise observer's AUC interval holds 1/2."""
+
+from __future__ import annotations
+
+import json
+from typing import ClassVar
+
+import numpy as np
+import pyarrow.parquet as pq
+import pytest
+import yaml
+
+from ftc_mj.cli.bench import main
+from ftc_mj.methods import observers, registry
+from ftc_mj.methods.gains import GainConfig
+from ftc_mj.methods.observers.base import Observer
+from ftc_mj.ranking.suite import SUITES
+
+ROBOTS = ("two_link", "puma560", "ur5e", "panda")
+
+
+class NoiseObserverConfig(GainConfig):
+    pass
+
+
+class NoiseObserver(Observer):
+    """A useless observer as a third party might ship one: its LUaF estimate is white noise, drawn from a
+    stream seeded by the first readings (the encoders' noise differs between runs)."""
+
+    name: ClassVar[str] = "test_noise"
+    Config: ClassVar[type[NoiseObserverConfig]] = NoiseObserverConfig
+
+    def __init__(self, config: NoiseObserverConfig, n_joints: int, dt: float, members: int | None = None):
+        super().__init__(config, n_joints, dt, members)
+        self._rng: np.random.Generator | None = None
+
+    def update(self, t: float, q_meas: np.ndarray, model) -> None:
+        if self._rng is None:
+            self._rng = np.random.default_rng(np.frombuffer(np.ascontiguousarray(q_meas).tobytes(), np.uint32))
+        self.q_hat[:] = q_meas
+        self.luaf_hat[:] = self._rng.standard_normal(self.shape)
+        self.injection[:] = 0.0
+
+    def advance(self, tau: np.ndarray, model) -> None:
+        pass
+
+
+def reduced_suite() -> dict:
+    suite = yaml.safe_load((SUITES / "v2.yaml").read_text())
+    suite["version"] = "v2_reduced"
+    for robot in suite["robots"].values():
+        robot["scenario"] = str((SUITES / robot["scenario"]).resolve())
+    protocol = suite["protocol"]
+    protocol["diagnosis"]["baseline"] = {"start": 0.8, "end": 1.4}
+    protocol["metrics"] = {"window_start": 1.0, "estimation_window_start": 0.8, "fault_settle": 0.2,
+                           "fault_window": 0.4}
+    protocol["onsets"], protocol["fault_length"] = [1.5, 1.9], 0.4
+    suite["calibration"]["windows"] = [0.4]
+    suite["faults"] = {"bias_relative_to": "residual_unit", "bias": [1.0, 10.0], "float": True}
+    suite["tiers"] = {"quick": {"duration": 2.3, "calibration_runs": 20, "healthy_runs": 20, "fault_runs": 2,
+                                "tracking_healthy_runs": 1, "tracking_fault_runs": 1, "tune_runs": 1}}
+    return suite
+
+
+@pytest.fixture(scope="module")
+def board(tmp_path_factory):
+    with pytest.MonkeyPatch.context() as patch:
+        registry._discover.cache_clear()
+        patch.setitem(observers.BUILTIN, NoiseObserver.name, NoiseObserver)
+        folder = tmp_path_factory.mktemp("sanity")
+        (folder / "suite.yaml").write_text(yaml.safe_dump(reduced_suite(), sort_keys=False))
+        bench = {"suite": "suite.yaml", "diagnosis": {"noise": {
+            "type": NoiseObserver.name, "reads": ["encoders"], "gains_from": "none: white noise",
+            "gains": {robot: {} for robot in ROBOTS}}}}
+        (folder / "bench.yaml").write_text(yaml.safe_dump(bench, sort_keys=False))
+        out = folder / "out"
+        assert main([str(folder / "bench.yaml"), "--out", str(out), "--workers", "1", "--quiet"]) == 0
+    registry._discover.cache_clear()
+    rows = pq.read_table(out / "leaderboard.parquet").to_pylist()
+    return {(row["robot"], row["entry"], row["score"]): row for row in rows}, json.loads((out / "bench.json")
+                                                                                       .read_text()), out
+
+
+@pytest.mark.parametrize("robot", ROBOTS)
+def test_the_sanity_gate_holds(board, robot):
+    _, info, _ = board
+    gate = info["gate"][robot]
+    assert gate["passed"], gate["conditions"]
+
+
+@pytest.mark.parametrize("robot", ROBOTS)
+def test_a_third_party_noise_observer_scores_one_half(board, robot):
+    rows, _, _ = board
+    auc = rows[robot, "noise", "auc"]
+    assert auc["low"] <= 0.5 <= auc["high"], auc
+    assert rows[robot, "oracle_fault", "auc"]["value"] >= 0.99
+
+
+def test_the_leaderboard_shows_the_gate_and_what_each_entry_reads(board):
+    _, _, out = board
+    text = (out / "leaderboard.md").read_text()
+    assert text.count("**Sanity gate passed:**") == len(ROBOTS)
+    assert "| `noise` | encoders | 1000 |" in text and "| `oracle_luaf` (sanity) | truth |" in text
+    assert "specificity" in text and "1 - false-alarm rate" not in text
+    for name in ("roc", "detectability", "front"):
+        assert (out / "figures" / f"{name}.png").is_file()
