@@ -3,7 +3,8 @@
 Run k (0-based) is point ``(sample s, case c, grid point g, replicate r)`` with
 ``k = ((s C + c) G + g) R + r``, so the first N runs of a sampled campaign are its first N/(C G R) samples
 whatever ``samples.runs``, and its seed is ``seed + s R + r``: the cases and the grid's points share seeds
-(common random numbers: a sweep compares its points on the same noise), every sample and replicate has its own.
+(common random numbers: a sweep compares its points on the same noise), every sample and replicate has its own;
+with ``case_seeds`` it is ``seed + (s C + c) R + r``, each case its own seeds.
 
 A run's fields split in two (:func:`ftc_mj.engine.batching.batchable`): what may differ between the members
 of one batch (seed, initial states, parameters, mass scales, gains) and what is the batch's structure (a
@@ -115,7 +116,7 @@ def population(spec: CampaignSpec, base_seed: int) -> list[Run]:
             for g, point in enumerate(grid_points):
                 values = {**dict(zip(grid_paths, point)), **sampled}
                 for r in range(R):
-                    seed = base_seed + s * R + r
+                    seed = base_seed + ((s * C + c) if spec.case_seeds else s) * R + r
                     structure = {**spec.set, **case.set}
                     member: dict[str, Any] = {"seed": seed}
                     for path, value in values.items():

@@ -32,7 +32,7 @@ from pathlib import Path
 from typing import Annotated, Any, Literal
 
 import yaml
-from pydantic import AfterValidator, Field, StrictInt, StrictStr, field_validator, model_validator
+from pydantic import AfterValidator, Field, StrictBool, StrictInt, StrictStr, field_validator, model_validator
 
 from ftc_mj.analysis.metrics import METRICS
 from ftc_mj.config.errors import InputError, validate
@@ -199,6 +199,9 @@ class CampaignSpec(Strict):
     #: Seed of run k's random streams: seed + its sample index x replicates + its replicate (default: the
     #: scenario's seed). The grid's points and the cases share seeds (common random numbers).
     seed: SeedInt | None = None
+    #: Each case its own seeds (seed + (sample index x cases + case index) x replicates + replicate) rather than
+    #: the common random numbers: the cases' runs are then independent but for the sampled values they share.
+    case_seeds: StrictBool = False
     #: Fields set in every run, by dotted path as ``--set`` takes them, any YAML value.
     set: dict[FieldPath, Any] = {}
     #: Structural alternatives; every case is run on every point of the grid and the samples.

@@ -22,9 +22,9 @@ after its fault's onset, and every healthy run's window at the same nominal onse
 * ``alarms_per_hour``: alarms raised (rising edges: alarms re-arm) in the scored healthy windows per hour of them;
   ``latched``: the share of healthy windows whose alarm is on in every block (a latched alarm, not a rate).
 
-Intervals: 95% percentile bootstrap, clustered by draw (a healthy run's windows share its run; the fault cases'
-runs share their draws' seeds and mass scales, so a draw is resampled with all its cases); the thresholds are
-held at their calibrated values. Runs whose reference loop diverged are counted apart and never scored.
+Intervals: 95% percentile bootstrap, clustered by draw (a healthy run's windows share its run; the fault cases
+have seeds of their own but share their draws' mass scales, so a draw is resampled with all its cases); the
+thresholds are held at their calibrated values. Runs whose reference loop diverged are counted apart and never scored.
 """
 
 from __future__ import annotations

@@ -280,7 +280,8 @@ def _collect_windows(chunk: Chunk, campaign: campaign_execute.Campaign) -> None:
     merged = {name: values[order] for name, values in merged.items()}
     by_index = {run.index: run for run in campaign.runs}
     runs = [by_index[int(i)] for i in merged["run"]]
-    merged["draw"] = np.array([run.seed - (campaign.spec.seed or 0) for run in runs])
+    # The draw a run shares with other runs: its sample (mass scale), which every case of it has.
+    merged["draw"] = np.array([run.index // max(1, len(campaign.spec.cases)) for run in runs])
     for field in ("kind", "fault_size", "fault_joint", "onset"):
         values = [run.case_values.get(field) for run in runs]
         if any(v is not None for v in values):

@@ -175,15 +175,25 @@ POPULATIONS_V2 = ("tune", "calibrate", "healthy", "faults")
 
 
 def seed_ranges(spec: "SuiteSpec") -> dict[str, range]:
-    """Each population's seeds over the suite's largest tier (a fault case's runs share its draws' seeds)."""
+    """Each population's seeds over the suite's largest tier (each fault case its own draws)."""
     largest = {"tune": "tune_runs", "calibrate": "calibration_runs", "healthy": "healthy_runs",
                "faults": "fault_runs"}
     out = {}
     for population, seeds in spec.populations.items():
         count = max(max(getattr(t, largest[population]), getattr(t, "tracking_" + largest[population], 0))
                     for t in spec.tiers.values())
+        if population == "faults":  # each fault case its own draws
+            count *= _case_count(spec)
         out[population] = range(seeds.seed, seeds.seed + max(count, 1))
     return out
+
+
+def _case_count(spec: "SuiteSpec") -> int:
+    """The fault cases of a robot: the library's kinds and sizes on each (onset, joint)."""
+    library = spec.faults
+    kinds = (len(library.loss_of_effectiveness) + len(library.bias) + len(library.saturation) + int(library.lock)
+             + int(library.float))
+    return kinds * len(spec.protocol.onsets)
 
 
 def _disjoint_seeds(spec: "SuiteSpec") -> None:
@@ -337,6 +347,8 @@ class Suite:
         }
         if population == "faults":
             out["cases"] = self.fault_cases(robot, task)
+            if self.spec.populations:  # v2: each case its own draws of noise (the mass scales are shared)
+                out["case_seeds"] = True
         return out
 
 

@@ -178,40 +178,61 @@ def _styles(names: list[str]) -> dict[str, tuple[str, str, str | None]]:
     return out
 
 
+def _panels(boards: dict[str, RobotBoard], title: str, xlabel: str, ylabel: str
+            ) -> tuple[Figure, list[tuple[Any, RobotBoard, dict[str, tuple[str, str, str | None]]]]]:
+    """A figure of one panel per robot (two columns, a double-column figure's width) with its title and axis
+    labels; each panel with its robot's board and line styles."""
+    columns = min(2, len(boards))
+    rows = -(-len(boards) // columns)
+    fig = Figure(figsize=(7.0, 2.9 * rows + 0.9))
+    axes = fig.subplots(rows, columns, squeeze=False).ravel()
+    for ax in axes[len(boards):]:
+        ax.set_visible(False)
+    panels = []
+    for ax, (robot, board) in zip(axes, boards.items()):
+        ax.set_title(robot, fontsize=9)
+        ax.set_xlabel(xlabel, fontsize=8)
+        ax.set_ylabel(ylabel, fontsize=8)
+        ax.tick_params(labelsize=7)
+        ax.grid(alpha=0.3, which="both")
+        panels.append((ax, board, _styles(list(board.windows))))
+    fig.suptitle(title, fontsize=9)
+    return fig, panels
+
+
+def _legend(fig: Figure, panels: list) -> Figure:
+    """One legend for every panel, below them (the entries are the same on every robot)."""
+    handles, labels = panels[0][0].get_legend_handles_labels()
+    fig.legend(handles, labels, loc="lower center", ncol=5, fontsize=6.5, frameon=False)
+    fig.tight_layout(rect=(0, 0.03 + 0.022 * (-(-len(labels) // 5)), 1, 1))
+    return fig
+
+
 def roc_figure(boards: dict[str, RobotBoard]) -> Figure:
-    robots = list(boards)
-    fig = Figure(figsize=(3.4 * len(robots), 4.2))
-    axes = fig.subplots(1, len(robots), squeeze=False)[0]
-    for ax, robot in zip(axes, robots):
-        board = boards[robot]
-        styles = _styles(list(board.windows))
+    fig, panels = _panels(boards, "ROC of the pooled windows (z = peak / calibrated threshold), AUC in the legends",
+                          "false-alarm probability per window", "detection probability")
+    for ax, board, styles in panels:
         for name, w in board.windows.items():
             if not (w.healthy_z.size and w.fault_z.size):
                 continue
             thresholds = np.unique(np.concatenate([w.healthy_z, w.fault_z, [np.inf]]))
             p_fa = np.array([np.mean(w.healthy_z > c) for c in thresholds])
             p_d = np.array([np.mean(w.fault_z > c) for c in thresholds])
-            colour, style, _ = styles[name]
+            colour, style, marker = styles[name]
             ax.plot(np.concatenate(([1.0], p_fa)), np.concatenate(([1.0], p_d)), color=colour, linestyle=style,
-                    linewidth=1.2, label=f"{name} ({board.scores[name]['auc'].value:.2f})")
+                    marker=marker, markevery=0.2, markersize=3, linewidth=1.0,
+                    label=f"{name} {board.scores[name]['auc'].value:.2f}")
         ax.plot([0, 1], [0, 1], color="#dddddd", linewidth=0.6)
-        ax.set_xlabel("false-alarm probability per window", fontsize=8)
-        ax.set_title(robot, fontsize=9)
-        ax.grid(alpha=0.3)
-        ax.legend(fontsize=5.5, loc="lower right")
-    axes[0].set_ylabel("detection probability", fontsize=8)
-    fig.suptitle("ROC of the pooled windows (z = peak / calibrated threshold); AUC in brackets", fontsize=9)
+        ax.legend(fontsize=5, loc="lower right", ncol=2)
     fig.tight_layout()
     return fig
 
 
 def detectability_figure(boards: dict[str, RobotBoard], alpha: float) -> Figure:
-    robots = list(boards)
-    fig = Figure(figsize=(3.4 * len(robots), 3.8))
-    axes = fig.subplots(1, len(robots), squeeze=False)[0]
-    for ax, robot in zip(axes, robots):
-        board = boards[robot]
-        styles = _styles(list(board.windows))
+    fig, panels = _panels(boards, "Detectability: P_d at the common false-alarm probability against the bias",
+                          "bias [residual units: the healthy residual's 99th percentile]",
+                          f"P_d at {alpha:g} false alarms per window")
+    for ax, board, styles in panels:
         names = list(board.windows)
         for i, name in enumerate(names):
             curve = cal.detectability(board.windows[name])
@@ -219,47 +240,29 @@ def detectability_figure(boards: dict[str, RobotBoard], alpha: float) -> Figure:
                 continue
             size, pd = np.array([c[0] for c in curve]), np.array([c[1] for c in curve])
             # Entries a little apart along x (a few percent) so that identical curves stay visible.
-            shift = 1.0 + 0.025 * (i - len(names) / 2) / max(len(names), 1)
+            shift = 1.0 + 0.06 * (i - len(names) / 2) / max(len(names), 1)
             colour, style, marker = styles[name]
             ax.plot(size * shift, pd, color=colour, linestyle=style, marker=marker, markersize=3.5, linewidth=1.0,
                     label=name)
         ax.axhline(alpha, color="#999999", linewidth=0.6)
         ax.set_xscale("log")
         ax.set_ylim(-0.03, 1.03)
-        ax.set_xlabel("bias size [residual units]", fontsize=8)
-        ax.set_title(robot, fontsize=9)
-        ax.grid(alpha=0.3)
-    axes[0].set_ylabel(f"P_d at {alpha:g} false alarms per window", fontsize=8)
-    axes[-1].legend(fontsize=5.5, loc="lower right")
-    fig.suptitle("Detectability: P_d at the common false-alarm probability against the bias size "
-                 "(1 unit = the healthy residual's 99th percentile)", fontsize=9)
-    fig.tight_layout()
-    return fig
+    return _legend(fig, panels)
 
 
 def front_figure(boards: dict[str, RobotBoard]) -> Figure:
-    robots = list(boards)
-    fig = Figure(figsize=(3.4 * len(robots), 3.8))
-    axes = fig.subplots(1, len(robots), squeeze=False)[0]
-    for ax, robot in zip(axes, robots):
-        board = boards[robot]
-        styles = _styles(list(board.windows))
+    fig, panels = _panels(boards, "Median delay against false alarms (thresholds at 0.5-30% per window)",
+                          "realised false-alarm probability per window", "median detection delay [ms]")
+    for ax, board, styles in panels:
         for name, points in board.fronts.items():
-            if name == "null":
+            if name == "null":  # its "detections" are its false alarms: no delay to speak of
                 continue
             fa = np.array([p[1] for p in points])
             delay = np.array([p[3] for p in points])
-            keep = np.isfinite(fa) & np.isfinite(delay)
+            keep = np.isfinite(fa) & np.isfinite(delay) & (fa > 0)
             colour, style, marker = styles[name]
             ax.plot(fa[keep], delay[keep] * 1000.0, color=colour, linestyle=style, marker=marker, markersize=3.5,
                     linewidth=1.0, label=name)
         ax.set_xscale("log")
         ax.set_yscale("log")
-        ax.set_xlabel("realised false-alarm probability per window", fontsize=8)
-        ax.set_title(robot, fontsize=9)
-        ax.grid(alpha=0.3, which="both")
-    axes[0].set_ylabel("median detection delay [ms]", fontsize=8)
-    axes[-1].legend(fontsize=5.5, loc="upper right")
-    fig.suptitle("Delay against false alarms: thresholds calibrated at 0.5-30% per window", fontsize=9)
-    fig.tight_layout()
-    return fig
+    return _legend(fig, panels)

@@ -184,6 +184,13 @@ def check_robot(
             warnings.append(f"joint {c.name!r}: the reference needs {c.peak_reference_torque:.3g} N m{when} "
                             f"(nominal inverse dynamics, gravity included), above its torque limit "
                             f"{c.torque_limit:g} N m: the command is clipped")
+    for term, present, used in (("damping", model.dof_damping, friction.from_model.damping),
+                                ("frictionloss", model.dof_frictionloss, friction.from_model.frictionloss)):
+        if np.any(present[:n]) and not used:
+            joints_with = ", ".join(repr(joints[j].name) for j in np.flatnonzero(present[:n]))
+            warnings.append(f"the model file's joint {term} ({joints_with}) is missing from the nominal model "
+                            f"(nominal.friction.from_model.{term}: false): it acts on the plant only, a healthy "
+                            "lumped uncertainty every observer must estimate and a benchmark must declare")
     if not np.any(model.dof_armature):
         warnings.append("no joint has armature (a URDF cannot carry it): geared motors add N^2 J_rotor, typically "
                         "0.01-1 kg m^2 per joint (Menagerie's UR5e and Panda: 0.1); robot.armature sets it")

@@ -34,6 +34,19 @@ def test_size_order_and_seeds():
     assert len({r.run_id for r in runs}) == 24
 
 
+def test_case_seeds_give_each_case_its_own_seeds_and_keep_the_samples():
+    runs = population(spec(case_seeds=True), base_seed=10)
+    for run in runs:
+        s, rest = divmod(run.index, 8)
+        c, rest = divmod(rest, 4)
+        g, r = divmod(rest, 2)
+        assert run.seed == 10 + (s * 2 + c) * 2 + r
+    shared = population(spec(), base_seed=10)
+    assert [r.values for r in runs] == [r.values for r in shared]  # the sampled values stay common
+    by_case = {case: {r.seed for r in runs if r.case == case} for case in "ab"}
+    assert not by_case["a"] & by_case["b"]
+
+
 def test_batchable_fields_go_to_the_member_and_the_rest_to_the_structure():
     run = population(spec(), base_seed=0)[0]
     assert run.member.keys() == {"seed", "parameters.size", "variants.hs.controller.gains.mu",

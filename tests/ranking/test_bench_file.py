@@ -71,9 +71,9 @@ def test_an_output_directory_of_something_else_is_refused(tmp_path, capsys):
     assert sorted(p.name for p in other.iterdir()) == ["notes.txt"]
 
 
-def test_the_shipped_entries_cover_every_robot_of_suite_v1():
+def test_the_shipped_entries_cover_every_robot_of_suite_v2():
     bench = load_bench()
-    assert bench.suite.version == "v1"
+    assert bench.suite.version == "v2"
     assert set(bench.suite.spec.robots) == {"two_link", "puma560", "ur5e", "panda"}
     names = {e.name for e in bench.of("diagnosis")}
     assert {"tosmo", "hs_tosmo", "sosmo", "eso", "do", "levant", "ndob", "ndob_levant", "kalman"} <= names

@@ -1,6 +1,6 @@
 """Suite v2's sanity gate on every robot, on a reduced protocol with the same statistics: suite v2's robots,
 loops, encoders, model mismatch and diagnosis, shortened (2.3 s runs, 0.4 s windows, 20 calibration and 20
-healthy runs, a bias of 1 and 10 residual units and a float on each fault joint, 2 draws). The three sanity rows
+healthy runs, a bias of 1 and 10 residual units and a float on each fault joint, 3 draws). The three sanity rows
 and one entry, a noise observer written as a third-party plugin, are scored by ``ftc-mj bench``.
 
 It fails the suite unless, on every robot: oracle_fault's AUC >= 0.99 and its P_d at the common false-alarm
@@ -21,7 +21,7 @@ from ftc_mj.cli.bench import main
 from ftc_mj.methods import observers, registry
 from ftc_mj.methods.gains import GainConfig
 from ftc_mj.methods.observers.base import Observer
-from ftc_mj.ranking.suite import SUITES
+from reduced_v2 import reduced_suite
 
 ROBOTS = ("two_link", "puma560", "ur5e", "panda")
 
@@ -50,23 +50,6 @@ class NoiseObserver(Observer):
 
     def advance(self, tau: np.ndarray, model) -> None:
         pass
-
-
-def reduced_suite() -> dict:
-    suite = yaml.safe_load((SUITES / "v2.yaml").read_text())
-    suite["version"] = "v2_reduced"
-    for robot in suite["robots"].values():
-        robot["scenario"] = str((SUITES / robot["scenario"]).resolve())
-    protocol = suite["protocol"]
-    protocol["diagnosis"]["baseline"] = {"start": 0.8, "end": 1.4}
-    protocol["metrics"] = {"window_start": 1.0, "estimation_window_start": 0.8, "fault_settle": 0.2,
-                           "fault_window": 0.4}
-    protocol["onsets"], protocol["fault_length"] = [1.5, 1.9], 0.4
-    suite["calibration"]["windows"] = [0.4]
-    suite["faults"] = {"bias_relative_to": "residual_unit", "bias": [1.0, 10.0], "float": True}
-    suite["tiers"] = {"quick": {"duration": 2.3, "calibration_runs": 20, "healthy_runs": 20, "fault_runs": 2,
-                                "tracking_healthy_runs": 1, "tracking_fault_runs": 1, "tune_runs": 1}}
-    return suite
 
 
 @pytest.fixture(scope="module")

@@ -93,10 +93,20 @@ def test_tracking_scores():
                                diverged=np.array([False, False, False, True, False]))
     scores = sc.tracking_scores(tracking)
     assert scores["rms_healthy"].value == pytest.approx(2e-3)
-    assert (scores["rms_faulty"].value, scores["rms_faulty"].count) == (pytest.approx(3e-3), 2)
+    # The diverged faulty run counts at the capped penalty, never left out (that would flatter it).
+    assert (scores["rms_faulty"].value, scores["rms_faulty"].count) == (pytest.approx((6e-3 + sc.DIVERGED_RMS) / 3), 3)
+    assert scores["rms_faulty_median"].value == pytest.approx(4e-3)
     assert scores["fault_peak"].value == pytest.approx(0.2)
     assert scores["chattering"].value == pytest.approx(20.0)
     assert (scores["divergence_rate"].value, scores["divergence_rate"].count) == (pytest.approx(1 / 5), 5)
+
+
+def test_kind_medians_and_the_cap():
+    tracking = sc.TrackingRuns(healthy_rms=np.array([1e-3]), faulty_rms=np.array([2e-3, NAN, 4e-3, 5.0]),
+                               fault_peak=np.zeros(4), chattering=np.ones(1), diverged=np.zeros(5, bool),
+                               faulty_kind=np.array(["bias", "float", "bias", "lock"]))
+    assert sc.kind_medians(tracking) == {"bias": pytest.approx(3e-3), "float": sc.DIVERGED_RMS,
+                                         "lock": sc.DIVERGED_RMS}
 
 
 def test_arm_rms_combines_the_joints():

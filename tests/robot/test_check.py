@@ -135,3 +135,16 @@ def test_shipped_scenarios_get_only_true_warnings(path):
     no_armature = not np.any(scenario.model.dof_armature)
     assert [w for w in report.warnings if not w.startswith("no joint has armature")] == []
     assert any(w.startswith("no joint has armature") for w in report.warnings) == no_armature
+
+
+def test_model_terms_left_out_of_the_nominal_model_are_warned():
+    from ftc_mj.robot.friction import FrictionSpec
+
+    model = arm(wrist_inertia=0.05, armature=0.1, damping=2.0, frictionloss=0.3)
+    held = check_robot(model)
+    assert not any("missing from the nominal model" in w for w in held.warnings)
+    left_out = check_robot(model, friction=FrictionSpec.model_validate({"from_model": {"damping": False}}))
+    assert [w for w in left_out.warnings if "missing from the nominal model" in w] == [
+        "the model file's joint damping ('shoulder', 'elbow', 'wrist') is missing from the nominal model "
+        "(nominal.friction.from_model.damping: false): it acts on the plant only, a healthy lumped uncertainty "
+        "every observer must estimate and a benchmark must declare"]
