@@ -140,6 +140,8 @@ def fingerprint(spec: CampaignSpec, scenario: Scenario) -> str:
         content["samples"].pop("runs")
     content.pop("report")
     content.pop("description")
+    if not content.get("case_seeds"):  # the default: the fingerprint of a campaign written before the field
+        content.pop("case_seeds", None)
     content["scenario"] = scenario.spec.model_dump(mode="json", exclude={"name", "description", "figures", "output"})
     content["robot_file"] = hashlib.sha256(Path(scenario.model_path).read_bytes()).hexdigest()
     return digest(content, 24)

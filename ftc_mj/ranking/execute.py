@@ -86,6 +86,7 @@ def protocol_digest(bench: Bench, robot: str, task: str, population: str, tier: 
         content["robot"] = {k: v for k, v in robot_spec.items() if k in ("scenario", "loop", "terms")}
         if population == "faults":
             content["cases"] = suite.fault_cases(robot, task)
+            content["draws"] = "per case"  # each case its own seeds (the campaign's case_seeds)
         else:
             content.pop("faults")
     return digest(content, 16)

@@ -1,6 +1,6 @@
 """Suite v2 on a reduced protocol for the tests: its robots, loops, encoders, model mismatch and diagnosis,
-shortened (2.3 s runs, 0.4 s windows from 1.5 s and 1.9 s, 20 calibration and 20 healthy runs, a bias of 1 and
-10 residual units and a float on each fault joint, 3 draws)."""
+shortened (2.3 s runs, 0.4 s windows from 1.5 s and 1.9 s, 16 calibration and 16 healthy runs, a bias of 10
+residual units and a float on each fault joint, 3 draws)."""
 
 from __future__ import annotations
 
@@ -20,7 +20,7 @@ def reduced_suite() -> dict:
                            "fault_window": 0.4}
     protocol["onsets"], protocol["fault_length"] = [1.5, 1.9], 0.4
     suite["calibration"]["windows"] = [0.4]
-    suite["faults"] = {"bias_relative_to": "residual_unit", "bias": [1.0, 10.0], "float": True}
-    suite["tiers"] = {"quick": {"duration": 2.3, "calibration_runs": 20, "healthy_runs": 20, "fault_runs": 3,
+    suite["faults"] = {"bias_relative_to": "residual_unit", "bias": [10.0], "float": True}
+    suite["tiers"] = {"quick": {"duration": 2.3, "calibration_runs": 16, "healthy_runs": 16, "fault_runs": 3,
                                 "tracking_healthy_runs": 1, "tracking_fault_runs": 1, "tune_runs": 1}}
     return suite

@@ -88,6 +88,7 @@ def test_a_tuning_on_scoring_seeds_is_refused(tmp_path, capsys):
     assert "bench.yaml: diagnosis.momentum.tuned_with: " in err and "faults seeds" in err
 
 
+@pytest.mark.slow
 def test_a_fault_that_would_not_act_is_refused(tmp_path, capsys):
     """v1's saturation at 0.8 of the peak torque puts nothing on the PUMA560's plant."""
     suite = reduced_suite()
