@@ -25,8 +25,7 @@ from ftc_mj.cli.parser import ArgumentParser
 
 if TYPE_CHECKING:
     import numpy as np
-    from rich.console import Console
-    from rich.table import Table
+    from rich.console import Console, Group
 
     from ftc_mj.engine.loop import ChunkCallback
     from ftc_mj.outputs.live import LiveRecording
@@ -145,32 +144,57 @@ def _run_with_progress(scenario: Scenario, console: Console | None,
 
 
 def metrics_table(scenario: Scenario, results: Sequence[VariantResult], metrics: dict[str, dict],
-                  shown: Sequence[str] | None = None) -> Table:
-    """One line per metric and variant (the metric named on its first, a rule between metrics), one column per
-    joint: a 7-joint arm fits a screen. ``shown``: the metrics (default: all)."""
+                  shown: Sequence[str] | None = None) -> Group:
+    """Per metric, a heading (its name and unit) and one line per variant, one column per joint, each value
+    once (:func:`ftc_mj.outputs.tables.table_rows`), the columns aligned from metric to metric: a 6-joint
+    arm fits 80 columns, its joints numbered with a legend where their names do not fit
+    (:func:`ftc_mj.outputs.tables.joint_labels`). ``shown``: the metrics (default: all)."""
+    from rich.console import Group
+    from rich.markup import escape
     from rich.table import Table
+    from rich.text import Text
 
-    from ftc_mj.analysis.metrics import METRICS, unit
+    from ftc_mj.analysis.metrics import METRICS
+    from ftc_mj.outputs.tables import joint_labels, table_rows
 
     n = scenario.n_joints
     shown = list(METRICS if shown is None else shown)
     every = len(shown) == len(METRICS)
-    table = Table(title=f"{scenario.name}: " + ("metrics, one column per joint" if every
-                                                 else "summary (--metrics all: every metric)"), show_lines=False)
-    table.add_column("metric", no_wrap=True)
-    table.add_column("unit", no_wrap=True)
-    table.add_column("variant", no_wrap=True)
-    for joint in range(n):
-        table.add_column(scenario.model.joint(joint).name or f"joint {joint + 1}", justify="right")
-    names = {r.name: r.name if r.status == "ok" else f"{r.name} [red](diverged at {r.diverged_at:.3f} s)[/red]"
-             for r in results}
+    labels, legend = joint_labels([scenario.model.joint(joint).name for joint in range(n)])
+    hosts = {r.name: r.host for r in results}
+    diverged = {r.name: f" (diverged at {r.diverged_at:.3f} s)" for r in results if r.status != "ok"}
     space = scenario.diagnoser.space if scenario.diagnoser is not None else None
+    sections = []
     for metric in shown:
-        for k, result in enumerate(results):
-            first, last = k == 0, k == len(results) - 1
-            table.add_row(metric if first else "", _unit(metric, space) if first else "", names[result.name],
-                          *(_format(v) for v in metrics[result.name][metric]), end_section=last and not every)
-    return table
+        rows = [(label if label.startswith(".") or label == "all" else label + diverged.get(label, ""),
+                 [_format(v) for v in values])
+                for label, values in table_rows({r.name: metrics[r.name][metric] for r in results}, hosts,
+                                                    shared_plant=scenario.log is not None)]
+        sections.append((f"{metric} [{_unit(metric, space)}]", rows))
+    # One width per column over every metric, so that the joints line up down the whole table.
+    variant_width = max([len("variant")] + [len(label) for _, rows in sections for label, _ in rows])
+    widths = [max([len(label)] + [len(cells[j]) for _, rows in sections for _, cells in rows])
+              for j, label in enumerate(labels)]
+    # Two spaces between columns, one where two would not fit 80 columns (six joints of -1.23e-06).
+    gap = 2 if variant_width + sum(width + 2 for width in widths) <= 80 else 1
+    parts: list = [Text(f"{scenario.name}: " + ("metrics, one column per joint" if every
+                                                 else "summary (--metrics all: every metric)"), style="bold"),
+                   Text("")]
+    for k, (heading, rows) in enumerate(sections):
+        table = Table(title=escape(heading), title_justify="left", title_style="bold", box=None,
+                      padding=(0, 0, 0, gap), show_header=k == 0, header_style="bold underline", pad_edge=False)
+        table.add_column("variant", no_wrap=True, min_width=variant_width, max_width=variant_width)
+        for label, width in zip(labels, widths):
+            table.add_column(label, justify="right", no_wrap=True, min_width=width, max_width=width)
+        for label, cells in rows:
+            table.add_row(Text(label, style="red" if label.endswith(" s)") else ""), *cells)
+        parts.append(table)
+    if legend:
+        parts.append(Text(f"joints: {legend}"))
+    if any(host is not None for host in hosts.values()):
+        parts.append(Text("a monitor's row (.name) is left out where it equals its variant's (the same closed "
+                          "loop)"))
+    return Group(*parts)
 
 
 def _unit(metric: str, space: str | None) -> str:
@@ -324,10 +348,7 @@ def main(argv: Sequence[str] | None = None, prog: str = PROG) -> int:
         if args.metrics == "summary" and any(np.any(m["saturation_time"] > 0) for m in metrics.values()):
             shown.append("saturation_time")  # in the summary whenever a command was clipped
         if not args.quiet:
-            # Wide enough for seven joint columns even when the output is piped (rich then assumes 80).
-            table_console = Console()
-            table_console.width = max(table_console.width, 100)
-            table_console.print(metrics_table(scenario, results, metrics, shown))
+            Console().print(metrics_table(scenario, results, metrics, shown))
             note = undefined_note(scenario, results)
             if note is not None:
                 print(note, file=sys.stderr)
