@@ -7,8 +7,9 @@ acceleration (:mod:`ftc_mj.robot.identify`): ``--only friction`` fits viscous, C
 joint with the model's rigid body kept; ``--all`` fits the base parameters (QR), armature and friction, and is
 refused where the excitation report says the logs cannot support it. Writes FILE.yaml, a file a scenario names
 as its ``base:`` (``nominal.friction``; with ``--all`` also ``robot.armature`` and ``robot.model``, an MJCF
-FILE.xml beside it holding the identified bodies). ``--validate`` prints the torque residual RMS per joint on
-logs not used for the fit.
+FILE.xml beside it holding the identified bodies); with ``--base SCENARIO``, a runnable scenario: SCENARIO with
+the identified parameters. ``--validate`` prints the torque residual RMS per joint on logs not used for the
+fit. A log's labelled events (``log.events``: pushes, contacts) are left out of both.
 
 Exit status: 0 on success, 2 on bad input (one line naming the file and the problem; nothing written).
 """
@@ -23,6 +24,8 @@ from pathlib import Path
 from ftc_mj.cli.parser import ArgumentParser
 
 PROG = "ftc-mj identify"
+#: Seconds after a labelled event's end also left out (the zero-phase filter's and the arm's settling).
+EVENT_SETTLING = 0.5
 
 
 def build_parser(prog: str = PROG) -> argparse.ArgumentParser:
@@ -37,6 +40,8 @@ def build_parser(prog: str = PROG) -> argparse.ArgumentParser:
                         help="the robot: a scenario or a robot file (MJCF, URDF); default: the first LOG's")
     parser.add_argument("--validate", type=Path, nargs="+", default=[], metavar="LOG",
                         help="scenario files with a log section not used for the fit: residual RMS per joint")
+    parser.add_argument("--base", type=Path, metavar="SCENARIO",
+                        help="write a runnable scenario: base: SCENARIO with the identified parameters")
     parser.add_argument("--cutoff", type=float, default=5.0, metavar="HZ",
                         help="cutoff of the zero-phase low-pass filter [Hz] (default 5)")
     parser.add_argument("--velocity-scale", type=float, default=0.02, metavar="EPS",
@@ -76,6 +81,8 @@ def _model(args: argparse.Namespace):
 
 def _motions(paths: Sequence[Path], joints: list[str], cutoff: float):
     """Each log's filtered motion, its joints checked against the robot's."""
+    import numpy as np
+
     from ftc_mj.config.errors import InputError
     from ftc_mj.logs.trajectory import joint_names
     from ftc_mj.robot.identify import filtered_motion
@@ -91,7 +98,12 @@ def _motions(paths: Sequence[Path], joints: list[str], cutoff: float):
             raise InputError(str(path), "robot", f"the log's joints ({', '.join(logged)}) do not match the robot's "
                              f"({', '.join(joints)})")
         log = scenario.log
-        motions.append(filtered_motion(str(path), log.times, log.position, log.velocity, log.torque, cutoff))
+        keep = None
+        if log.events:  # an external torque acts in them: left out, with the filter's settling after each
+            keep = np.ones(len(log.times), dtype=bool)
+            for event in log.events:
+                keep &= ~((log.times >= event.start) & (log.times <= event.end + EVENT_SETTLING))
+        motions.append(filtered_motion(str(path), log.times, log.position, log.velocity, log.torque, cutoff, keep))
     return motions
 
 
@@ -166,11 +178,16 @@ def _fragment(args, identified, joints: list[str], xml, lines: list[str]) -> str
                 # the fitted b and c are the joints' whole friction: the model file's own is not added again
                 "from_model": {"damping": False, "frictionloss": False}}
     document: dict = {"nominal": {"friction": friction}}
+    if args.base is not None:
+        import os
+
+        document = {"base": os.path.relpath(args.base.resolve(), args.out.resolve().parent), **document}
     if identified.mode == "all":
         document["robot"] = {"model": args.out.with_suffix(".xml").name,
                              "armature": [round(float(x), 6) for x in identified.armature]}
     command = " ".join(["ftc-mj identify", *map(str, args.logs), "--all" if args.all else "--only friction",
                         "--out", str(args.out), *(["--robot", str(args.robot)] if args.robot else []),
+                        *(["--base", str(args.base)] if args.base else []),
                         *(["--validate", *map(str, args.validate)] if args.validate else [])])
     header = [f"# Identified by: {command}", f"# Joints: {', '.join(joints)}",
               "# A scenario names this file as its base: (nominal.friction: F = b qd + c tanh(qd / "

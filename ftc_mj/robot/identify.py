@@ -8,8 +8,11 @@ The model is linear in its parameters (:mod:`ftc_mj.robot.regressor`, :mod:`ftc_
 with phi the bodies' standard inertial parameters, a the armature and theta_f = (b_j, c_j, o_j) the friction.
 Velocity and acceleration come from the log through a zero-phase low-pass filter (Butterworth, forward and
 backward, ``scipy.signal.filtfilt``): the velocity filtered (the logged one, or the positions' central
-difference), the acceleration the central difference of the filtered velocity, filtered again; the torque is
-filtered by the same filter, so that regressor and torque have the same (zero) delay.
+difference), the acceleration the central difference of the filtered velocity, filtered again. The torque
+and every regressor column are then filtered by the same filter ("parallel filtering", Gautier, IEEE TCST
+5(4), 1997): the model being linear in its parameters, the filtered torque is the filtered regressor times
+them, also where a column is not smooth (the Coulomb term's tanh at each velocity reversal, which the torque
+column carries smoothed by the filter).
 
 * **friction only** (``mode="friction"``): the rigid body (phi, a) kept as the model has it; per joint, the
   three friction parameters fit tau_j - (rigid-body inverse dynamics)_j by bounded least squares
@@ -54,12 +57,14 @@ RIDGE = 1e-6
 #: Default cutoff of the zero-phase filter [Hz] and its order.
 DEFAULT_CUTOFF = 5.0
 FILTER_ORDER = 4
+#: Periods of the cutoff left out at each end of a log (filtfilt's padding and the differences' one-sided ends).
+EDGE_PERIODS = 2.0
 
 
 @dataclass
 class Motion:
-    """One log's samples for identification: filtered q, qd, qdd, tau ``(samples, n)``, its name and its
-    sample period."""
+    """One log for identification: its filtered q, qd, qdd and torque ``(samples, n)`` on the whole log, its
+    name and sample period, the samples to fit on (``keep``) and the filter (:meth:`columns`)."""
 
     name: str
     dt: float
@@ -67,11 +72,24 @@ class Motion:
     qd: np.ndarray
     qdd: np.ndarray
     tau: np.ndarray
+    keep: np.ndarray
+    filter: tuple[np.ndarray, np.ndarray]
+
+    def columns(self, values: np.ndarray) -> np.ndarray:
+        """``values`` (samples first) through the same zero-phase filter as the torque, at the kept samples."""
+        return signal.filtfilt(*self.filter, values, axis=0)[self.keep]
+
+    @property
+    def torque(self) -> np.ndarray:
+        """The filtered torque at the kept samples."""
+        return self.tau[self.keep]
 
 
 def filtered_motion(name: str, times: np.ndarray, position: np.ndarray, velocity: np.ndarray | None,
-                    torque: np.ndarray, cutoff: float = DEFAULT_CUTOFF) -> Motion:
-    """The zero-phase filtered velocity, acceleration and torque of a log on a uniform grid ``times``."""
+                    torque: np.ndarray, cutoff: float = DEFAULT_CUTOFF, keep: np.ndarray | None = None) -> Motion:
+    """The zero-phase filtered velocity, acceleration and torque of a log on a uniform grid ``times``; with
+    ``keep`` (a mask of the samples), only those samples, filtered with the whole log (e.g. outside a log's
+    labelled events, where an external torque acts that the model does not hold)."""
     samples = len(times)
     if samples < MIN_SAMPLES:
         raise InputError(name, "log", f"has {samples} samples, fewer than the {MIN_SAMPLES} identification needs")
@@ -84,7 +102,13 @@ def filtered_motion(name: str, times: np.ndarray, position: np.ndarray, velocity
     zero_phase = lambda x: signal.filtfilt(b, a, x, axis=0)  # noqa: E731
     qd = zero_phase(np.gradient(position, dt, axis=0) if velocity is None else velocity)
     qdd = zero_phase(np.gradient(qd, dt, axis=0))
-    return Motion(name, dt, np.asarray(position, dtype=float), qd, qdd, zero_phase(torque))
+    kept = np.ones(samples, dtype=bool) if keep is None else np.array(keep, dtype=bool)
+    edge = min(samples // 10, int(np.ceil(EDGE_PERIODS / (cutoff * dt))))
+    kept[:edge] = kept[samples - edge:] = False  # the filter's and the differences' edge effects
+    if kept.sum() < MIN_SAMPLES:
+        raise InputError(name, "log.events", f"leave {int(kept.sum())} samples outside the events, fewer than the "
+                         f"{MIN_SAMPLES} identification needs")
+    return Motion(name, dt, np.asarray(position, dtype=float), qd, qdd, zero_phase(torque), kept, (b, a))
 
 
 @dataclass
@@ -117,8 +141,8 @@ class Excitation:
 
 def excitation(motions: list[Motion], joints: list[str]) -> Excitation:
     """Per-joint velocity reach in both signs and position range over the logs, and what keeps ``all`` out."""
-    qd = np.concatenate([m.qd for m in motions])
-    q = np.concatenate([m.q for m in motions])
+    qd = np.concatenate([m.qd[m.keep] for m in motions])
+    q = np.concatenate([m.q[m.keep] for m in motions])
     report = Excitation(len(qd), qd.min(axis=0), qd.max(axis=0), q.max(axis=0) - q.min(axis=0))
     for j, name in enumerate(joints):
         reach = min(-report.speed_negative[j], report.speed_positive[j])
@@ -131,7 +155,7 @@ def excitation(motions: list[Motion], joints: list[str]) -> Excitation:
 
 def check_speed(motions: list[Motion], joints: list[str]) -> None:
     """Refuse logs on which a joint never reaches :data:`MIN_SPEED` in both directions (no friction to fit)."""
-    qd = np.concatenate([m.qd for m in motions])
+    qd = np.concatenate([m.qd[m.keep] for m in motions])
     for j, name in enumerate(joints):
         reach = min(-qd[:, j].min(), qd[:, j].max())
         if reach < MIN_SPEED:
@@ -179,17 +203,17 @@ def fit_friction(model: mujoco.MjModel, motions: list[Motion], joints: list[str]
                  velocity_scale: float = DEFAULT_VELOCITY_SCALE) -> Identified:
     """Friction only, the model's rigid body kept (module docstring)."""
     check_speed(motions, joints)
-    shape = JointFriction(np.zeros(len(joints)), np.zeros(len(joints)), np.zeros(len(joints)), velocity_scale)
-    qd = np.concatenate([m.qd for m in motions])
-    target = np.concatenate([m.tau - _rigid_torque(model, m) for m in motions])
-    sign = shape.smooth_sign(qd)
-    coefficients = np.zeros((len(joints), 3))
-    for j in range(len(joints)):
-        columns = np.column_stack([qd[:, j], sign[:, j], np.ones(len(qd))])
+    n = len(joints)
+    shape = JointFriction(np.zeros(n), np.zeros(n), np.zeros(n), velocity_scale)
+    target = np.concatenate([m.torque - m.columns(_rigid_torque(model, m)) for m in motions])
+    Y = np.concatenate([m.columns(shape.regressor(m.qd)) for m in motions])  # (samples, n, 3 n)
+    coefficients = np.zeros((n, 3))
+    for j in range(n):
+        columns = Y[:, j, 3 * j:3 * j + 3]
         solution = optimize.lsq_linear(columns, target[:, j], bounds=([0.0, 0.0, -np.inf], [np.inf] * 3))
         coefficients[j] = solution.x
     friction = JointFriction(coefficients[:, 0], coefficients[:, 1], coefficients[:, 2], velocity_scale)
-    fit_rms = np.sqrt(np.mean((target - friction.torque(qd)) ** 2, axis=0))
+    fit_rms = np.sqrt(np.mean((target - Y @ coefficients.reshape(-1)) ** 2, axis=0))
     return Identified(friction, "friction", excitation=excitation(motions, joints), fit_rms=fit_rms)
 
 
@@ -206,8 +230,8 @@ def fit_all(model: mujoco.MjModel, motions: list[Motion], joints: list[str],
         Y = regressor(m.q, m.qd, m.qdd)
         armature_columns = np.zeros((len(m.q), n, n))
         armature_columns[:, np.arange(n), np.arange(n)] = m.qdd
-        blocks.append(np.concatenate([Y, armature_columns, shape.regressor(m.qd)], axis=2))
-        torques.append(m.tau)
+        blocks.append(m.columns(np.concatenate([Y, armature_columns, shape.regressor(m.qd)], axis=2)))
+        torques.append(m.torque)
     W = np.concatenate(blocks).reshape(-1, blocks[0].shape[2])
     y = np.concatenate(torques).reshape(-1)
     prior = np.concatenate([regressor.parameters(), model.dof_armature, np.zeros(3 * n)])
@@ -254,16 +278,18 @@ def fit_all(model: mujoco.MjModel, motions: list[Motion], joints: list[str],
 
 
 def predicted_torque(model: mujoco.MjModel, identified: Identified, motion: Motion) -> np.ndarray:
-    """The identified model's torque along a motion (its rigid body: the model's own in friction mode)."""
+    """The identified model's torque along a motion (its rigid body: the model's own in friction mode), through
+    the motion's filter, at its kept samples."""
     if identified.mode == "all":
         regressor = Regressor(model)
         rigid = regressor(motion.q, motion.qd, motion.qdd) @ identified.phi.reshape(-1)
         rigid += identified.armature * motion.qdd
     else:
         rigid = _rigid_torque(model, motion)
-    return rigid + identified.friction.torque(motion.qd)
+    return motion.columns(rigid + identified.friction.torque(motion.qd))
 
 
 def residual_rms(model: mujoco.MjModel, identified: Identified, motion: Motion) -> np.ndarray:
-    """Per joint, the RMS of the logged (filtered) torque minus the identified model's [N m]."""
-    return np.sqrt(np.mean((motion.tau - predicted_torque(model, identified, motion)) ** 2, axis=0))
+    """Per joint, the RMS of the logged (filtered) torque minus the identified model's [N m], at the motion's
+    kept samples."""
+    return np.sqrt(np.mean((motion.torque - predicted_torque(model, identified, motion)) ** 2, axis=0))

@@ -760,3 +760,15 @@ def test_cusum_rule_from_the_scenario(tmp_path: Path) -> None:
                                                                               "h": 12.0}})))
     assert (scenario.diagnoser.rule, scenario.diagnoser.drift, scenario.diagnoser.h) == ("cusum", 0.4, 12.0)
     assert load_scenario(write(tmp_path, diagnosis_data(VALID))).diagnoser.rule == "threshold"
+
+
+def test_a_floor_raises_a_fixed_threshold_and_is_refused_beside_a_bound_or_k():
+    from ftc_mj.analysis.diagnosis import DiagnosisSpec, compile_diagnoser
+
+    spec = DiagnosisSpec(threshold={"fixed": [1.0, 5.0], "floor": [3.0, 3.0]})
+    diagnoser = compile_diagnoser(spec, 0.01, 0.0, "f.yaml", 2, [])
+    np.testing.assert_array_equal(diagnoser.fixed, [3.0, 5.0])
+    for threshold in ({"fixed": 1.0, "floor": 3.0, "bound": ["1", "1"]},
+                      {"fixed": 1.0, "floor": 3.0, "k": 2.0}):
+        with pytest.raises(ValueError, match="floor is for a fixed threshold"):
+            DiagnosisSpec(threshold=threshold, baseline={"start": 0.0, "end": 1.0})

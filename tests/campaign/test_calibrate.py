@@ -108,3 +108,19 @@ def test_bad_options_are_one_line(capsys):
     assert len(err.splitlines()) == 1 and "--false-alarm-rate" in err
     assert main(["calibrate", str(ROOT / "scenarios" / "two_link_do.yaml"), "--false-alarm-rate", "0.1"]) == 2
     assert "diagnosis" in capsys.readouterr().err
+
+
+def test_on_a_log_the_threshold_is_the_margin_times_its_largest_residual_at_least_the_floor():
+    """One healthy run, the log: per joint margin x S of the momentum observer, at least the floor (3 N m on
+    the UR10e's wrists); a margin below 1 is refused."""
+    from ftc_mj.campaign.calibrate import calibrate_log
+    from ftc_mj.config.errors import InputError
+
+    free = ROOT / "scenarios" / "real" / "ur10e_free_motion.yaml"
+    calibration = calibrate_log(free, margin=1.1, variants=["momentum"])
+    statistic, _ = exceedance_statistics(healthy_scenario(free, variants=["momentum"]), [0])
+    expected = np.maximum(1.1 * statistic["momentum"][0], [0, 0, 0, 3, 3, 3])
+    np.testing.assert_allclose(calibration.thresholds, expected)
+    assert np.all(calibration.thresholds[3:] == 3.0) and calibration.thresholds[1] > 10
+    with pytest.raises(InputError, match="--margin"):
+        calibrate_log(free, margin=0.9)

@@ -46,7 +46,7 @@ def test_free_motion_command_writes_table_json_recording(tmp_path, capsys):
 
 def test_free_motion_residual_is_what_the_identified_friction_leaves():
     """The momentum observer's residual RMS on joints 1-3 at most 8 / 8 / 4 N m with the UR10e's identified
-    friction (measured 4.7 / 6.1 / 1.9); the rigid body alone leaves the friction, 27 / 25 / 8; a sign error
+    friction (measured 6.4 / 7.4 / 2.2); the rigid body alone leaves the friction, 27 / 25 / 8; a sign error
     in the torque scale twice the gravity torque."""
     results = run_scenario(load_scenario(FREE, variants=["momentum", "do"]), record_poses=False)
     rms = _residual_rms(results, "momentum")
