@@ -119,3 +119,15 @@ def test_measured_velocity_needs_tachometers():
         scenario = load_scenario(ROOT / "scenarios" / "robots" / "ur5e_fault.yaml", duration=0.01,
                                  overrides=["nominal.friction.velocity=measured"])
         run_scenario(scenario, record_poses=False)
+
+
+@pytest.mark.slow  # replays
+def test_the_velocity_friction_is_evaluated_at():
+    """On the UR10e's free-motion log: the momentum observer's estimate is the logged velocity, so F at the
+    estimate and at the measurement are the same bits; the TOSMO estimates its own velocity, so they differ."""
+    free = ROOT / "scenarios" / "real" / "ur10e_free_motion.yaml"
+    runs = {velocity: {r.name: r for r in run_scenario(load_scenario(
+        free, variants=["momentum", "tosmo"], overrides=[f"nominal.friction.velocity={velocity}"]),
+        record_poses=False)} for velocity in ("estimate", "measured")}
+    np.testing.assert_array_equal(runs["estimate"]["momentum"].luaf_hat, runs["measured"]["momentum"].luaf_hat)
+    assert not np.array_equal(runs["estimate"]["tosmo"].luaf_hat, runs["measured"]["tosmo"].luaf_hat)
