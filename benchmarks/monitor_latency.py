@@ -92,7 +92,8 @@ def main() -> None:
     published = np.isfinite(latency)
     latency, callback = latency[published] * 1e3, callback[published] * 1e3
     print(f"{scenario.name}, {args.variant}, {inputs.robot_joints.__len__()} joints, {args.rate:g} Hz: "
-          f"{node.messages} messages, {node.periods} periods in {elapsed:.1f} s; after the first second "
+          f"{node.messages} of {int(args.seconds * args.rate)} messages taken (the rest lost in the queue), "
+          f"{node.periods} periods in {elapsed:.1f} s; load average {os.getloadavg()[0]:.1f}; after the first second "
           f"{len(latency)} messages")
     print(f"latency, arrival to residual published: median {np.median(latency):.3f} ms, "
           f"99th percentile {np.percentile(latency, 99):.3f} ms, max {latency.max():.3f} ms")
