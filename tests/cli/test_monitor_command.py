@@ -15,6 +15,7 @@ ROOT = Path(__file__).resolve().parents[2]
 FREE = ROOT / "scenarios/real/ur10e_free_motion.yaml"
 
 
+@pytest.mark.slow  # a replay and a stream of the log
 def test_streaming_the_log_prints_the_replays_alarms_as_they_come(capsys):
     assert main(["monitor", str(FREE), "--variant", "tosmo"]) == 0
     lines = capsys.readouterr().out.splitlines()
@@ -41,6 +42,7 @@ def test_what_the_monitor_cannot_run_is_one_line_and_exit_2(capsys, options, mes
     assert message in captured.err
 
 
+@pytest.mark.slow  # a ROS 2 node for its duration
 def test_ros_node_runs_for_its_duration_and_stops(capsys):
     pytest.importorskip("rclpy", reason="ROS 2's Python client is not installed (pip install ftc_mj[ros])")
     assert main(["monitor", str(FREE), "--ros", "--variant", "do", "--joint-states", "/cli_test/joint_states",

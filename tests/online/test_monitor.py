@@ -36,6 +36,7 @@ def stream_log(scenario, variant: str) -> dict[str, np.ndarray]:
             for name in ("time", "estimate", "residual", "threshold", "alarm", "isolated", "armed")}
 
 
+@pytest.mark.slow  # both logs replayed and streamed, every variant
 @pytest.mark.parametrize("path", [FREE, PUSHED], ids=["free_motion", "pushed"])
 def test_the_logs_streamed_give_the_replay_bit_for_bit(path):
     scenario = load_scenario(path)

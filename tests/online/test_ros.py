@@ -99,6 +99,7 @@ def _wait(condition, seconds: float = 10.0) -> None:
         time.sleep(0.01)
 
 
+@pytest.mark.slow  # 5.7 s of messages at their real rate
 def test_a_log_published_at_its_real_rate_gives_the_replays_residuals_and_alarm_times(ros, tmp_path):
     scenario = load_scenario(FREE, variants=["tosmo"])  # its residuals cross the thresholds on this log
     replay = run_scenario(scenario, record_poses=False)[0].diagnosis

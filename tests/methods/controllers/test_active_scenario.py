@@ -8,6 +8,7 @@ from __future__ import annotations
 from pathlib import Path
 
 import numpy as np
+import pytest
 
 from ftc_mj import load_scenario, run_scenario
 
@@ -15,6 +16,7 @@ ROOT = Path(__file__).resolve().parents[3]
 SCENARIO = ROOT / "scenarios/ftc/puma_active.yaml"
 
 
+@pytest.mark.slow  # a closed-loop run of 9 s, four variants
 def test_loops_reconfigure_when_their_diagnosis_alarms():
     scenario = load_scenario(SCENARIO, duration=9.0, variants=["active", "supervisor", "accommodation", "pid"])
     results = {r.name: r for r in run_scenario(scenario, record_poses=False)}
