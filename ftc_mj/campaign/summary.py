@@ -28,6 +28,7 @@ from ftc_mj.analysis.metrics import unit
 from ftc_mj.campaign import statistics as st
 from ftc_mj.campaign.schema import CampaignSpec
 from ftc_mj.config.errors import InputError
+from ftc_mj.outputs.figures import OVER_ALIKE
 from ftc_mj.outputs.files import write_atomic
 from ftc_mj.outputs.palette import CAMPAIGN_LINE_STYLES, assign_colours
 
@@ -415,19 +416,24 @@ def _box_figure(results: Results, metric: str, path: Path) -> Path | None:
         return None
     fig = Figure(figsize=(3.3 * len(joints) + 0.5, 3.4))
     axes = fig.subplots(1, len(joints), squeeze=False)
-    for ax, j in zip(axes[0], joints):
+    panels = []
+    for j in joints:
         data = [results.of(v, f"{metric}.{j}").astype(float) for v in results.variants]
-        data = [d[np.isfinite(d)] for d in data]
-        shown = [(v, d) for v, d in zip(results.variants, data) if d.size]
+        panels.append([(v, d[np.isfinite(d)]) for v, d in zip(results.variants, data) if np.isfinite(d).any()])
+    # One scale for every joint's panel (log where any panel spans more than two decades and all are
+    # positive), so that the panels compare at a glance.
+    values = np.concatenate([d for shown in panels for _, d in shown])
+    log = bool(values.size and values.min() > 0 and values.max() / values.min() > 100 and any(
+        np.concatenate([d for _, d in shown]).max() / np.concatenate([d for _, d in shown]).min() > 100
+        for shown in panels))
+    for ax, j, shown in zip(axes[0], joints, panels):
         boxes = ax.boxplot([d for _, d in shown], whis=(5, 95), showfliers=True, patch_artist=True,
                            flierprops={"markersize": 2, "alpha": 0.4}, medianprops={"color": "black"})
         for patch, (v, _) in zip(boxes["boxes"], shown):
             patch.set_facecolor(_colour(results, v))
             patch.set_alpha(0.6)
         ax.set_xticks(range(1, len(shown) + 1), [v for v, _ in shown], rotation=30, ha="right", fontsize=8)
-        positive = np.concatenate([d for _, d in shown])
-        positive = positive[positive > 0]
-        if positive.size and positive.max() / max(positive.min(), 1e-300) > 100:
+        if log:
             ax.set_yscale("log")
         ax.set_title(f"joint {j}", fontsize=9)
         ax.grid(alpha=0.3, axis="y")
@@ -442,10 +448,16 @@ def _roc_figure(results: Results, curves: dict[str, tuple[np.ndarray, np.ndarray
     fig = Figure(figsize=(4.6, 4.2))
     ax = fig.subplots()
     one = int(np.argmin(np.abs(ROC_SCALES - 1.0)))
+    drawn: list[np.ndarray] = []
     for variant, (p_fa, p_d) in curves.items():
         colour = _colour(results, variant)
+        curve = np.concatenate([p_fa, p_d])
+        over = any(curve.shape == other.shape and np.allclose(curve, other, atol=0.005, equal_nan=True)
+                   for other in drawn)  # the same curve as one drawn already: dashed, so that both show
+        drawn.append(curve)
         ax.plot(np.concatenate(([1.0], p_fa, [0.0])), np.concatenate(([1.0], p_d, [0.0])), color=colour,
-                linestyle=_style(results, variant), linewidth=1.6, label=f"{variant} (AUC {st.auc(p_fa, p_d):.3f})")
+                linestyle=OVER_ALIKE if over else _style(results, variant), linewidth=1.6,
+                label=f"{variant} (AUC {st.auc(p_fa, p_d):.3f})" + (" = the curve beneath" if over else ""))
         ax.plot(p_fa[one], p_d[one], "o", color=colour, markersize=5)
     ax.plot([0, 1], [0, 1], ":", color="grey", linewidth=0.8)
     ax.set_xlabel("false-alarm probability")

@@ -29,6 +29,8 @@ def build_parser(prog: str = PROG) -> argparse.ArgumentParser:
     parser.add_argument("--format", default="png", metavar="LIST",
                         help=f"comma-separated formats among {', '.join(FORMATS)} (default: png)")
     parser.add_argument("--dpi", type=int, default=150, help="resolution of PNG files (default: 150)")
+    parser.add_argument("--size", choices=("page", "column"), default="page",
+                        help="page: 8 in wide (default); column: 3.5 in, one column of a two-column paper")
     parser.add_argument("--only", nargs="+", default=[], metavar="NAME", help="draw only these figures")
     parser.add_argument("--scenario-title", action="store_true",
                         help="end each figure's title with the scenario's name")
@@ -91,7 +93,7 @@ def main(argv: Sequence[str] | None = None, prog: str = PROG) -> int:
             skipped = [s.name for s in layout.variants if s.name not in figure.variants]
             if skipped:
                 print(f"{figure.name}: not shown (not in its variants): {', '.join(skipped)}", file=sys.stderr)
-            drawing = figures.draw(figure, layout, series, args.scenario_title)
+            drawing = figures.draw(figure, layout, series, args.scenario_title, args.size)
             for path in figures.save(drawing, folder / figure.name, formats, args.dpi):
                 print(path)
     return 0

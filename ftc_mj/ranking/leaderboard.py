@@ -19,6 +19,7 @@ import pyarrow as pa
 import pyarrow.parquet as pq
 from matplotlib.figure import Figure
 
+from ftc_mj.outputs.figures import OVER_ALIKE
 from ftc_mj.ranking import score as sc
 from ftc_mj.ranking import windowed
 from ftc_mj.ranking.execute import Found
@@ -214,9 +215,14 @@ def roc_figure(bench: Bench, roc_runs: dict[str, dict[str, sc.DiagnosisRuns]]) -
     fig = Figure(figsize=(4.2 * max(len(robots), 1), 4.4))
     axes = fig.subplots(1, max(len(robots), 1), squeeze=False)[0]
     for ax, robot in zip(axes, robots):
+        drawn: list[np.ndarray] = []
         for name, runs in roc_runs[robot].items():
             p_fa, p_d = sc.roc_curve(runs.healthy_peak, runs.fault_peak)
             colour, style = styles[name]
+            curve = np.concatenate([p_fa, p_d])
+            if any(curve.shape == other.shape and np.allclose(curve, other, atol=0.005) for other in drawn):
+                style = OVER_ALIKE  # the same curve as an entry's drawn before: dashed, so that both show
+            drawn.append(curve)
             ax.plot(np.concatenate(([1.0], p_fa, [0.0])), np.concatenate(([1.0], p_d, [0.0])), color=colour,
                     linestyle=style, linewidth=1.4, label=f"{name} ({sc.auc(runs.healthy_peak, runs.fault_peak):.3f})")
         ax.plot([0, 1], [0, 1], ":", color="grey", linewidth=0.8)
@@ -228,8 +234,8 @@ def roc_figure(bench: Bench, roc_runs: dict[str, dict[str, sc.DiagnosisRuns]]) -
         ax.grid(alpha=0.3)
         ax.legend(fontsize=7, loc="lower right", title="AUC", title_fontsize=7)
     axes[0].set_ylabel("detection probability")
-    fig.suptitle(f"Benchmark {bench.suite.version}: ROC of each observer's diagnosis (healthy against faulty runs)",
-                 fontsize=10)
+    fig.suptitle(f"Benchmark {bench.suite.version}: ROC of each observer's diagnosis\n(healthy against faulty "
+                 "runs)", fontsize=10)  # two lines: one robot's panel is narrower than the title
     fig.tight_layout()
     return fig
 

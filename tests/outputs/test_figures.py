@@ -59,7 +59,9 @@ def test_truth_beside_the_estimate_and_zoom_past_the_run(recording: Path) -> Non
     fig = figures.draw(figure, layout, read_entities(recording, set(figures.entities_of(figure, layout))))
     assert len(fig.axes) == 3  # no zoom column
     colours = [line.get_color() for line in fig.axes[0].get_lines()]
-    assert colours.count(layout.style("proposed").color) == 2  # estimate and its ground truth
+    # Each estimate in its colour; the ground truth, the same for every variant to within a pixel, once, grey.
+    assert colours.count(figures.TRUTH_COLOUR) == 1
+    assert all(colours.count(layout.style(v).color) == 1 for v in figure.variants), colours
     matplotlib.pyplot.close(fig)
 
 
@@ -92,3 +94,35 @@ def test_envelope_keeps_extremes_and_gaps() -> None:
     assert np.isnan(ye).any()  # the gap stays a gap
     short = np.arange(10.0)
     assert figures.envelope(short, short)[0] is short
+
+
+def test_a_line_on_an_alike_one_is_dashed_and_a_shared_truth_drawn_once():
+    """Three variants, two of them alike (a difference of 0.1% of the range) and one apart, over their truths
+    (two alike, one apart): the upper of the alike lines dashed so that the lower shows; two truth bands, each
+    in its group's first variant's colour; with every truth alike, one band, grey."""
+    from types import SimpleNamespace
+
+    from matplotlib.figure import Figure
+
+    t = np.linspace(0.0, 1.0, 200)
+    base = np.sin(2 * np.pi * t)
+    main = (t, np.column_stack([base, base + 0.001, base + 0.5]))
+    truth = (t, np.column_stack([base, base, base + 0.5]))
+    styles = {name: SimpleNamespace(color=colour, dash="solid") for name, colour in
+              (("a", "#d62728"), ("b", "#1f77b4"), ("c", "#2ca02c"))}
+    layout = SimpleNamespace(style=styles.__getitem__, column="abc".index)
+    ax = Figure().subplots()
+    figures._panel(ax, ["a", "b", "c"], layout, main, truth, "truth", (0.0, 1.0))
+    lines = {(line.get_color(), line.get_linewidth() == figures.TRUTH_WIDTH): line for line in ax.get_lines()}
+    assert lines[("#d62728", False)].get_linestyle() == "--"  # a, drawn last, lies on b
+    assert lines[("#1f77b4", False)].get_linestyle() == "-" and lines[("#2ca02c", False)].get_linestyle() == "-"
+    bands = [line.get_color() for line in ax.get_lines() if line.get_linewidth() == figures.TRUTH_WIDTH]
+    assert sorted(bands) == sorted(["#d62728", "#2ca02c"])
+    ax = Figure().subplots()
+    figures._panel(ax, ["a", "b"], layout, main, truth, "truth", (0.0, 1.0))
+    bands = [line.get_color() for line in ax.get_lines() if line.get_linewidth() == figures.TRUTH_WIDTH]
+    assert bands == [figures.TRUTH_COLOUR]
+
+
+def test_the_column_preset_is_one_column_wide():
+    assert figures.PRESETS["column"].width == pytest.approx(3.5) and figures.PRESETS["page"].width == figures.WIDTH
