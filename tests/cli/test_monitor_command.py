@@ -48,3 +48,37 @@ def test_ros_node_runs_for_its_duration_and_stops(capsys):
     assert main(["monitor", str(FREE), "--ros", "--variant", "do", "--joint-states", "/cli_test/joint_states",
                  "--duration", "0.3", "--latency"]) == 0
     assert "variant do on /cli_test/joint_states" in capsys.readouterr().err
+
+
+@pytest.mark.slow  # a ROS 2 node and a publisher
+def test_ros_node_stops_on_a_bad_message_with_one_line_and_exit_2(capsys):
+    rclpy = pytest.importorskip("rclpy", reason="ROS 2's Python client is not installed (pip install ftc_mj[ros])")
+    import threading
+    import time
+    import uuid
+
+    from sensor_msgs.msg import JointState
+
+    topic = f"/cli_{uuid.uuid4().hex[:8]}/joint_states"
+    outcome = {}
+    thread = threading.Thread(target=lambda: outcome.setdefault("status", main(
+        ["monitor", str(FREE), "--ros", "--variant", "do", "--joint-states", topic, "--duration", "20"])))
+    thread.start()
+    context = rclpy.Context()
+    rclpy.init(context=context)
+    try:
+        node = rclpy.create_node(f"bad_{uuid.uuid4().hex[:6]}", context=context)
+        publisher = node.create_publisher(JointState, topic, 10)
+        message = JointState(name=["elbow", "b", "c", "d", "e", "f"], position=[0.0] * 6, velocity=[0.0] * 6,
+                             effort=[0.0] * 6)
+        deadline = time.monotonic() + 20
+        while thread.is_alive() and time.monotonic() < deadline:
+            publisher.publish(message)
+            time.sleep(0.05)
+    finally:
+        rclpy.shutdown(context=context)
+    thread.join()
+    assert outcome["status"] == 2
+    errors = [line for line in capsys.readouterr().err.splitlines() if line.startswith("error")]
+    assert errors == [f"error: {topic}: message 0 name: 'elbow' is not a joint of the robot (shoulder_pan_joint, "
+                      "shoulder_lift_joint, elbow_joint, wrist_1_joint, wrist_2_joint, wrist_3_joint)"]
