@@ -90,10 +90,13 @@ def require_causal(diagnoser: Diagnoser, monitoring_start: float, file: str) -> 
 
 class CausalDiagnoser:
     """The ``diagnosis`` section of a scenario stepped one sample at a time over ``rows`` rows (the module
-    docstring); ``diagnoser`` is its compiled form (:class:`~ftc_mj.analysis.diagnosis.Diagnoser`)."""
+    docstring); ``diagnoser`` is its compiled form (:class:`~ftc_mj.analysis.diagnosis.Diagnoser`). ``record``:
+    where :class:`RecordedDiagnoser` keeps every sample's outputs (use that class rather than this argument)."""
 
-    def __init__(self, diagnoser: Diagnoser, rows: int = 1):
+    def __init__(self, diagnoser: Diagnoser, rows: int = 1, *, record: DiagnosisSeries | None = None):
         require_causal(diagnoser, -math.inf, "the scenario")
+        #: Where :class:`RecordedDiagnoser` keeps each sample's outputs, or None.
+        self._record = record
         n = len(diagnoser.fixed)
         self.diagnoser = diagnoser
         self.rows, self.n = rows, n
@@ -134,12 +137,27 @@ class CausalDiagnoser:
         self._level = np.zeros(shape)  # fixed + k sd
         self._scratch = np.zeros(shape)
         self._bound = np.zeros(shape)  # the threshold's bound at this sample
-        #: The compiled period (:mod:`ftc_mj.fast.analysis_diagnosis`) where the fast paths are on, else None.
+        self._input = np.zeros(shape)  # the sample's estimate, for the compiled period
+        #: The compiled period bound to this component's buffers (:mod:`ftc_mj.fast.analysis_diagnosis`) where
+        #: the fast paths are on, else None.
         self._period = None
         if fast.enabled():
-            from ftc_mj.fast.analysis_diagnosis import period_kernel
-            self._period = period_kernel()
+            self._bind()
         self.reset()
+
+    def _bind(self) -> None:
+        """The compiled period on this component's buffers (again after the window's buffer grows)."""
+        from ftc_mj.fast.analysis_diagnosis import bind_period
+
+        d = self.diagnoser
+        state = (self.signal, self._filtered, self.mean, self.std, self._level, self.fault_estimate, self.residual,
+                 self.threshold, self._g, self._previous, self._run, self.alarm, self.isolated, self.alarm_time)
+        record = self._record
+        kept = (np.zeros((0, self.rows, self.n)),) * 4 + (np.zeros((0, self.rows, self.n), dtype=bool),)
+        if record is not None:
+            kept = (record.signal, record.fault_estimate, record.residual, record.threshold, record.alarm)
+        self._period = bind_period(self._input, self._bound, self._window, self._fixed, state, kept, self._a,
+                                   float(d.k), self._cusum, float(d.drift), float(d.h), self._samples)
 
     def reset(self) -> None:
         """Back to before the first sample."""
@@ -167,7 +185,12 @@ class CausalDiagnoser:
         """Sample ``t``: ``estimate``, ``q_meas``, ``qd_hat`` ``(rows, n)`` (the last two read only by a threshold
         ``bound``). The outputs are this component's arrays, updated in place. Where the fast paths are on, the
         arithmetic after the baseline's bookkeeping runs in its accelerator
-        (:func:`ftc_mj.fast.analysis_diagnosis.period_kernel`, the same bits)."""
+        (:func:`ftc_mj.fast.analysis_diagnosis.bind_period`, the same bits)."""
+        self._step(t, estimate, q_meas, qd_hat, -1)
+
+    def _step(self, t: float, estimate: np.ndarray, q_meas: np.ndarray | None, qd_hat: np.ndarray | None,
+              k: int) -> None:
+        """:meth:`step`, its outputs also kept at sample ``k`` of the record (-1: not kept)."""
         d = self.diagnoser
         keep, learn = -1, False
         if not self._learned:
@@ -175,25 +198,26 @@ class CausalDiagnoser:
             if window[0] <= t < window[1]:
                 if self._kept == len(self._window):  # irregular samples: more than the period allows
                     self._window = np.concatenate([self._window, np.empty_like(self._window)])
+                    if self._period is not None:
+                        self._bind()
                 keep = self._kept
                 self._kept += 1
             # The window's last sample (or one after it): no more to come.
-            learn = self._learned = t + d.dt >= window[1] - 1e-9
-        self.armed = armed = t >= d.start
+            learn = self._learned = bool(t + d.dt >= window[1] - 1e-9)
+        self.armed = armed = bool(t >= d.start)
+        record = self._record if k >= 0 else None
+        if record is not None:
+            record.armed[k] = armed
         bound = None
         if armed and d.bound is not None:
             bound = self._bound
             for j, column in enumerate(d.bound(t, q_meas.T, qd_hat.T)):
                 bound[:, j] = column
         if self._period is not None:
-            estimate = np.asarray(estimate, dtype=float)
-            if estimate.shape != (self.rows, self.n):
-                raise ValueError(f"the estimate is {estimate.shape}, the diagnoser {(self.rows, self.n)}")
-            self._period(t, np.ascontiguousarray(estimate), self._bound, bound is not None, self._first, self._a,
-                         self._b0, keep, learn, self._kept, self._window, self._fixed, float(d.k), armed,
-                         self._cusum, float(d.drift), float(d.h), self._samples, self.signal, self._filtered,
-                         self.mean, self.std, self._level, self.fault_estimate, self.residual, self.threshold,
-                         self._g, self._previous, self._run, self.alarm, self.isolated, self.alarm_time)
+            if np.shape(estimate) != (self.rows, self.n):
+                raise ValueError(f"the estimate is {np.shape(estimate)}, the diagnoser {(self.rows, self.n)}")
+            np.copyto(self._input, estimate)
+            self._period(float(t), self._first, keep, learn, self._kept, armed, bound is not None, k)
             self._first = False
             return
         signal = self.signal
@@ -245,6 +269,12 @@ class CausalDiagnoser:
         if first.any():
             self.alarm_time[first] = t
             self.isolated |= first
+        if record is not None:
+            record.signal[k] = self.signal
+            record.fault_estimate[k] = self.fault_estimate
+            record.residual[k] = residual
+            record.threshold[k] = threshold
+            record.alarm[k] = self.alarm
 
     def _learn(self) -> None:
         """The baseline's mean and deviation from the kept samples, sums in time order (NaN without one)."""
@@ -295,39 +325,27 @@ def run_causal(diagnoser: Diagnoser, t: np.ndarray, estimate: np.ndarray, q_meas
     post-run diagnosis (:meth:`~ftc_mj.analysis.diagnosis.Diagnoser.diagnose_rows` runs its accelerator where
     the fast paths are on)."""
     steps, rows, n = estimate.shape
-    component = CausalDiagnoser(diagnoser, rows)
-    out = DiagnosisSeries(*(np.empty((steps, rows, n)) for _ in range(4)), np.empty((steps, rows, n), dtype=bool),
-                          np.empty(steps, dtype=bool), component.mean, component.std)
+    recorded = RecordedDiagnoser(diagnoser, rows, steps)
     with np.errstate(invalid="ignore", divide="ignore", over="ignore"):  # NaN and inf are inputs like others
         for i in range(steps):
-            _record(component, out, i, float(t[i]), estimate[i], q_meas[i], qd_hat[i])
-    return out
-
-
-def _record(component: CausalDiagnoser, out: DiagnosisSeries, i: int, t: float, estimate: np.ndarray,
-            q_meas: np.ndarray, qd_hat: np.ndarray) -> None:
-    """Step ``component`` at sample ``i`` and keep its outputs in ``out``."""
-    component.step(t, estimate, q_meas, qd_hat)
-    out.signal[i] = component.signal
-    out.fault_estimate[i] = component.fault_estimate
-    out.residual[i] = component.residual
-    out.threshold[i] = component.threshold
-    out.alarm[i] = component.alarm
-    out.armed[i] = component.armed
+            recorded.step(i, float(t[i]), estimate[i], q_meas[i], qd_hat[i])
+    return recorded.series
 
 
 class RecordedDiagnoser:
-    """A :class:`CausalDiagnoser` over ``rows`` rows stepped by the engine inside the loop, its outputs kept for
-    ``steps`` samples (:attr:`series`, ``(steps, rows, n)``): what the post-run diagnosis computes afterwards,
-    made during the run, where a controller can read it (:attr:`component`) before it commands."""
+    """A :class:`CausalDiagnoser` over ``rows`` rows whose outputs are kept for ``steps`` samples
+    (:attr:`series`, ``(steps, rows, n)``): stepped by the engine inside the loop, where a controller reads
+    it (:attr:`component`) before it commands, and the post-run diagnosis made during the run."""
 
     def __init__(self, diagnoser: Diagnoser, rows: int, steps: int):
-        self.component = CausalDiagnoser(diagnoser, rows)
-        n = self.component.n
-        self.series = DiagnosisSeries(*(np.full((steps, rows, n), np.nan) for _ in range(4)),
-                                      np.zeros((steps, rows, n), dtype=bool), np.zeros(steps, dtype=bool),
-                                      self.component.mean, self.component.std)
+        n = len(diagnoser.fixed)
+        series = DiagnosisSeries(*(np.full((steps, rows, n), np.nan) for _ in range(4)),
+                                 np.zeros((steps, rows, n), dtype=bool), np.zeros(steps, dtype=bool),
+                                 np.zeros((rows, n)), np.zeros((rows, n)))
+        self.component = CausalDiagnoser(diagnoser, rows, record=series)
+        series.mean, series.std = self.component.mean, self.component.std
+        self.series = series
 
     def step(self, k: int, t: float, estimate: np.ndarray, q_meas: np.ndarray, qd_hat: np.ndarray) -> None:
-        """Sample ``k`` at time ``t`` (the arguments of :meth:`CausalDiagnoser.step`), kept."""
-        _record(self.component, self.series, k, t, estimate, q_meas, qd_hat)
+        """Sample ``k`` at time ``t`` (the arguments of :meth:`CausalDiagnoser.step`), kept at ``k``."""
+        self.component._step(t, estimate, q_meas, qd_hat, k)

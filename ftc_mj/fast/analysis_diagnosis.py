@@ -8,10 +8,14 @@ inputs). The adaptive threshold's ``bound`` is evaluated by the caller on every 
 
 from __future__ import annotations
 
+from collections.abc import Callable
+
 import numpy as np
 
 import ftc_mj.fast  # noqa: F401  (sets Numba's options before Numba is imported)
 import numba  # noqa: E402
+
+from ftc_mj.fast.kernels import WITHOUT_RUNTIME, bound  # noqa: E402
 
 
 def causal_pass(t: np.ndarray, estimate: np.ndarray, bound: np.ndarray | None, fixed: np.ndarray, k: float,
@@ -114,18 +118,27 @@ def _pass(t, estimate, bound, fixed, k, first, stop, learned_at, has_baseline, a
                 alarm[i, r, j] = state
 
 
-def period_kernel():
+def bind_period(estimate: np.ndarray, bound_values: np.ndarray, window: np.ndarray, fixed: np.ndarray,
+                state: tuple[np.ndarray, ...], kept: tuple[np.ndarray, ...], a: float, k: float, cusum_rule: bool,
+                drift: float, h: float, samples: int) -> Callable[..., None]:
     """:func:`_period`, the accelerator of one :meth:`~ftc_mj.analysis.causal.CausalDiagnoser.step` after its
-    Python part (the baseline window's bookkeeping, the arming, the threshold's ``bound``): the same
-    operations in the same order on every row and joint, so the same bits (its conformance test steps the
-    component with and without it)."""
-    return _period
+    Python part (the baseline window's bookkeeping, the arming, the threshold's ``bound``), bound to the
+    component's buffers (:func:`ftc_mj.fast.kernels.bound`, which checks them once): a call of the period's
+    ``(t, first, keep, learn, count, armed, with_bound, sample)``. ``state``: signal, filter state, mean, std,
+    level, fault estimate, residual, threshold, CUSUM sum, previous value, run, alarm, isolated, first alarm
+    time, each ``(rows, n)``; ``kept``: the record's signal, fault estimate, residual, threshold and alarm
+    ``(T, rows, n)``, into which the outputs also go at ``sample`` (-1: not kept; ``(0, rows, n)`` without one). The same operations in the same order as the NumPy step on every row and joint, so the same
+    bits (its conformance test steps the component with and without it)."""
+    return bound(_period, estimate, bound_values, window, fixed, *state, *kept, float(a), 1.0 - float(a),
+                 float(k), bool(cusum_rule), float(drift), float(h), int(samples),
+                 free=(0.0, False, 0, False, 0, False, False, 0))
 
 
-@numba.njit(cache=True, nogil=True, error_model="numpy")
-def _period(t, estimate, bound, with_bound, first, a, b0, keep, learn, count, window, fixed, k, armed, cusum_rule,
-            drift, h, samples, signal, filtered, mean, std, level, fault_estimate, residual, threshold, g, previous,
-            run, alarm, isolated, alarm_time):  # pragma: no cover - compiled
+@numba.njit(cache=True, nogil=True, error_model="numpy", **WITHOUT_RUNTIME)
+def _period(estimate, bound, window, fixed, signal, filtered, mean, std, level, fault_estimate, residual, threshold,
+            g, previous, run, alarm, isolated, alarm_time, kept_signal, kept_fault_estimate, kept_residual,
+            kept_threshold, kept_alarm, a, b0, k, cusum_rule, drift, h, samples, t, first, keep, learn, count, armed,
+            with_bound, sample):  # pragma: no cover - compiled
     rows, n = estimate.shape
     for r in range(rows):
         for j in range(n):
@@ -176,3 +189,9 @@ def _period(t, estimate, bound, with_bound, first, a, b0, keep, learn, count, wi
             if alarm[r, j] and not isolated[r, j]:
                 isolated[r, j] = True
                 alarm_time[r, j] = t
+            if sample >= 0:
+                kept_signal[sample, r, j] = y
+                kept_fault_estimate[sample, r, j] = e
+                kept_residual[sample, r, j] = value
+                kept_threshold[sample, r, j] = limit
+                kept_alarm[sample, r, j] = alarm[r, j]
