@@ -60,6 +60,9 @@ from ftc_mj.scenario.definition import MAX_SEED, Scenario
 _EULER_GAMMA = 0.5772156649015329
 #: The calibration's seeds start this far above the scenario's own, away from the seeds its runs use.
 SEED_OFFSET = 1000
+#: The most healthy runs of one calibration: they resolve rates down to 1e-4 (the Gumbel fit extrapolates
+#: below); more is a typo, and their seeds alone would fill the memory.
+MAX_RUNS = 10_000
 
 
 @dataclass
@@ -145,6 +148,18 @@ def _statistic(diagnosis, persistence: int) -> np.ndarray:
     return margin.max(axis=0)
 
 
+def _check_armed_samples(scenario: Scenario, file: str) -> None:
+    """Refuse runs that end before the diagnoser has ``persistence`` armed samples: no alarm can be raised,
+    so no threshold can be measured (it would be NaN)."""
+    diagnoser = scenario.diagnoser
+    armed = int(np.count_nonzero(scenario.times >= diagnoser.start))
+    if armed < diagnoser.persistence:
+        raise InputError(file, "duration", f"the runs end at {scenario.spec.duration:g} s, with {armed} samples "
+                         f"after the diagnoser is armed at {diagnoser.start:g} s (diagnosis.baseline.end or "
+                         f"diagnosis.start), fewer than its persistence of {diagnoser.persistence}: no false alarm "
+                         "can be measured; lengthen the run (--duration)")
+
+
 def gumbel_quantile(samples: np.ndarray, rate: float) -> np.ndarray:
     """Per column, the value a Gumbel distribution fitted by moments exceeds with probability ``rate``."""
     mean, sd = samples.mean(axis=0), samples.std(axis=0, ddof=1) if len(samples) > 1 else np.zeros(samples.shape[1])
@@ -171,11 +186,12 @@ def calibrate(path: Path, *, runs: int, false_alarm_rate: float, overrides: Sequ
         InputError: bad options or a scenario that cannot be calibrated, naming the file and the field.
     """
     file = str(path)
-    if runs < 2:
-        raise InputError(file, "--runs", f"needs at least 2 healthy runs, not {runs}")
+    if not 2 <= runs <= MAX_RUNS:
+        raise InputError(file, "--runs", f"must be 2 to {MAX_RUNS}, not {runs}")
     if not 0 < false_alarm_rate < 1:
         raise InputError(file, "--false-alarm-rate", f"must be in (0, 1), not {false_alarm_rate}")
     scenario = healthy_scenario(path, overrides, duration, variants)
+    _check_armed_samples(scenario, file)
     first = scenario.spec.seed + SEED_OFFSET if first_seed is None else first_seed
     if not 0 <= first <= MAX_SEED - (runs - 1):
         raise InputError(file, "--first-seed" if first_seed is not None else "seed",
@@ -190,6 +206,10 @@ def calibrate(path: Path, *, runs: int, false_alarm_rate: float, overrides: Sequ
                                                "diverged; too few left to calibrate")
         per_variant[name] = np.maximum(threshold_quantile(values, false_alarm_rate), 0.0)
     thresholds = np.max(np.stack(list(per_variant.values())), axis=0)
+    if not np.all(np.isfinite(thresholds)):  # a residual that is NaN in every run: no threshold to write
+        joint = int(np.flatnonzero(~np.isfinite(thresholds))[0])
+        raise InputError(file, "diagnosis", f"the healthy runs give no finite threshold for joint {joint + 1} "
+                         "(its residual is not finite after the diagnoser is armed)")
     raw_quantiles = np.max(np.stack([threshold_quantile(v, false_alarm_rate) for v in statistics.values()]), axis=0)
     joints = [scenario.model.joint(j).name for j in range(scenario.n_joints)]
     return Calibration(scenario=path, false_alarm_rate=false_alarm_rate, seeds=seeds, joints=joints,

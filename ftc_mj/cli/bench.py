@@ -18,6 +18,7 @@ import time
 from collections.abc import Sequence
 from pathlib import Path
 
+from ftc_mj.cli.command import Outputs, exit_status
 from ftc_mj.cli.parser import ArgumentParser
 
 PROG = "ftc-mj bench"
@@ -47,48 +48,38 @@ def _check_out(out: Path) -> None:
         raise InputError("command line", "--out", f"{out} is not empty and holds no bench's results")
 
 
+@exit_status("interrupted: what finished is saved; run the same command again to go on")
 def main(argv: Sequence[str] | None = None, prog: str = PROG) -> int:
     args = build_parser(prog).parse_args(argv)
-    from concurrent.futures.process import BrokenProcessPool
-
     from ftc_mj.config.errors import InputError
+    from ftc_mj.ranking import execute, leaderboard
+    from ftc_mj.ranking.entries import load_bench
 
-    try:
-        from ftc_mj.ranking import execute, leaderboard
-        from ftc_mj.ranking.entries import load_bench
+    if args.workers is not None and args.workers < 1:
+        raise InputError("command line", "--workers", f"must be at least 1, not {args.workers}")
+    bench = load_bench(args.bench)
+    bench.suite.tier(args.tier)
+    if bench.suite.calibrated and bench.of("diagnosis"):
+        from ftc_mj.ranking.sizing import check_faults_act
 
-        if args.workers is not None and args.workers < 1:
-            raise InputError("command line", "--workers", f"must be at least 1, not {args.workers}")
-        bench = load_bench(args.bench)
-        bench.suite.tier(args.tier)
-        if bench.suite.calibrated and bench.of("diagnosis"):
-            from ftc_mj.ranking.sizing import check_faults_act
+        check_faults_act(bench.suite, args.tier)  # a fault case that would not act: refused
+    out = args.out or Path("results") / "bench" / f"{bench.suite.version}-{args.tier}"
+    _check_out(out)
+    outputs = Outputs(str(args.bench or "command line"))
+    outputs.add("--out", out, directory=True)
+    outputs.check([] if args.bench is None else [args.bench])
+    start = time.perf_counter()
 
-            check_faults_act(bench.suite, args.tier)  # a fault case that would not act: refused
-        out = args.out or Path("results") / "bench" / f"{bench.suite.version}-{args.tier}"
-        _check_out(out)
-        start = time.perf_counter()
+    def progress(done: int, total: int) -> None:
+        if not args.quiet and total:
+            print(f"\r{done} / {total} runs simulated ({time.perf_counter() - start:.0f} s)", end="",
+                  file=sys.stderr, flush=True)
 
-        def progress(done: int, total: int) -> None:
-            if not args.quiet and total:
-                print(f"\r{done} / {total} runs simulated ({time.perf_counter() - start:.0f} s)", end="",
-                      file=sys.stderr, flush=True)
-
-        info = execute.run(bench, args.tier, out, workers=args.workers, progress=progress)
-        if not args.quiet and info["simulated_runs"]:
-            print(file=sys.stderr)
-        info["workers"] = args.workers or execute.campaign_execute.default_workers()
-        written = leaderboard.write(bench, args.tier, out, info.pop("done"), info)
-    except InputError as exc:
-        print(f"error: {exc}", file=sys.stderr)
-        return 2
-    except KeyboardInterrupt:
-        print("interrupted: what finished is saved; run the same command again to go on", file=sys.stderr)
-        return 130
-    except BrokenProcessPool:
-        print("error: a worker process died (out of memory or killed); what finished is saved: run the same "
-              "command again to go on, with fewer --workers", file=sys.stderr)
-        return 1
+    info = execute.run(bench, args.tier, out, workers=args.workers, progress=progress)
+    if not args.quiet and info["simulated_runs"]:
+        print(file=sys.stderr)
+    info["workers"] = args.workers or execute.campaign_execute.default_workers()
+    written = leaderboard.write(bench, args.tier, out, info.pop("done"), info)
     if not args.quiet:
         print(written[0].read_text())
         print(f"{info['simulated_runs']} runs simulated in {info['wall_time']:.1f} s; wrote {len(written)} files "

@@ -8,7 +8,8 @@ with ``--thresholds-only``, the thresholds alone, for a scenario that names the 
 On a scenario that replays a log (a ``log`` section), the log is the one healthy run: each joint's threshold
 is ``--margin`` times the largest residual it holds (at least ``diagnosis.threshold.floor``).
 
-Exit status: 0 on success, 2 on bad input (one line naming the file, the field and the problem).
+Exit status: 0 on success, 2 on bad input (one line naming the file, the field and the problem; nothing
+written), 130 when interrupted (nothing written).
 """
 
 from __future__ import annotations
@@ -18,7 +19,9 @@ import sys
 from collections.abc import Sequence
 from pathlib import Path
 
+from ftc_mj.cli.command import Outputs, exit_status
 from ftc_mj.cli.parser import ArgumentParser
+from ftc_mj.config.errors import InputError
 
 PROG = "ftc-mj calibrate"
 
@@ -44,30 +47,32 @@ def build_parser(prog: str = PROG) -> argparse.ArgumentParser:
     return parser
 
 
+@exit_status()
 def main(argv: Sequence[str] | None = None, prog: str = PROG) -> int:
     args = build_parser(prog).parse_args(argv)
-    from ftc_mj.config.errors import InputError
+    from ftc_mj.campaign.calibrate import MAX_RUNS, calibrate, calibrate_log, scenario_fragment
+    from ftc_mj.scenario.loading import load_scenario
 
-    try:
-        from ftc_mj.campaign.calibrate import calibrate, calibrate_log, scenario_fragment
-        from ftc_mj.outputs.files import write_atomic
-        from ftc_mj.scenario.loading import load_scenario
-
-        if load_scenario(args.scenario, overrides=args.overrides, variants=args.variant).log is not None:
-            calibration = calibrate_log(args.scenario, margin=args.margin, overrides=args.overrides,
-                                        variants=args.variant)
-        else:
-            if args.false_alarm_rate is None:
-                raise InputError(str(args.scenario), "--false-alarm-rate", "is required for a simulated scenario")
-            calibration = calibrate(args.scenario, runs=args.runs, false_alarm_rate=args.false_alarm_rate,
-                                    overrides=args.overrides, first_seed=args.first_seed, variants=args.variant,
-                                    duration=args.duration)
-        out = args.out or args.scenario.with_name(f"{args.scenario.stem}_calibrated.yaml")
-        text = scenario_fragment(calibration, out, base=not args.thresholds_only)
-        write_atomic(out, text.encode("utf-8"))
-    except InputError as exc:
-        print(f"error: {exc}", file=sys.stderr)
-        return 2
+    file = str(args.scenario)
+    if not 2 <= args.runs <= MAX_RUNS:  # before anything is loaded: a billion runs is a typo, not a plan
+        raise InputError(file, "--runs", f"must be 2 to {MAX_RUNS}, not {args.runs}")
+    out = args.out or args.scenario.with_name(f"{args.scenario.stem}_calibrated.yaml")
+    outputs = Outputs(file)
+    outputs.add("--out", out)
+    outputs.check([args.scenario])  # before loading: the scenario is an input whatever it inherits
+    scenario = load_scenario(args.scenario, overrides=args.overrides, variants=args.variant)
+    outputs.check(scenario.inputs)  # its bases, its model and meshes, its log
+    if scenario.log is not None:
+        calibration = calibrate_log(args.scenario, margin=args.margin, overrides=args.overrides,
+                                    variants=args.variant)
+    else:
+        if args.false_alarm_rate is None:
+            raise InputError(file, "--false-alarm-rate", "is required for a simulated scenario")
+        calibration = calibrate(args.scenario, runs=args.runs, false_alarm_rate=args.false_alarm_rate,
+                                overrides=args.overrides, first_seed=args.first_seed, variants=args.variant,
+                                duration=args.duration)
+    text = scenario_fragment(calibration, out, base=not args.thresholds_only)
+    outputs.write("--out", out, text.encode("utf-8"))
     empirical = calibration.empirical_rate()
     for j, joint in enumerate(calibration.joints):
         if calibration.margin is not None:

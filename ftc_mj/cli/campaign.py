@@ -25,6 +25,7 @@ from collections.abc import Sequence
 from pathlib import Path
 from typing import TYPE_CHECKING
 
+from ftc_mj.cli.command import WORK_KEPT, WORKER_DIED, Outputs, exit_status
 from ftc_mj.cli.parser import ArgumentParser
 
 if TYPE_CHECKING:
@@ -105,13 +106,12 @@ def _run(args: argparse.Namespace, console: Console) -> int:
     from ftc_mj.campaign import execute
     from ftc_mj.campaign.summary import write_report
 
-    from ftc_mj.outputs.files import check_output
-
     for value, option in ((args.batch_size, "--batch-size"), (args.workers, "--workers")):
         _positive(value, option)
     file = str(args.campaign)
-    if args.out is not None:
-        check_output(args.out, file, "--out", directory=True, inputs=[args.campaign])
+    outputs = Outputs(file)
+    outputs.add("--out", args.out, directory=True)
+    outputs.check([args.campaign])
     if args.scheduler is not None:
         execute.check_scheduler_address(args.scheduler, file)
     if args.duration is not None and not args.duration > 0:
@@ -121,7 +121,9 @@ def _run(args: argparse.Namespace, console: Console) -> int:
     campaign = execute.load(args.campaign, args.runs, duration=args.duration, assignments=assignments(args.overrides))
     campaign.command = args.command_line
     out = args.out or Path("results") / campaign.spec.name
-    check_output(out, file, "--out", directory=True, inputs=campaign.inputs)
+    outputs.declared.clear()
+    outputs.add("--out", out, directory=True)
+    outputs.check(campaign.inputs)
     if args.scheduler is not None:
         execute.check_scheduler(args.scheduler, file)
     def note(line: str) -> None:  # said whatever --quiet: a run simulated again is not silent
@@ -155,41 +157,26 @@ def _run(args: argparse.Namespace, console: Console) -> int:
     return 0
 
 
+@exit_status(WORK_KEPT, died=WORKER_DIED + " or a smaller --batch-size")
 def main(argv: Sequence[str] | None = None, prog: str = PROG) -> int:
     argv = list(sys.argv[1:] if argv is None else argv)
     args = build_parser(prog).parse_args(argv)
     args.command_line = command_line(prog, argv)
-    from concurrent.futures.process import BrokenProcessPool
-
     from rich.console import Console
 
-    from ftc_mj.config.errors import InputError
+    if args.command == "run":
+        return _run(args, Console(stderr=False))
+    if args.command == "report":
+        from ftc_mj.campaign.summary import write_report
 
-    console = Console(stderr=False)
-    try:
-        if args.command == "run":
-            return _run(args, console)
-        if args.command == "report":
-            from ftc_mj.campaign.summary import write_report
+        written = write_report(args.directory)
+        print(f"wrote {written[0]} and {len(written) - 1} figures")
+        return 0
+    from ftc_mj.campaign.execute import replay_arguments
+    from ftc_mj.cli import run
 
-            written = write_report(args.directory)
-            print(f"wrote {written[0]} and {len(written) - 1} figures")
-            return 0
-        from ftc_mj.campaign.execute import replay_arguments
-        from ftc_mj.cli import run
-
-        return run.main(replay_arguments(args.directory, args.run_id, variants=args.variant, out=args.out,
-                                         json_path=args.json))
-    except InputError as exc:
-        print(f"error: {exc}", file=sys.stderr)
-        return 2
-    except KeyboardInterrupt:
-        print("interrupted: what finished is saved; run the same command again to go on", file=sys.stderr)
-        return 130
-    except BrokenProcessPool:  # a worker killed (out of memory, a signal): not the campaign's fault
-        print("error: a worker process died (out of memory or killed); what finished is saved: run the same "
-              "command again to go on, with fewer --workers or a smaller --batch-size", file=sys.stderr)
-        return 1
+    return run.main(replay_arguments(args.directory, args.run_id, variants=args.variant, out=args.out,
+                                     json_path=args.json))
 
 
 if __name__ == "__main__":

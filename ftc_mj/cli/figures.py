@@ -4,7 +4,8 @@
 One file per figure of the recording's layout (the scenario's ``figures`` section, or the default figures),
 named ``<figure>.<format>`` in ``--out`` (default: a folder named after the recording, beside it). The
 recording holds every series at the full control rate and the layout it was written with, so figures are
-redrawn without running the scenario again. Exit status: 0 on success, 2 on bad input (one line on stderr).
+redrawn without running the scenario again. Exit status: 0 on success, 2 on bad input (one line on stderr), 130 when interrupted (the figures drawn
+so far removed).
 """
 
 from __future__ import annotations
@@ -14,6 +15,7 @@ import sys
 from collections.abc import Sequence
 from pathlib import Path
 
+from ftc_mj.cli.command import Outputs, exit_status
 from ftc_mj.cli.parser import ArgumentParser
 from ftc_mj.outputs.figures import FORMATS
 
@@ -37,6 +39,7 @@ def build_parser(prog: str = PROG) -> argparse.ArgumentParser:
     return parser
 
 
+@exit_status()
 def main(argv: Sequence[str] | None = None, prog: str = PROG) -> int:
     args = build_parser(prog).parse_args(argv)
     formats = [f.strip().lower() for f in args.format.split(",") if f.strip()]
@@ -85,6 +88,7 @@ def main(argv: Sequence[str] | None = None, prog: str = PROG) -> int:
                 return 2
         jobs.append((recording, layout, chosen, folder))
 
+    outputs = Outputs(str(args.recordings[0]))  # the files drawn, removed if the command is interrupted
     for recording, layout, chosen, folder in jobs:
         series = read_entities(recording, {e for f in chosen for e in figures.entities_of(f, layout)})
         folder.mkdir(parents=True, exist_ok=True)
@@ -94,8 +98,10 @@ def main(argv: Sequence[str] | None = None, prog: str = PROG) -> int:
             if skipped:
                 print(f"{figure.name}: not shown (not in its variants): {', '.join(skipped)}", file=sys.stderr)
             drawing = figures.draw(figure, layout, series, args.scenario_title, args.size)
-            for path in figures.save(drawing, folder / figure.name, formats, args.dpi):
-                print(path)
+            with outputs.writing("--out", folder / figure.name):
+                for path in figures.save(drawing, folder / figure.name, formats, args.dpi):
+                    outputs.written.append(path)
+                    print(path)
     return 0
 
 

@@ -18,6 +18,7 @@ from collections.abc import Sequence
 from pathlib import Path
 from typing import TYPE_CHECKING
 
+from ftc_mj.cli.command import exit_status
 from ftc_mj.cli.parser import ArgumentParser
 
 if TYPE_CHECKING:
@@ -40,16 +41,10 @@ def build_parser(prog: str = PROG) -> argparse.ArgumentParser:
     return parser
 
 
+@exit_status()
 def main(argv: Sequence[str] | None = None, prog: str = PROG) -> int:
     args = build_parser(prog).parse_args(argv)
-    from ftc_mj.config.errors import InputError
-
-    try:
-        report = _check(args.target, args.overrides)
-    except InputError as exc:
-        print(f"error: {exc}", file=sys.stderr)
-        return 2
-    print(format_report(args.target, report))
+    print(format_report(args.target, _check(args.target, args.overrides)))
     return 0
 
 

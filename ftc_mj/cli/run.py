@@ -15,12 +15,12 @@ from __future__ import annotations
 import argparse
 import json
 import math
-import os
 import sys
 from collections.abc import Sequence
 from pathlib import Path
 from typing import TYPE_CHECKING
 
+from ftc_mj.cli.command import Outputs, exit_status
 from ftc_mj.cli.parser import ArgumentParser
 
 if TYPE_CHECKING:
@@ -58,7 +58,11 @@ def build_parser(prog: str = PROG) -> argparse.ArgumentParser:
     viewer.add_argument("--connect", nargs="?", const=DEFAULT_URL, metavar="URL",
                         help=f"send the recording to a running viewer or server (default: {DEFAULT_URL})")
     viewer.add_argument("--serve", action="store_true",
-                        help="serve the recording over gRPC for viewers to connect to, until Ctrl-C")
+                        help="serve the recording over gRPC for viewers to connect to, until Ctrl-C (on this "
+                             "machine only, 127.0.0.1, unless --bind names another address)")
+    parser.add_argument("--bind", metavar="HOST[:PORT]",
+                        help=f"the address --serve listens on (default 127.0.0.1:{DEFAULT_PORT}; 0.0.0.0 "
+                             "serves every network interface: the recording is then open to the network)")
     parser.add_argument("--metrics", default="summary", metavar="WHICH",
                         help="the table's metrics: summary (default: tracking after convergence, estimation "
                              "errors, chattering, detection delay and false alarms), all, or a comma-separated "
@@ -256,7 +260,8 @@ def _viewer_sinks(args: argparse.Namespace) -> list[object]:
     if args.connect:
         return [rr.GrpcSink(args.connect)]
     if args.serve:
-        return [rr.GrpcServerSink(port=DEFAULT_PORT)]
+        host, port = args.address
+        return [rr.GrpcServerSink(bind_ip=host, port=port)]
     return []
 
 
@@ -264,7 +269,6 @@ def start_live(scenario: Scenario, sinks: Sequence[object]) -> tuple[LiveRecordi
     """The stream to a viewer's ``sinks`` opened before the run (blueprint first) and the loop's per-chunk
     hook that feeds it (:class:`ftc_mj.outputs.live.LiveRecording`)."""
     from ftc_mj.outputs.live import LiveRecording
-    from ftc_mj.outputs.palette import declared_colours
 
     optional = ["torque_delivered", "fault_torque", "fault_acceleration"]
     if scenario.measures_velocity:
@@ -273,7 +277,7 @@ def start_live(scenario: Scenario, sinks: Sequence[object]) -> tuple[LiveRecordi
         sinks, scenario=scenario.name, model=scenario.model, variants=[v.name for v in scenario.variants],
         monitors={v.name: [m.name for m in v.monitors] for v in scenario.variants}, times=scenario.times,
         fault_onsets=scenario.fault_onsets, seed=scenario.spec.seed, figures=scenario.figures,
-        colours=declared_colours(scenario.raw["variants"]), optional=optional,
+        colours=scenario.colours, optional=optional,
         diagnosis=scenario.diagnoser is not None)
 
     def on_chunk(stop: int, series, reference) -> None:
@@ -283,127 +287,178 @@ def start_live(scenario: Scenario, sinks: Sequence[object]) -> tuple[LiveRecordi
     return live, on_chunk
 
 
-def main(argv: Sequence[str] | None = None, prog: str = PROG) -> int:
-    args = build_parser(prog).parse_args(argv)
-    import numpy as np
-    from rich.console import Console
+def _bind_address(text: str) -> tuple[str, int]:
+    """``HOST``, ``HOST:PORT`` or ``[IPV6]:PORT`` of ``--bind`` (default port :data:`DEFAULT_PORT`).
 
+    Raises:
+        InputError: not such an address.
+    """
     from ftc_mj.config.errors import InputError
-    from ftc_mj.outputs.files import check_output, write_atomic
+
+    if text.startswith("["):
+        host, _, rest = text[1:].partition("]")
+        port = rest.removeprefix(":")
+    elif text.count(":") == 1:
+        host, _, port = text.partition(":")
+    else:
+        host, port = text, ""
+    number = int(port) if port.isdigit() else DEFAULT_PORT if not port else -1
+    if not host or not 0 < number < 65536:
+        raise InputError("command line", "--bind", f"{text!r} is not HOST or HOST:PORT (e.g. 127.0.0.1:9876)")
+    return host, number
+
+
+def _viewer(args: argparse.Namespace) -> str | None:
+    """The viewer option given (``--spawn``, ``--connect``, ``--serve``), checked before the run: a viewer
+    that does not answer and an address that cannot be listened on are refused at once.
+
+    Raises:
+        InputError: a viewer option with --no-record, --bind without --serve, no viewer at --connect's
+            address, --serve's address in use.
+    """
+    from ftc_mj.config.errors import InputError
+    from ftc_mj.outputs import live
+
+    viewer = next((o for o, on in (("--spawn", args.spawn), ("--connect", args.connect), ("--serve", args.serve))
+                   if on), None)
+    if viewer and args.no_record:
+        raise InputError("command line", viewer, "sends the recording to a viewer: drop --no-record")
+    if args.bind is not None and not args.serve:
+        raise InputError("command line", "--bind", "is the address --serve listens on: give --serve too")
+    if args.connect:
+        live.check_viewer(args.connect)
+    if args.serve:
+        args.address = _bind_address(args.bind or "127.0.0.1")  # the loopback only, unless the user says
+        live.check_bindable(*args.address)
+    return viewer
+
+
+def _declare_outputs(args: argparse.Namespace, scenario: Scenario, outputs: Outputs) -> None:
+    """Every output of the run, for :meth:`Outputs.check`: the recording, --json, each variant's exported log
+    and --export."""
+    from ftc_mj.config.errors import InputError
+
+    outputs.add("--out", None if args.no_record else (args.out or scenario.output_path))
+    outputs.add("--json", args.json)
+    if args.export_log is not None:
+        from ftc_mj.logs.export import FORMATS, variant_path
+
+        if args.export_log.suffix not in FORMATS:
+            raise InputError(outputs.file, "--export-log", f"{str(args.export_log)!r}: the extension must be one "
+                             f"of {', '.join(FORMATS)}")
+        for variant in scenario.variants:
+            outputs.add("--export-log", variant_path(args.export_log, variant.name))
+
+
+def _prepare(args: argparse.Namespace) -> tuple[Scenario, Outputs, list[str]]:
+    """The scenario loaded and every output checked against every input and each other, the viewer reached:
+    all bad input is refused here, before the run. Also the table's metrics."""
     from ftc_mj.scenario.loading import load_scenario
 
-    file = str(args.scenario)
-    try:
-        for option, target in (("--out", None if args.no_record else args.out), ("--json", args.json)):
-            if target is not None:  # before loading: the scenario is an input whatever it inherits
-                check_output(target, file, option, inputs=[args.scenario])
-        scenario = load_scenario(args.scenario, overrides=args.overrides, duration=args.duration, variants=args.variant)
-        shown = chosen_metrics(args.metrics, scenario.diagnoser is not None)
-        if not args.quiet and scenario.log is None:
-            _load_warnings(scenario)
-        recording_path = args.out or scenario.output_path
-        viewer = next((o for o, on in (("--spawn", args.spawn), ("--connect", args.connect), ("--serve", args.serve))
-                       if on), None)
-        if viewer and args.no_record:
-            raise InputError("command line", viewer, "sends the recording to a viewer: drop --no-record")
-        outputs = [("--out", None if args.no_record else recording_path), ("--json", args.json)]
-        for option, target in outputs:
-            if target is not None:
-                check_output(target, file, option, inputs=scenario.inputs)
-        if None not in (outputs[0][1], args.json) and os.path.realpath(outputs[0][1]) == os.path.realpath(args.json):
-            raise InputError(file, "--json", f"{str(args.json)!r} is also the recording's path")
-        if args.export_log is not None:
-            from ftc_mj.logs.export import FORMATS, variant_path
+    outputs = Outputs(str(args.scenario))
+    outputs.add("--out", None if args.no_record else args.out)
+    outputs.add("--json", args.json)
+    outputs.check([args.scenario])  # before loading: the scenario is an input whatever it inherits
+    scenario = load_scenario(args.scenario, overrides=args.overrides, duration=args.duration, variants=args.variant)
+    shown = chosen_metrics(args.metrics, scenario.diagnoser is not None)
+    if not args.quiet and scenario.log is None:
+        _load_warnings(scenario)
+    outputs.declared.clear()
+    _declare_outputs(args, scenario, outputs)
+    outputs.check(scenario.inputs)
+    _viewer(args)
+    return scenario, outputs, shown
 
-            if args.export_log.suffix not in FORMATS:
-                raise InputError(file, "--export-log", f"{str(args.export_log)!r}: the extension must "
-                                 f"be one of {', '.join(FORMATS)}")
-            for variant in scenario.variants:
-                check_output(variant_path(args.export_log, variant.name), file, "--export-log",
-                             inputs=scenario.inputs)
-    except InputError as error:
-        print(f"error: {error}", file=sys.stderr)
-        return 2
-    except KeyboardInterrupt:
-        print("interrupted: nothing written", file=sys.stderr)
-        return 130
+
+def _simulate(args: argparse.Namespace, scenario: Scenario, shown: list[str], live_chunk) -> tuple[list, dict]:
+    """The run (with progress bars unless --quiet) and its metrics; the table printed unless --quiet."""
+    import numpy as np
+    from rich.console import Console
 
     from ftc_mj.analysis.metrics import compute_metrics  # scipy's signal module: not needed for a bad input
 
     console = None if args.quiet else Console(stderr=True)
-    written: list[Path] = []
-    live, on_chunk = start_live(scenario, _viewer_sinks(args)) if viewer else (None, None)
-    if args.serve:
-        print(f"serving the run as it goes: rerun --connect {DEFAULT_URL}", file=sys.stderr, flush=True)
+    results = _run_with_progress(scenario, console, live_chunk)
+    metrics = {r.name: compute_metrics(r, scenario.spec.metrics, scenario.fault_onsets, scenario.joint_fault_onsets,
+                                       scenario.torque_limits)
+               for r in results}
+    if scenario.log is not None:  # no ground truth: its metrics out, the events' in
+        from ftc_mj.logs.events import log_metrics
+
+        shown = log_metrics(scenario.log.events, results, metrics, shown)
+    if args.metrics == "summary" and any(np.any(m["saturation_time"] > 0) for m in metrics.values()):
+        shown.append("saturation_time")  # in the summary whenever a command was clipped
+    if not args.quiet:
+        Console().print(metrics_table(scenario, results, metrics, shown))
+        note = undefined_note(scenario, results)
+        if note is not None:
+            print(note, file=sys.stderr)
+    return results, metrics
+
+
+def _write_outputs(args: argparse.Namespace, scenario: Scenario, outputs: Outputs, results: list,
+                   metrics: dict) -> None:
+    """The recording, the JSON, the exported logs, each whole or not at all; if one cannot be written, those
+    written before go too (:func:`~ftc_mj.cli.command.exit_status`)."""
+    if not args.no_record:
+        from ftc_mj.outputs.recording import write_recording  # rerun is heavy to import; only when recording
+
+        path = args.out or scenario.output_path
+        with outputs.writing("--out", path):
+            write_recording(path, scenario=scenario.name, model=scenario.model, results=results,
+                            fault_onsets=scenario.fault_onsets, seed=scenario.spec.seed, figures=scenario.figures,
+                            colours=scenario.colours)
+    if args.json is not None:
+        document = metrics_document(scenario, results, metrics)
+        outputs.write("--json", args.json, (json.dumps(document, indent=2) + "\n").encode("utf-8"))
+    if args.export_log is not None:
+        from ftc_mj.logs.export import log_bytes, variant_path
+        from ftc_mj.logs.trajectory import joint_names
+
+        joints = joint_names(scenario.model)
+        for result in results:
+            if result.host is None:  # a monitor shares its host's readings and commands
+                target = variant_path(args.export_log, result.name)
+                outputs.write("--export-log", target, log_bytes(target, result, joints))
+
+
+def _serve_until_stopped(args: argparse.Namespace) -> None:
+    """Keep the --serve server (it lives in this process) until Ctrl-C."""
+    import time
+
+    host, port = args.address
+    print(f"serving the recording: rerun --connect rerun+http://{host}:{port}/proxy (Ctrl-C to stop)",
+          file=sys.stderr, flush=True)
     try:
-        results = _run_with_progress(scenario, console, on_chunk)
-        onsets = scenario.fault_onsets
-        metrics = {r.name: compute_metrics(r, scenario.spec.metrics, onsets, scenario.joint_fault_onsets,
-                                           scenario.torque_limits)
-                   for r in results}
-        if scenario.log is not None:  # no ground truth: its metrics out, the events' in
-            from ftc_mj.logs.events import log_metrics
+        while True:
+            time.sleep(3600)
+    except KeyboardInterrupt:  # Ctrl-C ends the serving, the run's exit status follows
+        print("stopped serving", file=sys.stderr)
 
-            shown = log_metrics(scenario.log.events, results, metrics, shown)
-        if args.metrics == "summary" and any(np.any(m["saturation_time"] > 0) for m in metrics.values()):
-            shown.append("saturation_time")  # in the summary whenever a command was clipped
-        if not args.quiet:
-            Console().print(metrics_table(scenario, results, metrics, shown))
-            note = undefined_note(scenario, results)
-            if note is not None:
-                print(note, file=sys.stderr)
 
-        # Recording first, JSON second, exported logs last; if one cannot be written, those written before go too
-        # (exit 2 writes nothing). Each is written whole or not at all (write_atomic).
-        if not args.no_record:
-            from ftc_mj.outputs.palette import declared_colours
-            from ftc_mj.outputs.recording import write_recording  # rerun is heavy to import; only when recording
-
-            write_recording(recording_path, scenario=scenario.name, model=scenario.model, results=results,
-                            fault_onsets=onsets, seed=scenario.spec.seed, figures=scenario.figures,
-                            colours=declared_colours(scenario.raw["variants"]))
-            written.append(recording_path)
-        if live is not None:
-            live.finish(scenario.model, results, onsets, scenario.spec.seed, scenario.figures)
-        if args.json is not None:
-            document = metrics_document(scenario, results, metrics)
-            write_atomic(args.json, (json.dumps(document, indent=2) + "\n").encode("utf-8"))
-            written.append(args.json)
-        if args.export_log is not None:
-            from ftc_mj.logs.export import log_bytes, variant_path
-            from ftc_mj.logs.trajectory import joint_names
-
-            joints = joint_names(scenario.model)
-            for result in results:
-                if result.host is None:  # a monitor shares its host's readings and commands
-                    target = variant_path(args.export_log, result.name)
-                    write_atomic(target, log_bytes(target, result, joints))
-                    written.append(target)
-    except OSError as error:
-        for path in written:
-            path.unlink(missing_ok=True)
-        print(f"error: cannot write {error.filename}: {error.strerror}", file=sys.stderr)
-        return 2
-    except KeyboardInterrupt:  # as campaign run: one line, exit 130, and no output of a run that did not end
-        for path in written:
-            path.unlink(missing_ok=True)
-        print("interrupted: nothing written", file=sys.stderr)
-        return 130
+@exit_status()
+def main(argv: Sequence[str] | None = None, prog: str = PROG) -> int:
+    args = build_parser(prog).parse_args(argv)
+    scenario, outputs, shown = _prepare(args)
+    live, on_chunk = start_live(scenario, _viewer_sinks(args)) if (args.spawn or args.connect or args.serve) \
+        else (None, None)
+    if args.serve:
+        host, port = args.address
+        print(f"serving the run as it goes: rerun --connect rerun+http://{host}:{port}/proxy", file=sys.stderr,
+              flush=True)
+    results, metrics = _simulate(args, scenario, shown, on_chunk)
+    _write_outputs(args, scenario, outputs, results, metrics)
+    if live is not None:
+        live.finish(scenario.model, results, scenario.fault_onsets, scenario.spec.seed, scenario.figures)
     saturated = saturation_warning(scenario, results, metrics)
     if saturated and not args.quiet:
         print(saturated, file=sys.stderr)
-    if recording_path in written and not args.quiet:
-        print(f"recording: {recording_path}  (open with: rerun {recording_path})", file=sys.stderr)
-    if args.serve and written:
-        print(f"serving the recording: rerun --connect rerun+http://127.0.0.1:{DEFAULT_PORT}/proxy "
-              "(Ctrl-C to stop)", file=sys.stderr, flush=True)
-        import time
-
-        try:
-            while True:  # the server lives in this process: keep it until the user stops it
-                time.sleep(3600)
-        except KeyboardInterrupt:  # Ctrl-C ends the serving, the run's exit status follows
-            print("stopped serving", file=sys.stderr)
+    if not args.no_record and not args.quiet:
+        recording = args.out or scenario.output_path
+        print(f"recording: {recording}  (open with: rerun {recording})", file=sys.stderr)
+    if args.serve:
+        _serve_until_stopped(args)
+        live.close()
     diverged = [r for r in results if r.status != "ok" and r.host is None]  # monitors share their host's run
     for r in diverged:  # said whatever --quiet: an exit 1 explains itself
         print(f"diverged: variant {r.name!r} at t = {r.diverged_at:.6g} s", file=sys.stderr)

@@ -19,6 +19,7 @@ import sys
 from collections.abc import Sequence
 from pathlib import Path
 
+from ftc_mj.cli.command import Outputs, exit_status
 from ftc_mj.cli.parser import ArgumentParser
 
 PROG = "ftc-mj tune"
@@ -41,57 +42,53 @@ def build_parser(prog: str = PROG) -> argparse.ArgumentParser:
     return parser
 
 
+@exit_status("interrupted: finished generations are saved; run the same command again to go on")
 def main(argv: Sequence[str] | None = None, prog: str = PROG) -> int:
     argv = list(sys.argv[1:] if argv is None else argv)
     args = build_parser(prog).parse_args(argv)
     from ftc_mj.cli.campaign import assignments, command_line
     from ftc_mj.config.errors import InputError
 
-    try:
-        from ftc_mj.campaign import execute
-        from ftc_mj.outputs.files import check_output
-        from ftc_mj.tuning import optimise, outcome
+    from ftc_mj.campaign import execute
+    from ftc_mj.tuning import optimise, outcome
 
-        file = str(args.tuning)
-        if args.workers is not None and args.workers < 1:
-            raise InputError(file, "--workers", f"must be at least 1, not {args.workers}")
-        if args.out is not None:
-            check_output(args.out, file, "--out", directory=True, inputs=[args.tuning])
-        if args.scheduler is not None:
-            execute.check_scheduler_address(args.scheduler, file)
-        fields = {}
-        for option, field, value in (("--population", "optimizer.population", args.population),
-                                     ("--conditions", "conditions", args.conditions),
-                                     ("--held-out", "held_out", args.held_out)):
-            if value is not None:
-                if value < 1:
-                    raise InputError("command line", option, f"must be at least 1, not {value}")
-                fields[field] = value
-        if args.duration is not None:
-            if not args.duration > 0:
-                raise InputError("command line", "--duration", f"must be positive, not {args.duration:g}")
-            fields["duration"] = args.duration
-        tuning = optimise.prepare(args.tuning, args.generations, fields, assignments(args.overrides))
-        out = args.out or Path("results") / "tuning" / tuning.spec.name
-        check_output(out, file, "--out", directory=True, inputs=[args.tuning, *tuning.campaign.inputs])
-        if args.scheduler is not None:
-            execute.check_scheduler(args.scheduler, file)
+    file = str(args.tuning)
+    if args.workers is not None and args.workers < 1:
+        raise InputError(file, "--workers", f"must be at least 1, not {args.workers}")
+    outputs = Outputs(file)
+    outputs.add("--out", args.out, directory=True)
+    outputs.check([args.tuning])
+    if args.scheduler is not None:
+        execute.check_scheduler_address(args.scheduler, file)
+    fields = {}
+    for option, field, value in (("--population", "optimizer.population", args.population),
+                                 ("--conditions", "conditions", args.conditions),
+                                 ("--held-out", "held_out", args.held_out)):
+        if value is not None:
+            if value < 1:
+                raise InputError("command line", option, f"must be at least 1, not {value}")
+            fields[field] = value
+    if args.duration is not None:
+        if not args.duration > 0:
+            raise InputError("command line", "--duration", f"must be positive, not {args.duration:g}")
+        fields["duration"] = args.duration
+    tuning = optimise.prepare(args.tuning, args.generations, fields, assignments(args.overrides))
+    out = args.out or Path("results") / "tuning" / tuning.spec.name
+    outputs.declared.clear()
+    outputs.add("--out", out, directory=True)
+    outputs.check([args.tuning, *tuning.campaign.inputs])
+    if args.scheduler is not None:
+        execute.check_scheduler(args.scheduler, file)
 
-        def progress(generation: int, total: int, best: float) -> None:
-            if not args.quiet:
-                print(f"generation {generation}/{total}: best cost {best:.4g}", file=sys.stderr, flush=True)
+    def progress(generation: int, total: int, best: float) -> None:
+        if not args.quiet:
+            print(f"generation {generation}/{total}: best cost {best:.4g}", file=sys.stderr, flush=True)
 
-        optimise.check_directory(tuning, out)  # before the lock file is made in it
-        with execute.directory_lock(out, file, holder="tuning"):  # a second tuning on DIR is refused
-            result = optimise.optimise(tuning, out, workers=args.workers, scheduler=args.scheduler,
-                                       progress=progress)
-            document = outcome.write(tuning, out, result, command=command_line(prog, argv))
-    except InputError as exc:
-        print(f"error: {exc}", file=sys.stderr)
-        return 2
-    except KeyboardInterrupt:
-        print("interrupted: finished generations are saved; run the same command again to go on", file=sys.stderr)
-        return 130
+    optimise.check_directory(tuning, out)  # before the lock file is made in it
+    with execute.directory_lock(out, file, holder="tuning"):  # a second tuning on DIR is refused
+        result = optimise.optimise(tuning, out, workers=args.workers, scheduler=args.scheduler,
+                                   progress=progress)
+        document = outcome.write(tuning, out, result, command=command_line(prog, argv))
     if not args.quiet:
         held = document["held_out"]
         diff = held["paired_difference"]

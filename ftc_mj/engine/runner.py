@@ -17,6 +17,7 @@ from __future__ import annotations
 
 import dataclasses
 import os
+import threading
 from collections.abc import Callable
 from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass
@@ -128,15 +129,30 @@ def _interleaved(scenario: Scenario, members: Members, start: int, stop: int, th
     halves = [(start, middle), (middle, stop)]
     kept: list[list[tuple[int, list[VariantResult]]]] = [[], []]
 
+    stopping = threading.Event()
+
     def half(index: int) -> list[MemberOutcome]:
         first, last = halves[index]
         keep = None if on_result is None else (lambda member, results: kept[index].append((member, results)))
-        return _chunk_outcomes(scenario, members, first, last, max(1, threads // 2),
-                               progress if index == 0 else None, keep)
+        shown = progress if index == 0 else None
 
-    with ThreadPoolExecutor(max_workers=2, thread_name_prefix="ftc_mj-batch") as pool:
+        def advance(samples: int) -> None:  # a thread cannot be interrupted: it stops itself here
+            if stopping.is_set():
+                raise KeyboardInterrupt
+            if shown is not None:
+                shown(samples)
+
+        return _chunk_outcomes(scenario, members, first, last, max(1, threads // 2), advance, keep)
+
+    pool = ThreadPoolExecutor(max_workers=2, thread_name_prefix="ftc_mj-batch")
+    try:
         futures = [pool.submit(half, index) for index in range(2)]
         outcomes = [outcome for future in futures for outcome in future.result()]
+    except BaseException:  # Ctrl-C: raised at once; the halves stop at their next progress call
+        stopping.set()
+        pool.shutdown(wait=False, cancel_futures=True)
+        raise
+    pool.shutdown()
     if on_result is not None:
         for member, results in kept[0] + kept[1]:
             on_result(member, results)

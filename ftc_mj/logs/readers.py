@@ -11,6 +11,7 @@ resamples them.
 from __future__ import annotations
 
 import io
+import struct
 from collections.abc import Iterator, Sequence
 from dataclasses import dataclass
 from pathlib import Path
@@ -27,6 +28,10 @@ MAX_SAMPLES = 2_000_000
 #: The message type the bag and MCAP readers take.
 JOINT_STATE = "sensor_msgs/msg/JointState"
 SIGNALS = ("position", "velocity", "torque")
+#: What a damaged bag, MCAP file or metadata raises while it is read (besides each library's own errors): a
+#: missing or unreadable file, text that is not UTF-8 or not YAML, a record read past its end.
+DECODING_ERRORS: tuple[type[BaseException], ...] = (OSError, ValueError, KeyError, IndexError, TypeError,
+                                                    AttributeError, EOFError, struct.error)
 
 
 @dataclass
@@ -127,7 +132,11 @@ def _column(ref: ColumnRef, header: list[str] | None, width: int, file: str, fie
     if ref not in header:
         shown = ", ".join(header[:12]) + (", ..." if len(header) > 12 else "")
         raise InputError(file, field, f"no column {ref!r} in the header ({shown})")
-    return header.index(ref)
+    found = [k for k, name in enumerate(header) if name == ref]
+    if len(found) > 1:  # which one was meant? (the first would be replayed silently)
+        raise InputError(file, field, f"the header names {len(found)} columns {ref!r} (columns "
+                         f"{', '.join(map(str, found))}): name each column once, or give the column by its index")
+    return found[0]
 
 
 def read_joint_states(path: Path, format: str, topic: str, joints: Sequence[str], clock: str) -> Recording:
@@ -148,6 +157,9 @@ def read_joint_states(path: Path, format: str, topic: str, joints: Sequence[str]
             raise InputError(file, "log.topic", f"{topic!r} has more than the {MAX_SAMPLES} messages a log may have")
         names = tuple(message.name)
         if names != order:  # most logs name the joints in one order throughout
+            twice = next((name for k, name in enumerate(names) if name in names[:k]), None)
+            if twice is not None:  # which value is the joint's? (the first would be replayed silently)
+                raise InputError(file, "log.joints", f"message {count} on {topic!r} names the joint {twice!r} twice")
             try:
                 picks = [names.index(joint) for joint in joints]
             except ValueError:
@@ -197,6 +209,7 @@ def _typestore():
 def _bag_messages(path: Path, topic: str, file: str) -> Iterator[tuple[int, object]]:
     """(received time [ns], message) of a rosbag2 bag's topic, in recording order."""
     from rosbags.rosbag2 import Reader
+    import yaml
     from rosbags.rosbag2.errors import ReaderError
 
     folder = path if path.is_dir() else path.parent
@@ -210,10 +223,10 @@ def _bag_messages(path: Path, topic: str, file: str) -> Iterator[tuple[int, obje
             wrong = [c.msgtype for c in connections if c.msgtype != JOINT_STATE]
             if wrong:
                 raise InputError(file, "log.topic", f"{topic!r} holds {wrong[0]} messages, not {JOINT_STATE}")
-            for connection, received, data in reader.messages(connections=connections):
-                yield received, store.deserialize_cdr(data, connection.msgtype)
-    except (ReaderError, FileNotFoundError) as error:  # a folder without a bag's metadata: FileNotFoundError
-        raise InputError(file, "log.file", f"is not a readable rosbag2 bag: {error}") from None
+            for count, (connection, received, data) in enumerate(reader.messages(connections=connections)):
+                yield received, _decode(store, data, connection.msgtype, file, topic, count)
+    except (ReaderError, yaml.YAMLError, *DECODING_ERRORS) as error:  # no metadata.yaml: FileNotFoundError
+        raise InputError(file, "log.file", f"is not a readable rosbag2 bag: {_reason(error)}") from None
 
 
 def _mcap_messages(path: Path, topic: str, file: str) -> Iterator[tuple[int, object]]:
@@ -231,11 +244,28 @@ def _mcap_messages(path: Path, topic: str, file: str) -> Iterator[tuple[int, obj
             if summary is not None and not found:
                 topics = sorted({c.topic for c in channels})
                 raise InputError(file, "log.topic", f"no topic {topic!r} in the file (topics: {', '.join(topics) or 'none'})")
+            count = 0
             for schema, channel, message in reader.iter_messages(topics=[topic], log_time_order=True):
                 if schema is None or schema.name != JOINT_STATE or channel.message_encoding != "cdr":
                     name = schema.name if schema is not None else "schema-less"
                     raise InputError(file, "log.topic", f"{topic!r} holds {name} ({channel.message_encoding}) "
                                      f"messages, not CDR-encoded {JOINT_STATE}")
-                yield message.log_time, store.deserialize_cdr(message.data, JOINT_STATE)
-    except (McapError, EOFError, ValueError) as error:
-        raise InputError(file, "log.file", f"is not a readable MCAP file: {error}") from None
+                yield message.log_time, _decode(store, message.data, JOINT_STATE, file, topic, count)
+                count += 1
+    except (McapError, EOFError, *DECODING_ERRORS) as error:
+        raise InputError(file, "log.file", f"is not a readable MCAP file: {_reason(error)}") from None
+
+
+def _decode(store, data: bytes, message_type: str, file: str, topic: str, count: int) -> object:
+    """One CDR message, or the one-line error naming it (a damaged message: rosbags' ``SerdeError``, or a
+    field read past the message's end)."""
+    try:
+        return store.deserialize_cdr(data, message_type)
+    except Exception as error:  # noqa: BLE001 - the deserializer raises anything on damaged bytes
+        raise InputError(file, "log.topic", f"message {count} on {topic!r} cannot be decoded (damaged): "
+                         f"{_reason(error)}") from None
+
+
+def _reason(error: BaseException) -> str:
+    text = str(error).strip().splitlines()
+    return f"{type(error).__name__}: {text[0]}" if text else type(error).__name__

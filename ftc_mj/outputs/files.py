@@ -91,8 +91,9 @@ def output_problem(path: Path, *, directory: bool = False, inputs: Iterable[Path
 
     Refused: an existing target that is not a regular file (a directory, a device, a pipe) or, for a
     folder, not a folder; a target that is one of ``inputs`` (the run's scenario, its bases, its model) or,
-    for a folder, holds one of them; a nearest existing folder that is not a folder, is not writable, or is
-    on a pseudo file system (:data:`PSEUDO_FILE_SYSTEMS`)."""
+    for a folder, holds one of them, or lies inside an input that is a folder (a rosbag2 bag); a nearest
+    existing folder that is not a folder, is not writable, or is on a pseudo file system
+    (:data:`PSEUDO_FILE_SYSTEMS`). Paths are compared with their symbolic links followed."""
     path = Path(path)
     try:
         mode = os.stat(path).st_mode
@@ -115,6 +116,8 @@ def output_problem(path: Path, *, directory: bool = False, inputs: Iterable[Path
             return f"{str(path)!r} is an input of this run ({source}): not overwritten"
         if directory and target in source.parents:
             return f"{str(path)!r} holds an input of this run ({source})"
+        if source in target.parents and os.path.isdir(source):  # a log that is a folder (a rosbag2 bag)
+            return f"{str(path)!r} is inside an input folder of this run ({source})"
     folder = target if directory else target.parent
     while not folder.exists():
         folder = folder.parent

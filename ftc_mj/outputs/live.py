@@ -28,6 +28,7 @@ import mujoco
 import numpy as np
 import rerun as rr
 
+from ftc_mj.config.errors import InputError
 from ftc_mj.outputs.layout import Figure, Layout, generic_figures, variant_styles
 from ftc_mj.outputs.recording import (DIAGNOSIS_SERIES, GENERIC_QUANTITIES, LAYOUT_PROPERTY, LINE_WIDTH,
                                       OPTIONAL_SERIES, SERIES, SHARED_SERIES, TRUTH_WIDTH, _blueprint, _ep,
@@ -35,6 +36,10 @@ from ftc_mj.outputs.recording import (DIAGNOSIS_SERIES, GENERIC_QUANTITIES, LAYO
                                       _time_column, _xyzw)
 from ftc_mj.results import VariantResult
 
+#: Seconds to wait for a viewer to answer before a run (``--connect``).
+CONNECT_TIMEOUT = 3.0
+#: Seconds the end of a stream waits for a viewer that stopped reading.
+FLUSH_TIMEOUT = 10.0
 #: Least wall time between two sends [s]: a send costs about a millisecond per hundred entities.
 SEND_INTERVAL = 0.5
 #: Body poses kept every this many samples, as in the file.
@@ -67,6 +72,8 @@ class LiveRecording:
         self.bodies = None if bodies is None else list(bodies)
         #: Samples sent so far, of the quantities and of the poses.
         self.sent = 0
+        #: Whether a sink is a server in this process (``--serve``): it serves until :meth:`close`.
+        self.serving = False
         self._last = wall.perf_counter()
 
     @classmethod
@@ -108,7 +115,9 @@ class LiveRecording:
         if posed:
             _log_geometry(rec, model)
         bodies = [_ep("world", _name(model, mujoco.mjtObj.mjOBJ_BODY, b, "body")) for b in range(model.nbody)]
-        return cls(rec, layout, variants, columns, np.asarray(times, dtype=np.float64), bodies if posed else None)
+        live = cls(rec, layout, variants, columns, np.asarray(times, dtype=np.float64), bodies if posed else None)
+        live.serving = any(isinstance(sink, rr.GrpcServerSink) for sink in sinks)
+        return live
 
     def due(self) -> bool:
         """Whether :data:`SEND_INTERVAL` has passed since the last send."""
@@ -189,8 +198,73 @@ class LiveRecording:
                         np.asarray(posed.body_xquat)[kept])
         rec.send_blueprint(_blueprint(layout, series, t, posed.name if posed else None, model,
                                       *((posed.body_xpos, posed.body_xquat) if posed else ())), make_active=True)
-        rec.flush()
-        rec.disconnect()
+        rec.flush(timeout_sec=FLUSH_TIMEOUT)  # a viewer closed during the run: give up, never hang
+        if not self.serving:  # a server in this process ends with the stream: kept until close()
+            rec.disconnect()
+
+    def close(self) -> None:
+        """End the stream (and a server's serving)."""
+        self.rec.disconnect()
+
+
+def viewer_address(url: str) -> tuple[str, int]:
+    """The host and port of a viewer's gRPC URL (``rerun+http://HOST:PORT/proxy``, Rerun's forms).
+
+    Raises:
+        InputError: not such a URL.
+    """
+    from urllib.parse import urlsplit
+
+    parts = urlsplit(url)
+    try:
+        port = parts.port
+    except ValueError:
+        port = None
+    if parts.scheme not in ("rerun", "rerun+http", "rerun+https") or not parts.hostname or parts.path != "/proxy":
+        raise InputError("command line", "--connect", f"{url!r} is not a viewer's address (rerun+http://HOST:PORT"
+                         "/proxy, e.g. rerun+http://127.0.0.1:9876/proxy)")
+    return parts.hostname, port or 9876
+
+
+def check_viewer(url: str) -> None:
+    """Refuse a viewer address where nothing answers within :data:`CONNECT_TIMEOUT`, before the run (a stream
+    to it would wait for ever at the end).
+
+    Raises:
+        InputError: one line saying what to do.
+    """
+    import socket
+
+    host, port = viewer_address(url)
+    try:
+        socket.create_connection((host, port), timeout=CONNECT_TIMEOUT).close()
+    except OSError as error:
+        reason = "no answer" if isinstance(error, TimeoutError) else error.strerror or str(error)
+        raise InputError("command line", "--connect", f"no viewer at {url} ({reason}): start one first (rerun), "
+                         "or use --spawn to start one, or --serve for viewers to connect to this run") from None
+
+
+def check_bindable(host: str, port: int, option: str = "--serve") -> None:
+    """Refuse an address this process cannot listen on (in use, not this machine's), before the run.
+
+    Raises:
+        InputError: one line saying what to do.
+    """
+    import socket
+
+    try:
+        infos = socket.getaddrinfo(host, port, type=socket.SOCK_STREAM)
+    except socket.gaierror as error:
+        raise InputError("command line", option, f"{host!r} is not an address of this machine ({error.strerror})"
+                         ) from None
+    family, kind, _, _, address = infos[0]
+    with socket.socket(family, kind) as probe:
+        probe.setsockopt(socket.SOL_SOCKET, socket.SO_REUSEADDR, 1)  # as the server binds
+        try:
+            probe.bind(address)
+        except OSError as error:
+            raise InputError("command line", option, f"cannot listen on {host}:{port} ({error.strerror}): stop "
+                             f"what listens there, or name another port (--bind {host}:{port + 1})") from None
 
 
 def _send_poses(rec: rr.RecordingStream, bodies: Sequence[str], times: np.ndarray, xpos: np.ndarray,

@@ -31,9 +31,11 @@ from typing import Any
 
 import numpy as np
 import pyarrow as pa
+import pyarrow.parquet as pq
 import yaml
 
 from ftc_mj.ranking import windows
+from ftc_mj.config.errors import InputError
 from ftc_mj.ranking.entries import Bench, Entry
 from ftc_mj.ranking.suite import REFERENCE, TASKS
 from ftc_mj.campaign import execute as campaign_execute
@@ -93,14 +95,26 @@ def protocol_digest(bench: Bench, robot: str, task: str, population: str, tier: 
 
 
 def find_done(out: Path, task: str, robot: str, population: str, protocol: str) -> dict[str, Found]:
-    """Identity -> where its rows are, over the finished campaigns of this protocol in ``out``."""
+    """Identity -> where its rows are, over the finished campaigns of this protocol in ``out``.
+
+    Raises:
+        InputError: an ``entries.json`` or a finished ``runs.parquet`` that cannot be read (:func:`damaged`).
+    """
     found: dict[str, Found] = {}
     for manifest in sorted((out / "runs" / task / robot / population).glob("*/entries.json")):
-        content = json.loads(manifest.read_text())
         results = manifest.parent / "results"
-        if content.get("protocol") != protocol or not any((results / name).is_file() for name in FINISHED):
-            continue
-        for identity, name in content["entries"].items():
+        reading = manifest
+        try:
+            content = json.loads(manifest.read_text(encoding="utf-8"))
+            if content.get("protocol") != protocol or not any((results / name).is_file() for name in FINISHED):
+                continue
+            entries = dict(content["entries"])
+            if (results / "campaign.json").is_file():
+                reading = results / "runs.parquet"
+                pq.read_metadata(reading)  # a truncated table fails here, before anything is simulated
+        except (OSError, ValueError, KeyError, TypeError, AttributeError, pa.ArrowException) as error:
+            raise damaged(reading, error) from None
+        for identity, name in entries.items():
             found.setdefault(identity, Found(results, _variant(task, name, (results / WINDOWS).is_file())))
         for name in windows.SANITY:
             found.setdefault(name, Found(results, name))
@@ -109,6 +123,16 @@ def find_done(out: Path, task: str, robot: str, population: str, protocol: str) 
 
 #: What a finished chunk holds: a campaign's summary (rows) or the windows' reduction (suite v2's diagnosis).
 FINISHED = ("campaign.json", WINDOWS := "windows.npz")
+
+
+def damaged(path: Path, error: Exception) -> InputError:
+    """The one-line error of a file of a bench's results that cannot be read: its campaign's folder is to be
+    removed, and its runs are then simulated again."""
+    folder = path.parent if path.name == "entries.json" else path.parent.parent
+    reason = (getattr(error, "strerror", None) or str(error).strip().splitlines()[0]) if str(error).strip() \
+        else type(error).__name__
+    return InputError(str(path), "", f"cannot be read (truncated or damaged: {reason}): remove {folder} and run "
+                      "the same command again (its runs are simulated again)")
 
 
 def _variant(task: str, name: str, windowed: bool = False) -> str:

@@ -22,7 +22,7 @@ from matplotlib.figure import Figure
 from ftc_mj.outputs.figures import OVER_ALIKE
 from ftc_mj.ranking import score as sc
 from ftc_mj.ranking import windowed
-from ftc_mj.ranking.execute import Found
+from ftc_mj.ranking.execute import Found, damaged
 from ftc_mj.ranking.entries import Bench
 from ftc_mj.outputs.files import parquet_bytes, write_atomic
 from ftc_mj.outputs.palette import CAMPAIGN_LINE_STYLES, ORDER, assign_colours
@@ -35,7 +35,10 @@ KindMedians = dict[str, dict[str, dict[str, float]]]
 
 @lru_cache(maxsize=64)
 def _table(path: Path) -> dict[str, np.ndarray]:
-    table = pq.read_table(path)
+    try:
+        table = pq.read_table(path)
+    except (OSError, pa.ArrowException) as error:  # damaged after find_done read its footer
+        raise damaged(path, error) from None
     return {name: table.column(name).to_numpy(zero_copy_only=False) for name in table.column_names}
 
 

@@ -13,7 +13,7 @@ import mujoco
 import numpy as np
 from pydantic import Field
 
-from ftc_mj.robot import mjcf, urdf, visuals
+from ftc_mj.robot import cost, mjcf, urdf, visuals
 from ftc_mj.robot.packages import resolve_package_uri, split_package_uri
 from ftc_mj.config.errors import InputError
 from ftc_mj.config.paths import input_file_problem
@@ -109,6 +109,14 @@ def load_robot(scenario_path: Path, robot: RobotSpec, file: str) -> tuple[Path, 
     return model_path, model
 
 
+def model_files(model_path: Path, file: str) -> list[Path]:
+    """The files a model reads: the model file, its includes and the mesh and texture files it names that
+    exist (what no output of a run may replace)."""
+    if urdf.is_urdf(model_path):
+        return urdf.files(model_path)
+    return cost.mjcf_files(model_path, file, "robot.model")
+
+
 #: How to get the ROS robot descriptions the shipped URDF and real-log scenarios use.
 ROBOTS_EXTRA = ("it comes with the robots extra: pip install -e \".[robots]\" in the repository "
                 "(or pip install example-robot-data)")
@@ -128,7 +136,7 @@ def _model_file(scenario_path: Path, name: str, file: str) -> Path:
         if problem is not None:
             raise InputError(file, "robot.model", f"{name!r} ({found}) {problem}")
         return found
-    model_path = (scenario_path.parent / name).resolve()
+    model_path = cost.resolved(scenario_path.parent / name)
     problem = input_file_problem(model_path)
     if problem is not None:
         raise InputError(file, "robot.model", f"model file {name!r} {problem}: looked for {str(model_path)!r} "
@@ -171,6 +179,7 @@ def _load_mjcf(model_path: Path, robot: RobotSpec, file: str, name: str, rebuild
             if getattr(robot, option) not in (None, {}):
                 raise InputError(file, f"robot.{option}", "is for URDF models only, or for an MJCF rebuilt as a "
                                                           "testbed robot (give robot.joints)")
+    cost.mjcf_files(model_path, file, "robot.model")  # its bounds, before MuJoCo's parser (which does not stop)
     try:
         spec = mujoco.MjSpec.from_file(str(model_path))
     except ValueError as exc:

@@ -61,7 +61,7 @@ def resolve_package_uri(uri: str, near: Path | None = None) -> Path | None:
     if parts is None:
         return None
     package, rest = parts
-    return next((path.resolve() for root in package_roots(package, near) if (path := root / rest).is_file()), None)
+    return next((Path(os.path.realpath(path)) for root in package_roots(package, near) if (path := root / rest).is_file()), None)
 
 
 @lru_cache(maxsize=1)

@@ -34,7 +34,7 @@ import mujoco
 import numpy as np
 from lxml import etree
 
-from ftc_mj.robot import editing, meshes as mesh_files, visuals
+from ftc_mj.robot import cost, editing, meshes as mesh_files, visuals
 from ftc_mj.robot.meshes import CONVERTED_FORMATS, MUJOCO_FORMATS, MeshConversionError, MeshPart
 from ftc_mj.robot.packages import package_candidates, resolve_package_uri
 from ftc_mj.robot.visuals import MissingVisual
@@ -124,6 +124,7 @@ def read_urdf(path: Path, strict_meshes: bool = True) -> UrdfRobot:
 
 def _parse_xml(path: Path) -> etree._Element:
     file = str(path)
+    cost.check_model_file(path, file, "")
     try:
         data = path.read_bytes()
     except OSError as exc:
@@ -142,6 +143,7 @@ def _parse_xml(path: Path) -> etree._Element:
         raise InputError(file, f"<{root.tag}>", "the root element of a URDF file must be <robot>")
     if not root.get("name"):
         raise InputError(file, "<robot>", "has no name attribute")
+    cost.check_urdf_counts(root, file)
     return root
 
 
@@ -319,6 +321,8 @@ def _check_geometry(file: str, element: str, geometry: yourdfpy.Geometry | None,
             raise InputError(file, element, f"sizes must be numbers > 0, got {[float(v) for v in sizes]}")
         return
     filename = geometry.mesh.filename or ""
+    for candidate in mesh_candidates(filename, base):
+        cost.check_mesh_file(candidate, file, f"{element}: mesh")
     target = resolve_mesh(filename, base)
     if target is None:
         looked_at = tuple(mesh_candidates(filename, base))
@@ -360,7 +364,18 @@ def mesh_candidates(filename: str, base: Path) -> list[Path]:
     if filename.startswith("package://"):
         return package_candidates(filename, base)
     name = unquote(filename[len("file://"):]) if filename.startswith("file://") else filename
-    return [(base / name).resolve()] if name and "://" not in name else []
+    return [cost.resolved(base / name)] if name and "://" not in name else []
+
+
+def files(path: Path) -> list[Path]:
+    """The files a URDF reads: the file and the mesh files it names that exist."""
+    root = _parse_xml(path)
+    found = [cost.resolved(path)]
+    for mesh in root.iter("mesh"):
+        target = resolve_mesh(mesh.get("filename") or "", path.parent)
+        if target is not None:
+            found.append(target)
+    return list(dict.fromkeys(found))
 
 
 def resolve_mesh(filename: str, base: Path) -> Path | None:
@@ -374,7 +389,7 @@ def resolve_mesh(filename: str, base: Path) -> Path | None:
         return resolve_package_uri(filename, base)
     name = unquote(filename[len("file://"):]) if filename.startswith("file://") else filename
     candidate = base / name if name and "://" not in name else None
-    return candidate.resolve() if candidate is not None and candidate.is_file() else None
+    return cost.resolved(candidate) if candidate is not None and candidate.is_file() else None
 
 
 # ------------------------------------------------------------------------------------------ building
@@ -396,7 +411,8 @@ def load_model(
     Args:
         path: the URDF file.
         joints: the joints to control, in kinematic order; the other movable joints are locked (at their
-            ``lock`` value, else at 0). Default: every movable joint not locked.
+            ``lock`` value, else at 0, or at the limit nearest 0 with a warning where 0 is outside the joint's
+            limits). Default: every movable joint not locked.
         lock: joints to lock, by name, at an angle [rad] (a position [m] for a prismatic joint). A mimic joint
             whose leader is locked is locked with it, at ``multiplier * leader + offset``.
         torque_limits: |torque| limit of the free joints' motors [N m or N], one value or one per free joint;
@@ -443,7 +459,8 @@ def load_model(
 def _hold_the_others(robot: UrdfRobot, joints: Sequence[str], lock: Mapping[str, float], source: str,
                      field: str) -> dict[str, float]:
     """Check the controlled ``joints``; the movable joints neither controlled, locked nor mimic joints are held
-    at 0."""
+    at 0, or at their limit nearest 0 where 0 is outside their limits (one warning line names them: a
+    humanoid's arm whose elbow cannot straighten)."""
     name_of_file = robot.path.name
     for k, name in enumerate(joints):
         if name not in robot.movable:
@@ -455,15 +472,19 @@ def _hold_the_others(robot: UrdfRobot, joints: Sequence[str], lock: Mapping[str,
     if list(joints) != in_order or len(set(joints)) != len(joints):
         raise InputError(source, f"{field}.joints", f"must name each joint once, in kinematic order (the order of "
                                                     f"qpos): {in_order}")
-    held = {}
+    held, moved = {}, []
     for name in robot.movable:
         if name not in joints and name not in lock and robot.joint(name).mimic is None:
             limit = robot.joint(name).limit
-            if robot.joint(name).type != "continuous" and not limit.lower <= 0.0 <= limit.upper:
-                raise InputError(source, f"{field}.lock", f"joint {name!r} is not in {field}.joints, so it is locked, "
-                                                          f"at 0 unless {field}.lock says; 0 is outside its limits "
-                                                          f"[{limit.lower}, {limit.upper}]")
-            held[name] = 0.0
+            value = 0.0
+            if robot.joint(name).type != "continuous" and limit is not None and not limit.lower <= 0.0 <= limit.upper:
+                value = float(min(max(0.0, limit.lower), limit.upper))  # the limit nearest 0
+                moved.append(f"{name} at {value:g} (limits [{limit.lower:g}, {limit.upper:g}])")
+            held[name] = value
+    if moved:
+        visuals.LOGGER.warning("warning: %s: %s.lock: %d joint(s) not in %s.joints are locked at their limit "
+                               "nearest 0, which is outside their limits: %s (%s.lock sets another value)",
+                               source, field, len(moved), field, "; ".join(moved), field)
     return held
 
 

@@ -21,6 +21,7 @@ the application configures no logging).
 from __future__ import annotations
 
 import logging
+import os
 from collections.abc import Sequence
 from dataclasses import dataclass
 from pathlib import Path
@@ -98,7 +99,7 @@ def mesh_path(spec: mujoco.MjSpec, file: str) -> Path:
         return Path(name)
     meshdir = Path(spec.meshdir or "")
     folder = meshdir if meshdir.is_absolute() else Path(spec.modelfiledir or ".") / meshdir
-    return (folder / name).resolve()
+    return Path(os.path.realpath(folder / name))  # a loop of links stays in the path (Path.resolve raises)
 
 
 def drop_missing_meshes(spec: mujoco.MjSpec, *, contacts_on: bool, strict: bool, model: str, source: str,

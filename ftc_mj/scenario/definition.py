@@ -316,6 +316,14 @@ class Scenario:
         return onsets
 
     @property
+    def colours(self) -> dict[str, str]:
+        """The colour of every variant and monitor the file declares (its ``colour``, else the palette's), the
+        same whichever variants run (:func:`ftc_mj.outputs.palette.declared_colours`)."""
+        from ftc_mj.outputs.palette import declared_colours
+
+        return declared_colours(self.raw.get("variants", {}))
+
+    @property
     def output_path(self) -> Path:
         return Path(self.spec.output or f"recordings/{self.spec.name}.rrd")
 

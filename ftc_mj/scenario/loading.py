@@ -18,6 +18,7 @@ from typing import Any
 from ftc_mj.config.errors import InputError, validate
 from ftc_mj.config.inheritance import resolve_bases
 from ftc_mj.config.yaml import apply_override, set_path, unshared
+from ftc_mj.robot.model import model_files
 from ftc_mj.scenario.definition import Scenario, ScenarioSpec, compile_scenario
 
 #: The scenario fields that hold a path relative to the scenario file (:func:`ftc_mj.robot.model.load_robot`):
@@ -112,5 +113,6 @@ def load_scenario(
             raise
         raise InputError(writer, exc.field, exc.problem) from None
     scenario.raw = raw
-    scenario.inputs = (*resolved.files, scenario.model_path)
+    log = () if scenario.log is None else (scenario.log.file,)
+    scenario.inputs = (*resolved.files, *model_files(scenario.model_path, file), *log)
     return scenario

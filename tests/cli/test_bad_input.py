@@ -3,7 +3,11 @@
 directories), outputs (an input overwritten, a kernel file system, a device node), numbers (seeds beyond 64
 bits, a reference that is NaN on the run's grid), names (a signal no method records), campaigns and tuning
 (a claim or a variant that does not exist, a scheduler where nothing listens, optimizer bounds, a results
-directory another process holds), robots (a URDF without links).
+directory another process holds), robots (a URDF without links; what a robot file may cost: links, bodies,
+replicated elements; a mesh behind a loop of links), calibration (its output against every input, its run
+count, runs too short to measure a false alarm), live viewing (no viewer at --connect's address, --serve's
+port in use), logs (damaged messages, a bag's metadata that is not UTF-8, a joint or a column named twice),
+a bench resumed from damaged results, and a report of a document that is not one.
 
 Each case must exit 2 with one line on stderr that names the file and the field, print no traceback, write
 nothing (the folder's listing and every input's bytes are the same afterwards) and end within
@@ -26,6 +30,8 @@ import yaml
 
 ROOT = Path(__file__).resolve().parents[2]
 sys.path.insert(0, str(ROOT / "tests" / "campaign"))
+sys.path.insert(0, str(ROOT / "tests" / "logs"))
+import log_files  # noqa: E402
 import small_campaign  # noqa: E402
 
 #: closed-loop runs and subprocesses of the command line
@@ -183,6 +189,141 @@ def calibrate_near_the_largest_seed(folder: Path) -> list[str]:
     return ["calibrate", "s.yaml", "--false-alarm-rate", "0.1", "--runs", "3", "--out", "c.yaml"]
 
 
+# ------------------------------------------------------------------ calibrate: outputs, numbers, windows
+
+
+def calibrate_case(out: str | None, *extra: str, model: bool = False) -> Callable[[Path], list[str]]:
+    """``calibrate s.yaml`` where s.yaml inherits base.yaml (and with ``model`` a model file in the folder);
+    ``out``: its --out (``LINK``: a symbolic link to s.yaml)."""
+    def setup(folder: Path) -> list[str]:
+        data = scenario(duration=0.3)
+        if model:
+            (folder / "m.xml").write_bytes((ROOT / "models" / "puma560.xml").read_bytes())
+            data["robot"]["model"] = "m.xml"
+        (folder / "base.yaml").write_text(dump(data))
+        (folder / "s.yaml").write_text("base: base.yaml\nname: child\n")
+        target = out
+        if out == "LINK":
+            (folder / "link.yaml").symlink_to("s.yaml")
+            target = "link.yaml"
+        return ["calibrate", "s.yaml", "--false-alarm-rate", "0.1", "--runs", "3", *extra] + (
+            [] if target is None else ["--out", target])
+    return setup
+
+
+# ------------------------------------------------------------------ live viewing
+
+
+def port_in_use(folder: Path) -> list[str]:
+    """--serve on a port another live process listens on."""
+    holder = subprocess.Popen([sys.executable, "-c", "import socket, time; s = socket.socket(); "
+                               "s.bind(('127.0.0.1', 0)); s.listen(); print(s.getsockname()[1], flush=True); "
+                               "time.sleep(60)"], stdout=subprocess.PIPE)
+    port = int(holder.stdout.readline())
+    HOLDERS.append(holder)
+    return run_case(dump(scenario()), "--serve", "--bind", f"127.0.0.1:{port}")(folder)
+
+
+# ------------------------------------------------------------------ robot files: cost, links
+
+
+def mesh_loop(folder: Path) -> list[str]:
+    (folder / "loop1.stl").symlink_to("loop2.stl")
+    (folder / "loop2.stl").symlink_to("loop1.stl")
+    text = (ROOT / "models" / "puma560.urdf").read_text()
+    text = text.replace("</link>", '<visual><geometry><mesh filename="loop1.stl"/></geometry></visual></link>', 1)
+    return urdf_case(text)(folder)
+
+
+def many_links(count: int) -> str:
+    links = "".join(f'<link name="l{k}"><inertial><mass value="1"/><inertia ixx="1" ixy="0" ixz="0" iyy="1" '
+                    'iyz="0" izz="1"/></inertial></link>' for k in range(count))
+    joints = "".join(f'<joint name="j{k}" type="revolute"><parent link="l{k}"/><child link="l{k + 1}"/>'
+                     '<axis xyz="0 0 1"/><limit lower="-1" upper="1" effort="1" velocity="1"/></joint>'
+                     for k in range(count - 1))
+    return f'<robot name="long">{links}{joints}</robot>\n'
+
+
+def mjcf_case(text: str) -> Callable[[Path], list[str]]:
+    def setup(folder: Path) -> list[str]:
+        (folder / "robot.xml").write_text(text)
+        return run_case(mutated("robot.model", "robot.xml"))(folder)
+    return setup
+
+
+REPLICATED = """<mujoco><worldbody><replicate count="100000" offset="0 0 0.01">
+<body><joint type="hinge"/><geom size="0.01" mass="1"/></body></replicate></worldbody></mujoco>
+"""
+NESTED_REPLICATES = """<mujoco><worldbody><replicate count="100" offset="0 0 0.01"><replicate count="100" offset="0.01 0 0">
+<body><geom size="0.01"/></body></replicate></replicate></worldbody></mujoco>
+"""
+
+
+# ------------------------------------------------------------------ logs: damaged, ambiguous
+
+
+def log_case(write: Callable[[Path], dict], *extra: str) -> Callable[[Path], list[str]]:
+    """A replay of the log ``write(folder)`` writes (returning the ``log`` section)."""
+    def setup(folder: Path) -> list[str]:
+        log_files.log_scenario(folder, write(folder), duration=0.5)
+        return ["run", "replay.yaml", "--quiet", "--no-record", *extra] + (
+            [] if "--json" in extra else ["--json", "out.json"])
+    return setup
+
+
+def csv_repeated_column(folder: Path) -> dict:
+    t, q, qd, tau = log_files.trajectory()
+    log_files.write_csv(folder / "log.csv", t, q, qd, tau)
+    text = (folder / "log.csv").read_text().replace("t,q1,q2,qd1,qd2,i1,i2", "t,q1,q1,qd1,qd2,i1,i2", 1)
+    (folder / "log.csv").write_text(text)
+    return {**log_files.CSV_LOG, "file": "log.csv"}
+
+
+def joint_states(names=("joint1", "joint2"), damaged: int | None = None) -> list[tuple[str, int, bytes]]:
+    messages = []
+    for k in range(60):
+        data = log_files.joint_state(list(names), [0.01 * k] * len(names), (), [1.0] * len(names), k * 10**7)
+        messages.append(("/joint_states", k * 10**7, data[:len(data) // 2] if k == damaged else data))
+    return messages
+
+
+def joint_state_log(form: str, **options) -> Callable[[Path], dict]:
+    def write(folder: Path) -> dict:
+        if form == "mcap":
+            log_files.write_mcap(folder / "log.mcap", joint_states(**options))
+            return {"format": "mcap", "file": "log.mcap", "topic": "/joint_states", "joints": ["joint1", "joint2"],
+                    "steps": {"resample": 0.01}}
+        log_files.write_bag(folder / "bag", joint_states(**options))
+        return {"format": "rosbag2", "file": "bag", "topic": "/joint_states", "joints": ["joint1", "joint2"],
+                    "steps": {"resample": 0.01}}
+    return write
+
+
+def bag_metadata_not_utf8(folder: Path) -> dict:
+    section = joint_state_log("rosbag2")(folder)
+    metadata = folder / "bag" / "metadata.yaml"
+    metadata.write_bytes(metadata.read_bytes().replace(b"joint_states", b"joint_\xff\xfestates", 1))
+    return section
+
+
+# ------------------------------------------------------------------ bench: resuming from damaged results
+
+
+def damaged_bench(folder: Path) -> list[str]:
+    manifest = folder / "results" / "runs" / "diagnosis" / "two_link" / "healthy" / "abc" / "entries.json"
+    manifest.parent.mkdir(parents=True)
+    manifest.write_text('{"protocol": "x", "entr')
+    return ["bench", "--out", "results", "--quiet", "--workers", "1"]
+
+
+def report_of(text: str) -> Callable[[Path], list[str]]:
+    def setup(folder: Path) -> list[str]:
+        (folder / "m.json").write_text(text)
+        return ["report", "m.json"]
+    return setup
+
+
+
 def figures_case(recording: str, *extra: str) -> Callable[[Path], list[str]]:
     def setup(folder: Path) -> list[str]:
         (folder / "rec.rrd").write_bytes(b"not a recording")
@@ -256,6 +397,54 @@ CASES = [
     Case("URDF without links", urdf_case('<robot name="empty"></robot>\n'), "robot.urdf", "<robot>: has no <link>"),
     # numbers: seeds derived from the scenario's
     Case("calibrate seeds beyond 64 bits", calibrate_near_the_largest_seed, "s.yaml", "seed: the healthy runs' seeds"),
+    # calibrate: outputs against every input, numbers, windows
+    Case("calibrate --out is the scenario", calibrate_case("s.yaml"), "s.yaml", "--out: 's.yaml' is an input"),
+    Case("calibrate --out is the base", calibrate_case("base.yaml"), "s.yaml", "--out: 'base.yaml' is an input"),
+    Case("calibrate --out is the model", calibrate_case("m.xml", model=True), "s.yaml", "--out: 'm.xml' is an input"),
+    Case("calibrate --out links to the scenario", calibrate_case("LINK"), "s.yaml", "--out: 'link.yaml' is an input"),
+    Case("calibrate --out /dev/full", calibrate_case("/dev/full"), "s.yaml", "--out: '/dev/full' is not a regular"),
+    Case("calibrate --runs a billion", calibrate_case("c.yaml", "--runs", "1000000000"), "s.yaml",
+         "--runs: must be 2 to 10000"),
+    Case("calibrate runs end before the diagnoser is armed", calibrate_case("c.yaml", "--duration", "0.2"),
+         "s.yaml", "duration: the runs end at 0.2 s"),
+    # outputs against each other
+    Case("--json is an exported log", run_case(dump(scenario()), "--json", "out.hs.csv", "--export-log", "out.csv"),
+         "s.yaml", "--export-log: 'out.hs.csv' is also the path of --json"),
+    Case("--out is an exported log", run_case(dump(scenario()), "--out", "out.hs.csv", "--export-log", "out.csv"),
+         "s.yaml", "--export-log: 'out.hs.csv' is also the path of --out"),
+    Case("--json inside the replayed bag", log_case(joint_state_log("rosbag2"), "--json", "bag/m.json"),
+         "replay.yaml", "--json: 'bag/m.json' is inside an input folder"),
+    # live viewing
+    Case("--connect where no viewer listens", run_case(dump(scenario()), "--connect", "rerun+http://127.0.0.1:1/proxy"),
+         "command line", "--connect: no viewer at rerun+http://127.0.0.1:1/proxy"),
+    Case("--connect not a viewer's address", run_case(dump(scenario()), "--connect", "http://x"), "command line",
+         "--connect: 'http://x' is not a viewer's address"),
+    Case("--serve on a port in use", port_in_use, "command line", "--serve: cannot listen on 127.0.0.1:"),
+    Case("--bind without --serve", run_case(dump(scenario()), "--bind", "0.0.0.0"), "command line",
+         "--bind: is the address --serve listens on"),
+    # robot files: what they may cost
+    Case("mesh behind a loop of symbolic links", mesh_loop, "robot.urdf", "mesh: "),
+    Case("URDF of 100,000 links", urdf_case(many_links(100_000)), "robot.urdf", "more than the 1000 a robot file may "
+         "have (MAX_LINKS)"),
+    Case("MJCF replicate count 100,000", mjcf_case(REPLICATED), "s.yaml", "robot.model: robot.xml has more than "
+         "1000 bodies"),
+    Case("MJCF nested replicates", mjcf_case(NESTED_REPLICATES), "s.yaml", "(MAX_BODIES)"),
+    # logs: damaged, ambiguous
+    Case("CSV header repeats a column", log_case(csv_repeated_column), "log.csv", "log.columns.position.0: the "
+         "header names 2 columns 'q1'"),
+    Case("JointState names a joint twice", log_case(joint_state_log("mcap", names=("joint1", "joint2", "joint1"))),
+         "log.mcap", "log.joints: message 0 on '/joint_states' names the joint 'joint1' twice"),
+    Case("MCAP message damaged", log_case(joint_state_log("mcap", damaged=7)), "log.mcap",
+         "log.topic: message 7 on '/joint_states' cannot be decoded"),
+    Case("rosbag2 message damaged", log_case(joint_state_log("rosbag2", damaged=7)), "bag",
+         "log.topic: message 7 on '/joint_states' cannot be decoded"),
+    Case("bag metadata not UTF-8", log_case(bag_metadata_not_utf8), "bag", "log.file: is not a readable rosbag2 bag"),
+    # bench: resuming from damaged results
+    Case("bench resumes from a damaged entries.json", damaged_bench, "entries.json", "cannot be read (truncated or "
+         "damaged"),
+    # report
+    Case("report of a JSON that is not a document of metrics", report_of('{"variants": {}}'), "m.json",
+         "not a metrics JSON"),
 ]
 
 
@@ -310,7 +499,12 @@ def drive(jobs_path: str) -> None:
     import time
 
     import ftc_mj.campaign.execute  # noqa: F401 - the imports every command needs, paid once
+    import ftc_mj.cli.calibrate  # noqa: F401
     import ftc_mj.cli.campaign  # noqa: F401
+    import ftc_mj.cli.report  # noqa: F401
+    import ftc_mj.logs.readers  # noqa: F401
+    import ftc_mj.outputs.live  # noqa: F401
+    import ftc_mj.ranking.leaderboard  # noqa: F401
     import ftc_mj.cli.figures  # noqa: F401
     import ftc_mj.cli.run  # noqa: F401
     import ftc_mj.cli.tune  # noqa: F401

@@ -160,3 +160,12 @@ def test_values_checked_after_reading_are_exact_lines(tmp_path):
         assert str(raised.value) == f"{path}: {problem}"
     log = _compile(_file(tmp_path, "\n".join([HEADER, *rows[:2]]) + "\n", "two.csv"), columns)
     np.testing.assert_array_equal(log.position, [[1.0, 2.0], [5.0, 6.0]])
+
+
+def test_a_column_name_the_header_repeats_is_refused_and_an_index_still_reads_it(tmp_path):
+    """Two columns ``q1``: which one is the joint's? (The first would be replayed silently.)"""
+    path = _file(tmp_path, "t,q1,q2,i1,i2,q1\n0,9,0.5,1,2,0.25\n0.01,9,0.5,1,2,0.5\n")
+    assert _error(path) == (f"{path}: log.columns.position.0: the header names 2 columns 'q1' (columns 1, 5): name "
+                            "each column once, or give the column by its index")
+    by_index = read_csv(path, ColumnsSpec(time="t", position=[5, "q2"], torque=["i1", "i2"]), ",")
+    assert by_index.position[:, 0].tolist() == [0.25, 0.5]

@@ -223,3 +223,32 @@ def test_bad_values_name_the_joint_the_signal_and_the_message(tmp_path, form):
         assert _error(_compile, path, form) == f"{path}: {problem}"
     log = _compile(_write(tmp_path / "good", form, _messages()), form)
     np.testing.assert_allclose(log.position[:, 1], [0.0, 0.1, 0.2, 0.3], rtol=1e-12)
+
+
+@pytest.mark.parametrize("form", FORMS)
+def test_a_damaged_message_is_one_line_naming_it(tmp_path, form):
+    """A message whose bytes end early (rosbags' SerdeError, or a field read past the end) is named, not a
+    traceback."""
+    messages = _messages()
+    topic, ns, data = messages[2]
+    messages[2] = (topic, ns, data[:len(data) // 2])
+    path = _write(tmp_path, form, messages)
+    problem = _error(_read, path, form)
+    assert problem.startswith(f"{path}: log.topic: message 2 on '{TOPIC}' cannot be decoded (damaged): "), problem
+    assert "\n" not in problem
+
+
+def test_a_bag_whose_metadata_is_not_utf8_is_one_line(tmp_path):
+    path = _write(tmp_path, "rosbag2", _messages())
+    metadata = path / "metadata.yaml"
+    metadata.write_bytes(metadata.read_bytes().replace(b"joint_states", b"joint_\xff\xfestates", 1))
+    problem = _error(_read, path, "rosbag2")
+    assert problem.startswith(f"{path}: log.file: is not a readable rosbag2 bag: UnicodeDecodeError"), problem
+
+
+@pytest.mark.parametrize("form", FORMS)
+def test_a_joint_named_twice_in_a_message_is_refused(tmp_path, form):
+    """Which of the two values is the joint's? Replaying the first one (a constant) would be wrong data."""
+    messages = _messages(names=["joint1", "joint2", "joint1"], position=lambda k: [9.0, 0.1 * k, 0.1 * k])
+    path = _write(tmp_path, form, messages)
+    assert _error(_read, path, form) == f"{path}: log.joints: message 0 on '{TOPIC}' names the joint 'joint1' twice"

@@ -652,3 +652,32 @@ def test_ros_arm_records_its_collada_meshes(tmp_path, mesh_cache, monkeypatch, c
     expected = [sorted((0.12 + a, b, h) for a in (0.0, 0.1) for b in (0.0, 0.1)) for h in (0.0, 0.015)]
     np.testing.assert_allclose(corners, expected, atol=1e-9)
     assert urdf.is_file()
+
+
+def _chain(limits: list[tuple[float, float]]) -> str:
+    """A URDF chain of revolute joints ``j1``, ``j2``, ... with these limits."""
+    inertial = ('<inertial><origin xyz="0.1 0 0"/><mass value="1"/><inertia ixx="0.01" ixy="0" ixz="0" '
+                'iyy="0.01" iyz="0" izz="0.01"/></inertial>')
+    links = "".join(f'<link name="l{k}">{inertial}</link>' for k in range(len(limits) + 1))
+    joints = "".join(f'<joint name="j{k + 1}" type="revolute"><parent link="l{k}"/><child link="l{k + 1}"/>'
+                     f'<origin xyz="0.2 0 0"/><axis xyz="0 0 1"/><limit lower="{lower}" upper="{upper}" effort="10" '
+                     'velocity="1"/></joint>' for k, (lower, upper) in enumerate(limits))
+    return f'<robot name="chain">{links}{joints}</robot>'
+
+
+def test_a_locked_joint_whose_limits_exclude_0_is_held_at_its_nearest_limit_with_one_warning(tmp_path, caplog):
+    """One arm of a humanoid whose other arm's elbow cannot straighten (TALOS: [-2.87, -0.0087]): the joint
+    left out of ``robot.joints`` is locked at its limit nearest 0, with one warning line saying so."""
+    path = tmp_path / "chain.urdf"
+    path.write_text(_chain([(-1.0, 1.0), (-2.87, -0.0087), (0.2, 1.5), (-1.0, 1.0)]))
+    with caplog.at_level("WARNING", logger="ftc_mj.robot"):
+        held = load_model(path, joints=["j1", "j4"], source="s.yaml")
+    warnings = [r.getMessage() for r in caplog.records if "nearest 0" in r.getMessage()]
+    assert warnings == ["warning: s.yaml: robot.lock: 2 joint(s) not in robot.joints are locked at their limit "
+                        "nearest 0, which is outside their limits: j2 at -0.0087 (limits [-2.87, -0.0087]); j3 at 0.2 "
+                        "(limits [0.2, 1.5]) (robot.lock sets another value)"]
+    explicit = load_model(path, joints=["j1", "j4"], lock={"j2": -0.0087, "j3": 0.2}, source="s.yaml")
+    data, same = mujoco.MjData(held), mujoco.MjData(explicit)
+    mujoco.mj_forward(held, data)
+    mujoco.mj_forward(explicit, same)
+    assert held.nv == 2 and np.allclose(data.xpos, same.xpos, atol=1e-12)
