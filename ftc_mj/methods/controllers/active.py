@@ -16,9 +16,12 @@ member: ``alarm``, ``isolated``, ``fault_estimate``, ``alarm_time``). Three of t
   acceleration reaches the joints M(q)^-1 couples), ``joint`` each joint at its own.
 * :class:`Supervisor` (``supervisor``): a supervisor over two controller plugins, ``nominal`` until the
   diagnosis isolates a fault on any joint and ``reconfigured`` from then on (controller switching, Blanke et
-  al. 2016, section 7.5; Zhang and Jiang 2008, section 4). Both run every period on the same readings, so the
-  reconfigured one's integral states are warm when it takes over (bumpless transfer: Astrom and Hagglund,
-  "Advanced PID Control", 2006, section 3.6).
+  al. 2016, section 7.5; Zhang and Jiang 2008, section 4). By default the reconfigured controller takes over
+  from its initial state, which for an integral sliding surface is the surface started at zero at the switch
+  (the integral sliding mode's own initialisation, no reaching phase: Utkin and Shi, "Integral sliding mode in
+  systems operating under uncertainty conditions", CDC 1996); ``transfer: warm`` runs it from the start beside
+  the nominal one instead (warm standby, Astrom and Hagglund, "Advanced PID Control", 2006, section 3.6), whose
+  integral then holds what the nominal loop's errors integrated to.
 * :class:`EffectivenessAccommodation` (``loe_accommodation``): accommodation of an estimated loss of
   effectiveness. An actuator that delivers (1 - alpha) tau leaves the torque-space fault estimate
   f = -alpha tau; alpha_j is estimated by recursive least squares with forgetting on f_j and the command from
@@ -143,10 +146,14 @@ def _controller_type(name: Any) -> type[Controller]:
 
 
 class SupervisorConfig(GainConfig):
-    """The controller before (``nominal``) and after (``reconfigured``) a fault is isolated."""
+    """The controller before (``nominal``) and after (``reconfigured``) a fault is isolated; ``transfer``:
+    ``warm``, the reconfigured controller runs from the start and takes over with the state it has (an integral
+    surface then holds what the nominal loop's errors integrated to), or ``restart``, it takes over from its
+    initial state (its ``reset``: an integral surface starts at zero at the switch)."""
 
     nominal: ControllerChoice
     reconfigured: ControllerChoice
+    transfer: Literal["warm", "restart"] = "restart"
 
 
 class Supervisor(DiagnosisReader, Controller):
@@ -163,6 +170,13 @@ class Supervisor(DiagnosisReader, Controller):
         self.reconfigured_controller = config.reconfigured.build(n_joints, dt, members)
         self._decisions(self.shape)
         self._switched = np.zeros(self.shape[:-1] + (1,), dtype=bool)
+        self._now = np.zeros_like(self._switched)
+        # restart: a twin left at its initial state, whose per-member arrays are copied into the rows that switch
+        # (a method's state is its (members, n) arrays, which its reset sets: the plugin contract).
+        self._initial = None
+        if config.transfer == "restart":
+            self._initial = config.reconfigured.build(n_joints, dt, members)
+            self._initial.reset()
 
     def reset(self) -> None:
         super().reset()
@@ -172,13 +186,23 @@ class Supervisor(DiagnosisReader, Controller):
         self.reconfigured[:] = 0.0
 
     def compute(self, t, q_ref, qd_ref, qdd_ref, q_meas, observer, model):
-        np.logical_or(self._switched, self.diagnosis.isolated.any(axis=-1, keepdims=True), out=self._switched)
+        np.any(self.diagnosis.isolated, axis=-1, keepdims=True, out=self._now)
+        if self._initial is not None and (self._now & ~self._switched).any():
+            self._restart((self._now & ~self._switched)[..., 0])
+        np.logical_or(self._switched, self._now, out=self._switched)
         before = self.nominal.compute(t, q_ref, qd_ref, qdd_ref, q_meas, observer, model)
         after = self.reconfigured_controller.compute(t, q_ref, qd_ref, qdd_ref, q_meas, observer, model)
         np.copyto(self.tau, np.where(self._switched, after, before))
         np.copyto(self.sliding, np.where(self._switched, self.reconfigured_controller.sliding, self.nominal.sliding))
         self.reconfigured[:] = self._switched
         return self.tau
+
+    def _restart(self, rows: np.ndarray) -> None:
+        """The reconfigured controller's state of ``rows`` (a member mask) back to its initial values."""
+        for name, value in vars(self.reconfigured_controller).items():
+            initial = getattr(self._initial, name, None)
+            if isinstance(value, np.ndarray) and value.shape == self.shape and isinstance(initial, np.ndarray):
+                value[rows] = initial[rows]
 
 
 class AccommodationConfig(GainConfig):

@@ -81,10 +81,11 @@ def test_event_nftsmc_engages_each_joint_at_its_own_detection():
     np.testing.assert_array_equal(event.reconfigured, [[0, 0, 1]])
 
 
-def test_supervisor_switches_on_isolation_and_stays_switched():
+def test_warm_supervisor_switches_on_isolation_and_stays_switched():
     rng = np.random.default_rng(2)
     supervisor = build(Supervisor, {"nominal": {"type": "pid", "gains": PID_GAINS},
-                                    "reconfigured": {"type": "nftsmc", "gains": COMPENSATED}}, members=2)
+                                    "reconfigured": {"type": "nftsmc", "gains": COMPENSATED}, "transfer": "warm"},
+                       members=2)
     supervisor.diagnosis = found = diagnosis(2)
     pid, nftsmc = build(PID, PID_GAINS, 2), build(NFTSMC, COMPENSATED, 2)
     for k in range(150):
@@ -95,6 +96,24 @@ def test_supervisor_switches_on_isolation_and_stays_switched():
         np.testing.assert_array_equal(tau[0], tau_pid[0])  # both run every period: the same bits as alone
         np.testing.assert_array_equal(tau[1], tau_nftsmc[1] if k >= 50 else tau_pid[1])
         np.testing.assert_array_equal(supervisor.sliding[1], (nftsmc if k >= 50 else pid).sliding[1])
+
+
+def test_restarting_supervisor_hands_over_to_the_reconfigured_loop_from_its_initial_state():
+    rng = np.random.default_rng(5)
+    supervisor = build(Supervisor, {"nominal": {"type": "pid", "gains": PID_GAINS},
+                                    "reconfigured": {"type": "nftsmc", "gains": COMPENSATED}}, members=2)
+    supervisor.diagnosis = found = diagnosis(2)
+    pid, fresh = build(PID, PID_GAINS, 2), build(NFTSMC, COMPENSATED, 2)
+    for k in range(150):
+        found.isolated[1, 2] = k >= 60  # member 1 switches at period 60; its NFTSMC starts then, as if new
+        arguments = (k * DT, *inputs(rng, 2))
+        tau = supervisor.compute(*arguments).copy()
+        tau_pid = pid.compute(*arguments).copy()
+        np.testing.assert_array_equal(tau[0], tau_pid[0])
+        if k < 60:
+            np.testing.assert_array_equal(tau[1], tau_pid[1])
+        else:
+            np.testing.assert_array_equal(tau[1], fresh.compute(*arguments)[1])
 
 
 BATCHES = {
