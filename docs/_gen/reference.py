@@ -78,9 +78,31 @@ def _doc(obj: object) -> str:
 
 
 def _rst_to_md(text: str) -> str:
-    """Sphinx roles and double backquotes of the docstrings as Markdown code."""
+    """Sphinx roles and double backquotes of the docstrings as Markdown code, and their mathematics (the
+    ``:math:`TEX``` role and the ``.. math::`` directive) as the site's (``\\( \\)``, ``\\[ \\]``: MathML
+    when built)."""
+    text = _math_directives(text)
+    text = re.sub(r":math:`([^`]+)`", lambda m: "\\(" + m.group(1) + "\\)", text)
     text = re.sub(r":(?:class|func|meth|mod|data|attr|exc|obj):`~?([^`]+)`", r"`\1`", text)
     return text.replace("``", "`")
+
+
+def _math_directives(text: str) -> str:
+    """Each ``.. math::`` directive (its indented lines, one equation per paragraph) as display equations."""
+    lines, out, k = text.splitlines(), [], 0
+    while k < len(lines):
+        match = re.match(r"^(\s*)\.\. math::\s*$", lines[k])
+        if match is None:
+            out.append(lines[k])
+            k += 1
+            continue
+        indent, body, k = len(match.group(1)), [], k + 1
+        while k < len(lines) and (not lines[k].strip() or len(lines[k]) - len(lines[k].lstrip()) > indent):
+            body.append(lines[k].strip())
+            k += 1
+        for equation in "\n".join(body).strip().split("\n\n"):
+            out += ["", "\\[" + " ".join(equation.split("\n")) + "\\]", ""]
+    return "\n".join(out)
 
 
 def _cell(text: str) -> str:
@@ -403,7 +425,8 @@ def _summary(path: Path) -> str:
     doc = re.sub(r":\w+:`~?([^`]+)`", lambda m: m.group(1).rsplit(".", 1)[-1], " ".join(doc.split()))
     doc = doc.replace("``", "`")
     # The first full stop, colon or semicolon that ends a phrase, not an abbreviation's ("eq. (5.6)", "Fig. 2").
-    first = re.split(r"(?<!\beq\.)(?<!\beqs\.)(?<!\bFig\.)(?<!\be\.g\.)(?<!\bi\.e\.)(?<!\.\.\.)(?<=[.:;])\s", doc, maxsplit=1)[0]
+    not_after = r"(?<!\beq\.)(?<!\beqs\.)(?<!\bFig\.)(?<!\be\.g\.)(?<!\bi\.e\.)(?<!\.\.\.)"
+    first = re.split(not_after + r"(?<=[.:;])\s", doc, maxsplit=1)[0]
     first = first.rstrip(".:;")
     return first if len(first) <= 90 else first[:87].rsplit(" ", 1)[0] + " ..."
 
@@ -436,6 +459,26 @@ def package_tree(root: Path = PACKAGE) -> str:
         label = "  " * depth + name
         lines.append(f"{label:<34} {_summary(source)}".rstrip())
     return "```text\n" + "\n".join(lines) + "\n```"
+
+
+_MATH = re.compile(r'<(span|div) class="arithmatex">\\[(\[](.*?)\\[)\]]</\1>', re.DOTALL)
+
+
+def mathml(html: str) -> str:
+    """The pages' mathematics (``pymdownx.arithmatex``'s generic output, ``\\(x\\)`` and ``\\[x\\]``) as MathML
+    (``latex2mathml``), which browsers render without a script: the site needs no network, no JavaScript."""
+    import html as entities
+
+    from latex2mathml.converter import convert
+
+    def render(match: re.Match) -> str:
+        return convert(entities.unescape(match.group(2)), display="block" if match.group(1) == "div" else "inline")
+
+    return _MATH.sub(render, html)
+
+
+def on_page_content(html, page, config, files):  # the MkDocs hook
+    return mathml(html)
 
 
 def on_page_markdown(markdown, page, config, files):  # the MkDocs hook

@@ -97,8 +97,9 @@ def table_rows(metric_values: dict[str, np.ndarray], hosts: dict[str, str | None
 
     names = list(metric_values)
     variants = [name for name in names if hosts.get(name) is None]
-    if shared_plant and len(variants) >= 2 and all(same(metric_values[v], metric_values[variants[0]]) for v in variants) and all(
-            same(metric_values[m], metric_values[hosts[m]]) for m in names if hosts.get(m) is not None):
+    alike = len(variants) >= 2 and all(same(metric_values[v], metric_values[variants[0]]) for v in variants)
+    if shared_plant and alike and all(same(metric_values[m], metric_values[hosts[m]])
+                                      for m in names if hosts.get(m) is not None):
         return [("all", metric_values[variants[0]])]
     rows = []
     for name in names:

@@ -188,3 +188,12 @@ def test_the_link_check_finds_a_dead_link(tmp_path: Path) -> None:
     broken = _Links()
     broken.feed('<p>see [the logs]](../results/real-logs.md)</p><pre><code>x = [a](b)</code></pre>')
     assert broken.unrendered == ["see [the logs]](../results/real-logs.md)"]
+
+
+def test_the_equations_are_rendered(site: Path) -> None:
+    """The methods reference and the scenario tutorial show MathML, and no page shows TeX left as text."""
+    for page in ("reference/methods/index.html", "tutorials/scenario/index.html"):
+        assert (site / page).read_text().count("<math") >= 5, page
+    for page in site.rglob("*.html"):
+        text = page.read_text()
+        assert 'class="arithmatex"' not in text and ":math:`" not in text, page.relative_to(site)

@@ -1,27 +1,37 @@
-"""The generalized momentum observer (De Luca and Mattone, "Sensorless robot collision detection and hybrid
+r"""The generalized momentum observer (De Luca and Mattone, "Sensorless robot collision detection and hybrid
 force/motion control", ICRA 2005; Haddadin, De Luca and Albu-Schaeffer, "Robot collisions: a survey on
 detection, isolation, and identification", IEEE T-RO 33(6), 2017, its momentum-based residual).
 
-For M(q) qdd + C(q, qd) qd + G(q) + F(qd) = tau + tau_f (tau_f a fault or external torque, F the nominal
-model's joint friction, :mod:`ftc_mj.robot.friction`, zero where it has none), the generalized momentum
-p = M(q) qd obeys dp/dt = tau + tau_f + C^T(q, qd) qd - G(q) - F(qd) (from Mdot = C + C^T), and the residual
+For :math:`M(q)\ddot q + C(q, \dot q)\dot q + G(q) + F(\dot q) = \tau + \tau_f` (:math:`\tau_f` a fault or
+external torque, F the nominal model's joint friction, :mod:`ftc_mj.robot.friction`, zero where it has none),
+the generalized momentum :math:`p = M(q)\dot q` obeys
+:math:`\dot p = \tau + \tau_f + C^T(q, \dot q)\dot q - G(q) - F(\dot q)` (from :math:`\dot M = C + C^T`), and
+the residual
 
-    r(t) = K_I (p(t) - p(0) - integral_0^t (tau + C^T qd - G - F + r) ds)
+.. math::
 
-follows the fault torque as a first-order filter per joint, dr/dt = K_I (tau_f - r): r_j tracks a step of
-tau_f,j with the time constant 1 / K_I,j, decoupled from the other joints, with no acceleration measured and no
-M^-1 in the loop. K_I (the gain ``K``, 1/s) is diagonal.
+    r(t) = K_I \left(p(t) - p(0) - \int_0^t \left(\tau + C^T \dot q - G - F + r\right) ds\right)
 
-**Discrete time.** At the control period T, with the state z = p(0) + integral (z starts at the first p):
+follows the fault torque as a first-order filter per joint, :math:`\dot r = K_I (\tau_f - r)`: :math:`r_j`
+tracks a step of :math:`\tau_{f,j}` with the time constant :math:`1 / K_{I,j}`, decoupled from the other
+joints, with no acceleration measured and no :math:`M^{-1}` in the loop. :math:`K_I` (the gain ``K``, 1/s) is
+diagonal.
 
-    r_k = K_I (p_k - z_k),   z_(k+1) = z_k + T (tau_k + r_k) + T/2 (C^T qd - G - F)_k + T/2 (C^T qd - G - F)_(k+1)
+**Discrete time.** At the control period T, with the state :math:`z = p(0) + \int` (z starts at the first p):
+
+.. math::
+
+    r_k = K_I (p_k - z_k)
+
+    z_{k+1} = z_k + T (\tau_k + r_k) + \tfrac{T}{2} (C^T \dot q - G - F)_k + \tfrac{T}{2} (C^T \dot q - G - F)_{k+1}
 
 the command by the rectangle rule (it is held over the period, so that is exact), the residual by explicit
 Euler (the filter's own discretisation), and the model terms, smooth functions of the sampled state, by the
 trapezoidal rule: their second half is added at the next sample, in :meth:`update`, before r is formed
 (explicit Euler on them would leave T/2 |d(G - C^T qd)/dt|, 0.06 N m on the PUMA560 at 3 rad/s). With the
-velocity measured exactly, r then follows a step of the fault torque as r_k = tau_f (1 - (1 - K_I T)^k),
-within K_I T / (2e) of the step of the continuous filter.
+velocity measured exactly, r then follows a step of the fault torque as
+:math:`r_k = \tau_f \left(1 - (1 - K_I T)^k\right)`, within :math:`K_I T / (2e)` of the step of the continuous
+filter.
 
 **What the testbed hands it.** ``M`` at the measured position, and C^T qd and G at the observer's estimate
 (the nominal model's ``coriolis_transpose`` and ``gravity``, which the engine evaluates for an observer that
