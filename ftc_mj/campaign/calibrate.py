@@ -105,8 +105,7 @@ def healthy_scenario(path: Path, overrides: Sequence[str] = (), duration: float 
     file = str(path)
     if scenario.diagnoser is None:
         raise InputError(file, "diagnosis", "the scenario has no diagnosis section: nothing to calibrate")
-    raw = scenario.raw
-    terms = [term for term in raw.get("terms") or [] if term.get("kind") != "fault"]
+    terms = [term for term in scenario.written("terms") or [] if term.get("kind") != "fault"]
     # A log has neither (it refuses the sections): it is healthy as it is.
     assignments: dict[str, Any] = {} if scenario.log is not None else {"actuator_faults": [], "terms": terms}
     healthy = load_scenario(path, overrides=list(overrides), duration=duration, variants=list(variants),

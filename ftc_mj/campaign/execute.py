@@ -43,7 +43,6 @@ from ftc_mj.engine.runner import run_batch
 from ftc_mj.config.errors import InputError
 from ftc_mj.config.paths import input_file_problem
 from ftc_mj.outputs.files import parquet_bytes, write_atomic
-from ftc_mj.outputs.palette import declared_colours
 from ftc_mj.scenario.loading import UnknownVariant, load_scenario
 from ftc_mj.scenario.definition import MAX_SEED, MEMORY_SHARE, Scenario, machine_memory, series_bytes
 
@@ -234,7 +233,7 @@ def compiled_scenario(path: str, variants: tuple[str, ...], duration: float | No
 
 def _check_paths(spec: CampaignSpec, scenario: Scenario, file: str) -> None:
     """Every varied or set path names a field of the scenario (as written or with its defaults)."""
-    documents = [scenario.raw, scenario.spec.model_dump(mode="json")]
+    documents = [scenario.written(), scenario.spec.model_dump(mode="json")]
     fields = [("set", p) for p in spec.set] + [("grid", p) for p in spec.grid]
     fields += [(f"cases.{i}.set", p) for i, case in enumerate(spec.cases) for p in case.set]
     if spec.samples is not None:
@@ -607,7 +606,7 @@ def _summary(campaign: Campaign, table: pa.Table, seconds: float, simulated_runs
         "fingerprint": campaign.fingerprint,
         "variants": campaign.variants,
         # Every variant's colour as in the scenario's run figures and recordings, for the report's figures.
-        "colours": declared_colours(campaign.scenario.raw.get("variants", {})),
+        "colours": campaign.scenario.colours,
         "runs": len(campaign.runs),
         "groups": len(campaign.groups),
         "rows": table.num_rows,

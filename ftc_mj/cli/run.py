@@ -1,7 +1,7 @@
 """Run a scenario: ``ftc-mj run SCENARIO [options]`` (also ``python -m ftc_mj.run``).
 
 Runs every controller-observer variant of the scenario, prints their metrics, and writes a Rerun recording
-(and optionally a JSON file of the metrics). Exit status: 0 on success, 1 if a variant diverged, 2 on bad
+(and optionally a JSON file of the metrics, and every series at float64 for MATLAB or pandas: --export). Exit status: 0 on success, 1 if a variant diverged, 2 on bad
 input (one line on stderr naming the file, the field and the problem; nothing is written), 130 when
 interrupted (nothing is written).
 
@@ -53,6 +53,9 @@ def build_parser(prog: str = PROG) -> argparse.ArgumentParser:
                         help="write per variant what a real controller would have logged (PATH.<variant>.csv "
                              "or .mcap, by PATH's extension): time, measured positions and velocities, commanded "
                              "and delivered torques")
+    parser.add_argument("--export", type=Path, metavar="FILE",
+                        help="write every series of every variant at the run's precision (float64), with units: "
+                             "FILE.mat (MATLAB: scipy.io.savemat), .parquet or .csv")
     viewer = parser.add_mutually_exclusive_group()  # Rerun's conventions (rr.script_add_args)
     viewer.add_argument("--spawn", action="store_true", help="start a Rerun viewer and send it the recording")
     viewer.add_argument("--connect", nargs="?", const=DEFAULT_URL, metavar="URL",
@@ -335,7 +338,7 @@ def _viewer(args: argparse.Namespace) -> str | None:
 
 def _declare_outputs(args: argparse.Namespace, scenario: Scenario, outputs: Outputs) -> None:
     """Every output of the run, for :meth:`Outputs.check`: the recording, --json, each variant's exported log
-    and --export."""
+    and --export (its extension checked)."""
     from ftc_mj.config.errors import InputError
 
     outputs.add("--out", None if args.no_record else (args.out or scenario.output_path))
@@ -348,6 +351,13 @@ def _declare_outputs(args: argparse.Namespace, scenario: Scenario, outputs: Outp
                              f"of {', '.join(FORMATS)}")
         for variant in scenario.variants:
             outputs.add("--export-log", variant_path(args.export_log, variant.name))
+    if args.export is not None:
+        from ftc_mj.outputs.series_export import export_path_problem
+
+        problem = export_path_problem(args.export)
+        if problem is not None:
+            raise InputError(outputs.file, "--export", problem)
+        outputs.add("--export", args.export)
 
 
 def _prepare(args: argparse.Namespace) -> tuple[Scenario, Outputs, list[str]]:
@@ -398,7 +408,7 @@ def _simulate(args: argparse.Namespace, scenario: Scenario, shown: list[str], li
 
 def _write_outputs(args: argparse.Namespace, scenario: Scenario, outputs: Outputs, results: list,
                    metrics: dict) -> None:
-    """The recording, the JSON, the exported logs, each whole or not at all; if one cannot be written, those
+    """The recording, the JSON, the series (--export), the exported logs, each whole or not at all; if one cannot be written, those
     written before go too (:func:`~ftc_mj.cli.command.exit_status`)."""
     if not args.no_record:
         from ftc_mj.outputs.recording import write_recording  # rerun is heavy to import; only when recording
@@ -411,6 +421,11 @@ def _write_outputs(args: argparse.Namespace, scenario: Scenario, outputs: Output
     if args.json is not None:
         document = metrics_document(scenario, results, metrics)
         outputs.write("--json", args.json, (json.dumps(document, indent=2) + "\n").encode("utf-8"))
+    if args.export is not None:
+        from ftc_mj.outputs.series_export import export_bytes
+
+        slides = [int(scenario.model.jnt_type[scenario.model.dof_jntid[d]]) == 2 for d in range(scenario.n_joints)]
+        outputs.write("--export", args.export, export_bytes(args.export, results, _joint_names(scenario), slides))
     if args.export_log is not None:
         from ftc_mj.logs.export import log_bytes, variant_path
         from ftc_mj.logs.trajectory import joint_names
@@ -420,6 +435,12 @@ def _write_outputs(args: argparse.Namespace, scenario: Scenario, outputs: Output
             if result.host is None:  # a monitor shares its host's readings and commands
                 target = variant_path(args.export_log, result.name)
                 outputs.write("--export-log", target, log_bytes(target, result, joints))
+
+
+def _joint_names(scenario: Scenario) -> list[str]:
+    from ftc_mj.logs.trajectory import joint_names
+
+    return joint_names(scenario.model)
 
 
 def _serve_until_stopped(args: argparse.Namespace) -> None:

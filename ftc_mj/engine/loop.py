@@ -47,7 +47,7 @@ from ftc_mj.effects.faults import ActuatorFaults
 from ftc_mj.effects.sensors import Measurement
 from ftc_mj.effects.terms import PlantTerms
 from ftc_mj.fast.copies import SampleCopies
-from ftc_mj.engine.rows import Layout
+from ftc_mj.engine.rows import RowLayout
 from ftc_mj.engine.mass import MassAtReadings, mass_at_readings
 from ftc_mj.engine.members import Members
 from ftc_mj.engine.plant import LogPlant, Plant, plant_for
@@ -239,7 +239,7 @@ class _Run:
     module docstring)."""
 
     times: np.ndarray
-    layout: Layout
+    layout: RowLayout
     plant: Plant
     readings: Readings
     #: Psi at every point of the layout.
@@ -280,7 +280,7 @@ class _Run:
                diagnose_in_loop: bool = False) -> _Run:
         spec, variants, times = scenario.spec, scenario.variants, scenario.times
         n, dt, steps, count = scenario.n_joints, spec.control_dt, len(times), members.count
-        layout = Layout.of(count, [len(v.monitors) for v in variants],
+        layout = RowLayout.of(count, [len(v.monitors) for v in variants],
                            [v.controller_velocity == "measured" for v in variants])
         rows, per_row = layout.rows, layout.per_row
         threads = nthread if nthread > 0 else _default_threads(rows)
@@ -558,7 +558,7 @@ def _plant(scenario: Scenario, members: Members, rows: int, per_row: Callable[[n
                      max_position=spec.divergence.max_position, max_velocity=spec.divergence.max_velocity)
 
 
-def _readings(scenario: Scenario, members: Members, layout: Layout) -> Readings:
+def _readings(scenario: Scenario, members: Members, layout: RowLayout) -> Readings:
     """The buffers of the readings and the scenario's sensor effects, per member."""
     rows, n, variants = layout.rows, scenario.n_joints, len(layout.blocks)
     position_sensor = velocity_sensor = None
@@ -572,7 +572,7 @@ def _readings(scenario: Scenario, members: Members, layout: Layout) -> Readings:
                     np.zeros((rows, n)), np.zeros((rows, n)), position_sensor, velocity_sensor)
 
 
-def _inputs(scenario: Scenario, members: Members, layout: Layout) -> PlantInputs:
+def _inputs(scenario: Scenario, members: Members, layout: RowLayout) -> PlantInputs:
     """The scenario's plant terms and actuator faults over every row."""
     rows, n, times = layout.rows, scenario.n_joints, scenario.times
     terms = PlantTerms(scenario.terms, times, rows, n, layout.per_row(members.parameters),

@@ -141,7 +141,7 @@ def _bind(scenario: Scenario, field: MemberField) -> MemberField | None:
     if field.variant is None:
         return field
     if field.variant not in spec.variants:
-        if field.variant in scenario.raw.get("variants", {}):
+        if scenario.written("variants", field.variant) is not None:
             return None
         raise InputError(file, field.path, f"no variant {field.variant!r} (known: {', '.join(spec.variants)})")
     if field.kind == "gain":

@@ -38,7 +38,7 @@ class BlockLayout:
 
 
 @dataclass(frozen=True)
-class Layout:
+class RowLayout:
     """The rows and points of a batch run: ``members`` per variant, one :class:`BlockLayout` per variant."""
 
     members: int
@@ -49,7 +49,7 @@ class Layout:
     point_rows: np.ndarray
 
     @classmethod
-    def of(cls, members: int, monitors: Sequence[int], on_readings: Sequence[bool]) -> Layout:
+    def of(cls, members: int, monitors: Sequence[int], on_readings: Sequence[bool]) -> RowLayout:
         """The layout of variants with ``monitors[v]`` monitors each, whose controller uses the readings'
         velocity where ``on_readings[v]``."""
         blocks, point_rows, point = [], [], 0

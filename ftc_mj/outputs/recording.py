@@ -215,7 +215,12 @@ def read_series(path: Path, entity: str) -> tuple[np.ndarray, np.ndarray]:
 
     ``entity`` is a stored entity (``/luaf/estimate/joint2``: one column per variant) or a variant's quantity
     (``/luaf/estimate/proposed``: one column per joint, that variant's samples only). For analysis scripts and
-    tests; values are the recorded float32 ones.
+    tests.
+
+    Precision: the values are the recording's, float32 (about 7 significant digits), not the run's float64;
+    the times are exact to the nanosecond. For the run's own float64 series, every one of every variant with
+    its unit, export them with the run: ``ftc-mj run SCENARIO --export run.mat`` (or ``.parquet``, ``.csv``;
+    :mod:`ftc_mj.outputs.series_export`).
     """
     layout = read_layout(path)
     prefix, _, last = entity.rpartition("/")

@@ -26,6 +26,7 @@ from ftc_mj.config.errors import InputError, validate
 from ftc_mj.config.inheritance import resolve_bases
 from ftc_mj.config.types import PositiveFloat, Strict
 from ftc_mj.config.yaml import read_yaml_mapping
+from ftc_mj.methods.registry import MethodSpec
 
 SUITES = Path(__file__).resolve().parent / "suites"
 TASKS = ("diagnosis", "tracking")
@@ -38,11 +39,6 @@ PositiveInt = Annotated[StrictInt, Field(gt=0)]
 Fraction = Annotated[float, Field(gt=0, lt=1)]
 Share = Annotated[float, Field(gt=0, le=1)]
 Name = Annotated[StrictStr, Field(pattern=r"^[A-Za-z0-9_][A-Za-z0-9_-]*$")]
-
-
-class MethodSpec(Strict):
-    type: StrictStr
-    gains: dict[str, Any] = {}
 
 
 class LoopSpec(Strict):
@@ -111,7 +107,7 @@ class CalibrationSpec(Strict):
     oracle_noise: PositiveFloat = 0.01
 
 
-class RobotSpec(Strict):
+class SuiteRobot(Strict):
     #: The robot's shipped scenario, relative to the suite file.
     scenario: StrictStr
     #: The reference loop: a variant of the scenario, or an observer and a controller.
@@ -127,7 +123,7 @@ class RobotSpec(Strict):
     uncertainty: StrictStr = ""
 
     @model_validator(mode="after")
-    def _per_joint(self) -> "RobotSpec":
+    def _per_joint(self) -> "SuiteRobot":
         if len(self.torque_scale) != len(self.fault_joints):
             raise ValueError("torque_scale: one per fault joint")
         if self.residual_unit and len(self.residual_unit) != len(self.fault_joints):
@@ -141,7 +137,7 @@ class SuiteSpec(Strict):
     protocol: ProtocolSpec
     faults: FaultLibrary
     tiers: dict[Literal["quick", "full"], TierSpec]
-    robots: Annotated[dict[Name, RobotSpec], Field(min_length=1)]
+    robots: Annotated[dict[Name, SuiteRobot], Field(min_length=1)]
     #: Suite v2: calibrated thresholds on scored windows (absent: suite v1's per-run statistics).
     calibration: CalibrationSpec | None = None
     #: Suite v2: each population's own seeds (``tune``, ``calibrate``, ``healthy``, ``faults``), disjoint.

@@ -90,14 +90,15 @@ def check_urdf_counts(root: etree._Element, file: str) -> None:
                              "file may have (MAX_LINKS)")
 
 
-def _parse(path: Path, file: str, field: str) -> etree._Element:
-    """An MJCF file's XML, parsed without entities, DTDs or network (MuJoCo parses it again)."""
+def _parse(path: Path, file: str, field: str) -> etree._Element | None:
+    """An MJCF file's XML, parsed without entities, DTDs or network (MuJoCo parses it again); None when it is
+    not well-formed XML (MuJoCo's parser then refuses it at once, in its own words)."""
     check_model_file(path, file, field)
     parser = etree.XMLParser(resolve_entities=False, no_network=True, load_dtd=False, huge_tree=False)
     try:
         return etree.parse(io.BytesIO(path.read_bytes()), parser).getroot()
-    except etree.XMLSyntaxError as exc:
-        raise InputError(file, field, f"{path.name}: malformed XML: {exc.msg}") from None
+    except etree.XMLSyntaxError:
+        return None
     except OSError as exc:
         raise InputError(file, field, f"{str(path)!r}: {exc.strerror or exc}") from None
 
@@ -115,8 +116,8 @@ def mjcf_files(path: Path, file: str, field: str) -> list[Path]:
     folders: dict[str, str] = {}
     found: list[Path] = [path]
 
-    def visit(element: etree._Element, multiplicity: int) -> None:
-        for child in element:
+    def visit(element: etree._Element | None, multiplicity: int) -> None:
+        for child in element if element is not None else ():
             if not isinstance(child.tag, str):  # comments, processing instructions
                 continue
             counts["elements"] += multiplicity

@@ -228,6 +228,9 @@ class Monitor:
 
 @dataclass
 class Variant:
+    """A compiled variant: its observer, controller and monitors (plugin classes and validated gains), its
+    observer's initial estimate and the velocity its controller reads."""
+
     name: str
     observer_type: type
     observer_config: GainConfig
@@ -236,8 +239,8 @@ class Variant:
     q_hat0: np.ndarray | None
     qd_hat0: np.ndarray
     monitors: list[Monitor] = field(default_factory=list)
-    controller_velocity: str = Field("estimated",
-        description="\"measured\" (the tachometer reading) or \"estimated\" (the observer's x2_hat): the controller's velocity.")
+    #: ``measured`` (the tachometer reading) or ``estimated`` (the observer's x2_hat): the controller's velocity.
+    controller_velocity: str = "estimated"
 
 
 @dataclass
@@ -256,21 +259,31 @@ class Scenario:
     reference: expressions.TimeFunctions
     terms: list[CompiledTerm]
     variants: list[Variant]
-    terms_function: expressions.StateFunction | None = Field(None,
-        description="Every term's value as one compiled function (:func:`ftc_mj.effects.terms.terms_function`).")
+    #: Every term's value as one compiled function (:func:`ftc_mj.effects.terms.terms_function`).
+    terms_function: expressions.StateFunction | None = None
     actuator_faults: list[ActuatorFault] = field(default_factory=list)
-    position_sensor: Channel | None = Field(None,
-        description="Sensor effects on the encoders and the tachometers; None: perfect.")
+    #: Sensor effects on the encoders and the tachometers; None: perfect.
+    position_sensor: Channel | None = None
     velocity_sensor: Channel | None = None
     diagnoser: Diagnoser | None = None
-    figures: list[Figure] = Field(field(default_factory=list),
-        description="The figures (the ``figures`` section, or the defaults) for the variants that run.")
-    raw: dict[str, Any] = Field(field(default_factory=dict),
-        description="The file's content after ``--set`` (YAML types): the fields as written, which a campaign's paths are checked against, and every variant the file declares (``load_scenario``'s ``variants`` may run fewer).")
-    log: Log | None = Field(None,
-        description="The replayed log (the ``log`` section), or None: the robot is simulated.")
-    inputs: tuple[Path, ...] = Field((),
-        description="The files the scenario was read from (the file, its bases, the model file): what no output may replace.")
+    #: The figures (the ``figures`` section, or the defaults) for the variants that run.
+    figures: list[Figure] = field(default_factory=list)
+    #: The replayed log (the ``log`` section), or None: the robot is simulated.
+    log: Log | None = None
+    #: The files the scenario was read from (the file, its bases, the model file with its includes and meshes,
+    #: a replayed log): what no output may replace.
+    inputs: tuple[Path, ...] = ()
+    #: The file's content after ``--set`` (YAML types), read only through :meth:`written`.
+    _written: dict[str, Any] = field(default_factory=dict, repr=False)
+
+    def written(self, *path: str) -> Any:
+        """The value at ``path`` (keys) as the file wrote it, after ``--set`` (YAML types), or None where it
+        wrote none; the whole document without ``path``. What a campaign's paths are checked against, and
+        every variant the file declares (``load_scenario``'s ``variants`` may run fewer)."""
+        node: Any = self._written
+        for key in path:
+            node = node.get(key) if isinstance(node, dict) else None
+        return node
 
     @property
     def name(self) -> str:
@@ -321,7 +334,7 @@ class Scenario:
         same whichever variants run (:func:`ftc_mj.outputs.palette.declared_colours`)."""
         from ftc_mj.outputs.palette import declared_colours
 
-        return declared_colours(self.raw.get("variants", {}))
+        return declared_colours(self.written("variants") or {})
 
     @property
     def output_path(self) -> Path:
@@ -471,17 +484,49 @@ def compile_scenario(path: Path, spec: ScenarioSpec) -> Scenario:
     file = str(path)
     model_path, model = load_robot(path, spec.robot, file)
     n = model.nv
-    log = None
-    if spec.log is not None:
-        log = _log_run(spec, path, model, file)
-    else:
-        for required in ("duration", "initial", "reference"):
-            if getattr(spec, required) is None:
-                raise InputError(file, required, "required field is missing (or give a log section)")
-        for name, variant in spec.variants.items():
-            if variant.controller is None:
-                raise InputError(file, f"variants.{name}.controller", "required field is missing")
+    log = _log_run(spec, path, model, file) if spec.log is not None else None
+    if log is None:
+        _check_simulation_sections(spec, file)
+    timestep, substeps = _physics_steps(spec, file)
+    _check_run_size(spec, n, file)
+    q0, qd0, reference = _start_and_reference(spec, log, n, file)
+    terms = compile_terms(spec.terms, file, n, list(spec.parameters))
+    times = time_grid(spec.duration, spec.control_dt)
+    if log is None:  # a log has no reference (NaN) and no terms
+        check_on_grid(reference, terms, times, spec.parameters, file)
+    actuator_faults = [compile_actuator_fault(fault, file, f"actuator_faults.{index}", model, times)
+                       for index, fault in enumerate(spec.actuator_faults)]
+    position_sensor, velocity_sensor = _sensor_channels(spec, model, len(times), file)
+    sensors = _readable_sensors(spec, log)
+    variants = [compile_variant(spec, name, n, sensors, log is not None, file) for name in spec.variants]
+    model.opt.timestep = timestep
+    scenario = Scenario(
+        path=path, spec=spec, model_path=model_path, model=model, n_joints=n, timestep=timestep,
+        substeps=substeps, q0=q0, qd0=qd0, reference=reference, terms=terms, variants=variants,
+        terms_function=terms_function(terms, n, list(spec.parameters)), actuator_faults=actuator_faults,
+        position_sensor=position_sensor, velocity_sensor=velocity_sensor, log=log,
+    )
+    if spec.diagnosis is not None:
+        scenario.diagnoser = compile_diagnoser(spec.diagnosis, spec.control_dt, spec.metrics.estimation_window_start,
+                                                file, n, scenario.fault_onsets)
+    names, signals = _figure_lines(variants)
+    scenario.figures = compile_figures(spec, model, names, file, signals)
+    return scenario
 
+
+def _check_simulation_sections(spec: ScenarioSpec, file: str) -> None:
+    """What a simulated run needs (a log gives them): a duration, an initial state, a reference, controllers."""
+    for required in ("duration", "initial", "reference"):
+        if getattr(spec, required) is None:
+            raise InputError(file, required, "required field is missing (or give a log section)")
+    for name, variant in spec.variants.items():
+        if variant.controller is None:
+            raise InputError(file, f"variants.{name}.controller", "required field is missing")
+
+
+def _physics_steps(spec: ScenarioSpec, file: str) -> tuple[float, int]:
+    """The physics timestep and the whole number of physics steps per control period (at most
+    :data:`MAX_SUBSTEPS`); a duration of at least one control period."""
     timestep = spec.timestep if spec.timestep is not None else spec.control_dt
     ratio = spec.control_dt / timestep
     substeps = round(ratio)
@@ -492,108 +537,91 @@ def compile_scenario(path: Path, spec: ScenarioSpec) -> Scenario:
                          f"{spec.control_dt:g} s; at most {MAX_SUBSTEPS} are allowed")
     if spec.duration < spec.control_dt:
         raise InputError(file, "duration", f"{spec.duration} is shorter than one control period")
-    _check_run_size(spec, n, file)
+    return timestep, substeps
 
-    def vector(values: list[float] | None, field: str, default: float | None = 0.0) -> np.ndarray | None:
-        return joint_values(values, n, file, field, default)
 
-    if log is not None:  # the log's first sample; a log has no reference
+def _start_and_reference(spec: ScenarioSpec, log: Log | None, n: int, file: str
+                         ) -> tuple[np.ndarray, np.ndarray, expressions.TimeFunctions]:
+    """q(0), qd(0) and the reference: the scenario's, or a log's first sample and no reference (NaN)."""
+    if log is not None:
         q0 = log.position[0].copy()
         qd0 = np.zeros(n) if log.velocity is None else log.velocity[0].copy()
-        reference = expressions.TimeFunctions([sympy.nan] * n)
-    else:
-        q0 = vector(spec.initial.q, "initial.q")
-        qd0 = vector(spec.initial.qd, "initial.qd")
-        if len(spec.reference) != n:
-            raise InputError(file, "reference", f"has {len(spec.reference)} values, the robot has {n} joints")
-        reference_exprs = [parse_expression(text, ["t", *spec.parameters], file, f"reference.{i}")
-                           for i, text in enumerate(spec.reference)]
-        # Only the parameters the reference uses: without any, one reference serves every member.
-        used = {symbol.name for expr in reference_exprs for symbol in expr.free_symbols}
-        reference = expressions.TimeFunctions(reference_exprs, [name for name in spec.parameters if name in used])
+        return q0, qd0, expressions.TimeFunctions([sympy.nan] * n)
+    q0 = joint_values(spec.initial.q, n, file, "initial.q")
+    qd0 = joint_values(spec.initial.qd, n, file, "initial.qd")
+    if len(spec.reference) != n:
+        raise InputError(file, "reference", f"has {len(spec.reference)} values, the robot has {n} joints")
+    reference_exprs = [parse_expression(text, ["t", *spec.parameters], file, f"reference.{i}")
+                       for i, text in enumerate(spec.reference)]
+    # Only the parameters the reference uses: without any, one reference serves every member.
+    used = {symbol.name for expr in reference_exprs for symbol in expr.free_symbols}
+    return q0, qd0, expressions.TimeFunctions(reference_exprs, [name for name in spec.parameters if name in used])
 
-    terms = compile_terms(spec.terms, file, n, list(spec.parameters))
-    times = time_grid(spec.duration, spec.control_dt)
-    if log is None:  # a log has no reference (NaN) and no terms
-        check_on_grid(reference, terms, times, spec.parameters, file)
-    actuator_faults = [compile_actuator_fault(fault, file, f"actuator_faults.{index}", model, times)
-                       for index, fault in enumerate(spec.actuator_faults)]
-    position_sensor = compile_channel(spec.sensors.position, file, "sensors.position", model)
+
+def _sensor_channels(spec: ScenarioSpec, model: mujoco.MjModel, steps: int, file: str
+                     ) -> tuple[Channel | None, Channel | None]:
+    """The encoders' and the tachometers' effects (None: perfect), each delay shorter than the run."""
+    position = compile_channel(spec.sensors.position, file, "sensors.position", model)
     if spec.sensors.velocity is not None and "velocity" not in spec.robot.sensors:
         raise InputError(file, "sensors.velocity", "the robot has no velocity sensors (robot.sensors)")
-    velocity_sensor = compile_channel(spec.sensors.velocity, file, "sensors.velocity", model)
-    for name, channel in (("position", position_sensor), ("velocity", velocity_sensor)):
-        if channel is not None and channel.delay_samples >= len(times):  # its history would outgrow the run
+    velocity = compile_channel(spec.sensors.velocity, file, "sensors.velocity", model)
+    for name, channel in (("position", position), ("velocity", velocity)):
+        if channel is not None and channel.delay_samples >= steps:  # its history would outgrow the run
             raise InputError(file, f"sensors.{name}.delay_samples", f"{channel.delay_samples} is not shorter than "
-                             f"the run ({len(times)} control periods)")
+                             f"the run ({steps} control periods)")
+    return position, velocity
 
-    sensors = set(spec.robot.sensors) | {"position"}
-    if log is not None:  # what the log holds
-        sensors = {"position"} | ({"velocity"} if log.velocity is not None else set())
-    variants = []
-    for name, variant in spec.variants.items():
-        field = f"variants.{name}"
-        (observer_type, observer_config), (controller_type, controller_config), monitors = compile_variant_methods(
-            file, name, variant, n)
-        plugins = [("observer", observer_type), ("controller", controller_type)]
-        plugins += [(f"monitors.{m.name}", m.observer_type) for m in monitors]
-        for kind, plugin in plugins:
-            missing = set(plugin.requires) - sensors
-            if missing and log is not None:
-                raise InputError(file, f"{field}.{kind}.type", f"{plugin.name} needs {', '.join(sorted(missing))}, "
-                                 "which the log does not hold (log.columns.velocity, or the messages' velocity)")
-            if missing:
-                raise InputError(file, f"{field}.{kind}.type", f"{plugin.name} needs {', '.join(sorted(missing))} sensors, robot.sensors has {sorted(sensors)}")
-        velocity = variant.controller_velocity or spec.controller_velocity
-        if log is not None:  # no controller reads anything
-            velocity = "estimated"
-        if velocity is None:
-            velocity = "measured" if "velocity" in sensors else "estimated"
-        if velocity == "measured" and "velocity" not in sensors:
-            velocity_field = f"{field}.controller_velocity" if variant.controller_velocity else "controller_velocity"
-            raise InputError(file, velocity_field, "measured needs velocity sensors (robot.sensors)")
-        q_hat0, qd_hat0 = observer_start(spec, name, n, file)
-        variants.append(
-            Variant(
-                name=name,
-                observer_type=observer_type,
-                observer_config=observer_config,
-                controller_type=controller_type,
-                controller_config=controller_config,
-                q_hat0=q_hat0,
-                qd_hat0=qd_hat0,
-                monitors=monitors,
-                controller_velocity=velocity,
-            )
-        )
 
-    model.opt.timestep = timestep
-    scenario = Scenario(
-        path=path,
-        spec=spec,
-        model_path=model_path,
-        model=model,
-        n_joints=n,
-        timestep=timestep,
-        substeps=substeps,
-        q0=q0,
-        qd0=qd0,
-        reference=reference,
-        terms=terms,
-        variants=variants,
-        terms_function=terms_function(terms, n, list(spec.parameters)),
-        actuator_faults=actuator_faults,
-        position_sensor=position_sensor,
-        velocity_sensor=velocity_sensor,
-        log=log,
-    )
-    if spec.diagnosis is not None:
-        scenario.diagnoser = compile_diagnoser(spec.diagnosis, spec.control_dt, spec.metrics.estimation_window_start,
-                                                file, n, scenario.fault_onsets)
+def _readable_sensors(spec: ScenarioSpec, log: Log | None) -> set[str]:
+    """What the controller side may read: the robot's sensors, or what the log holds."""
+    if log is not None:
+        return {"position"} | ({"velocity"} if log.velocity is not None else set())
+    return set(spec.robot.sensors) | {"position"}
+
+
+def compile_variant(spec: ScenarioSpec, name: str, n: int, sensors: set[str], replay: bool, file: str) -> Variant:
+    """Variant ``name``: its methods (each given the sensors it requires), its controller's velocity and its
+    observer's start; ``replay``: the scenario replays a log (no controller reads anything)."""
+    variant, field = spec.variants[name], f"variants.{name}"
+    (observer_type, observer_config), (controller_type, controller_config), monitors = compile_variant_methods(
+        file, name, variant, n)
+    plugins = [("observer", observer_type), ("controller", controller_type)]
+    plugins += [(f"monitors.{m.name}", m.observer_type) for m in monitors]
+    for kind, plugin in plugins:
+        missing = set(plugin.requires) - sensors
+        if missing and replay:
+            raise InputError(file, f"{field}.{kind}.type", f"{plugin.name} needs {', '.join(sorted(missing))}, "
+                             "which the log does not hold (log.columns.velocity, or the messages' velocity)")
+        if missing:
+            raise InputError(file, f"{field}.{kind}.type", f"{plugin.name} needs {', '.join(sorted(missing))} "
+                             f"sensors, robot.sensors has {sorted(sensors)}")
+    q_hat0, qd_hat0 = observer_start(spec, name, n, file)
+    return Variant(name=name, observer_type=observer_type, observer_config=observer_config,
+                   controller_type=controller_type, controller_config=controller_config, q_hat0=q_hat0,
+                   qd_hat0=qd_hat0, monitors=monitors,
+                   controller_velocity=_controller_velocity(spec, name, sensors, replay, file))
+
+
+def _controller_velocity(spec: ScenarioSpec, name: str, sensors: set[str], replay: bool, file: str) -> str:
+    """``measured`` or ``estimated``: the variant's, else the scenario's, else measured where tachometers are."""
+    variant = spec.variants[name]
+    velocity = variant.controller_velocity or spec.controller_velocity
+    if replay:  # no controller reads anything
+        return "estimated"
+    if velocity is None:
+        return "measured" if "velocity" in sensors else "estimated"
+    if velocity == "measured" and "velocity" not in sensors:
+        field = f"variants.{name}.controller_velocity" if variant.controller_velocity else "controller_velocity"
+        raise InputError(file, field, "measured needs velocity sensors (robot.sensors)")
+    return velocity
+
+
+def _figure_lines(variants: list[Variant]) -> tuple[list[str], dict[str, tuple]]:
+    """Every line a figure may draw (variants and ``variant.monitor``) and the signals each one's methods
+    record."""
     names = [name for v in variants for name in (v.name, *(f"{v.name}.{m.name}" for m in v.monitors))]
     signals = {v.name: (getattr(v.observer_type, "signal_names", None), getattr(v.controller_type, "signal_names", None))
                for v in variants}
     signals.update({f"{v.name}.{m.name}": (getattr(m.observer_type, "signal_names", None),)
                     for v in variants for m in v.monitors})
-    scenario.figures = compile_figures(spec, model, names, file, signals)
-    return scenario
+    return names, signals

@@ -112,7 +112,7 @@ def load_scenario(
         if writer == file:
             raise
         raise InputError(writer, exc.field, exc.problem) from None
-    scenario.raw = raw
+    scenario._written = raw
     log = () if scenario.log is None else (scenario.log.file,)
     scenario.inputs = (*resolved.files, *model_files(scenario.model_path, file), *log)
     return scenario

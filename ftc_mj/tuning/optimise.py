@@ -101,7 +101,7 @@ def prepare(path: Path, generations: int | None = None, fields: dict[str, Any] |
         raise InputError(file, "held_out", f"the campaign has {len(campaign.runs)} runs, fewer than conditions + "
                          f"held_out = {need}")
     paths = list(spec.gains)
-    documents = [campaign.scenario.raw, campaign.scenario.spec.model_dump(mode="json")]
+    documents = [campaign.scenario.written(), campaign.scenario.spec.model_dump(mode="json")]
     baseline = {}
     for gain in paths:
         value = execute.field_value(documents, gain)

@@ -15,7 +15,7 @@ import yaml
 from ftc_mj.analysis.metrics import unit
 from ftc_mj.campaign import statistics as st
 from ftc_mj.outputs.files import write_atomic
-from ftc_mj.outputs.palette import COLOURS, declared_colours
+from ftc_mj.outputs.palette import COLOURS
 from ftc_mj.tuning.optimise import Tuning, aggregate, condition_costs, violations
 
 
@@ -113,7 +113,7 @@ def _convergence_figure(tuning: Tuning, history: list[dict], path: Path) -> None
     x = np.array(generations) + 1
     # The tuned variant's colour (its colour in the scenario's run figures) for its best and its scenario gains;
     # the generations' statistics in grey.
-    colour = declared_colours(tuning.campaign.scenario.raw.get("variants", {})).get(tuning.spec.variant,
+    colour = tuning.campaign.scenario.colours.get(tuning.spec.variant,
                                                                                   COLOURS["blue"])
     fig = Figure(figsize=(5.4, 3.6))
     ax = fig.subplots()

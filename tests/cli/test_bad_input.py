@@ -412,6 +412,10 @@ CASES = [
          "s.yaml", "--export-log: 'out.hs.csv' is also the path of --json"),
     Case("--out is an exported log", run_case(dump(scenario()), "--out", "out.hs.csv", "--export-log", "out.csv"),
          "s.yaml", "--export-log: 'out.hs.csv' is also the path of --out"),
+    Case("--export is the --json file", run_case(dump(scenario()), "--json", "out.csv", "--export", "out.csv"),
+         "s.yaml", "--export: 'out.csv' is also the path of --json"),
+    Case("--export of an unknown form", run_case(dump(scenario()), "--export", "out.xlsx"), "s.yaml",
+         "--export: 'out.xlsx': the extension must be one of .mat, .parquet, .csv"),
     Case("--json inside the replayed bag", log_case(joint_state_log("rosbag2"), "--json", "bag/m.json"),
          "replay.yaml", "--json: 'bag/m.json' is inside an input folder"),
     # live viewing

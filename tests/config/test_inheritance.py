@@ -146,7 +146,7 @@ def test_load_scenario_validates_the_merged_content_and_keeps_it_as_raw(tmp_path
     assert (scenario.name, scenario.spec.duration) == ("child", 2.0)
     assert [v.name for v in scenario.variants] == ["proposed", "nftsmc_tosmo"]
     assert scenario.spec.parameters == {"fault_scale": 1.0, "zeta": 1.0}
-    assert "base" not in scenario.raw and scenario.raw["variants"].keys() == {"proposed", "nftsmc_tosmo"}
+    assert "base" not in scenario.written() and scenario.written()["variants"].keys() == {"proposed", "nftsmc_tosmo"}
 
 
 def test_set_and_assignments_apply_after_the_merge(tmp_path):
@@ -154,7 +154,7 @@ def test_set_and_assignments_apply_after_the_merge(tmp_path):
     child = write(tmp_path / "child.yaml", {"base": "base.yaml", "seed": 3})
     scenario = load_scenario(child, overrides=["seed=5"], assignments={"parameters.zeta": 0.5})
     assert (scenario.spec.seed, scenario.spec.parameters["zeta"]) == (5, 0.5)
-    assert scenario.raw["seed"] == 5
+    assert scenario.written()["seed"] == 5
 
 
 def test_a_bad_value_is_reported_against_the_file_that_wrote_it(tmp_path):
@@ -228,7 +228,7 @@ def test_a_relative_model_path_in_a_base_in_another_folder_keeps_naming_its_file
                                                               "name": "child"})
     scenario = load_scenario(child)
     assert scenario.model_path == model.resolve()
-    assert (child.parent / scenario.raw["robot"]["model"]).resolve() == model.resolve()
+    assert (child.parent / scenario.written()["robot"]["model"]).resolve() == model.resolve()
 
 
 def test_a_model_path_the_child_writes_stays_relative_to_the_child(tmp_path):
@@ -254,4 +254,4 @@ def test_the_shipped_fault_scenarios_share_puma_faults_model_through_two_bases()
     path = ROOT / "scenarios" / "faults" / "puma_bias.yaml"
     scenario = load_scenario(path, duration=0.1)
     assert scenario.model_path == (ROOT / "models" / "puma560.xml").resolve()
-    assert scenario.raw["robot"]["model"] == "../../models/puma560.xml"
+    assert scenario.written()["robot"]["model"] == "../../models/puma560.xml"

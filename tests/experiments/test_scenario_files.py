@@ -49,7 +49,7 @@ def test_every_scenario_file_loads_under_its_own_name(path: Path) -> None:
     scenario = load_scenario(path, duration=0.1)
     assert scenario.name == path.stem
     assert scenario.output_path == Path(f"recordings/{path.stem}.rrd")
-    assert "base" not in scenario.raw
+    assert "base" not in scenario.written()
 
 
 def test_every_fragment_is_the_base_of_a_scenario() -> None:

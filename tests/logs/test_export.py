@@ -21,7 +21,7 @@ ROOT = Path(__file__).resolve().parents[2]
 def _replay_scenario(tmp_path: Path, scenario, variant: str, log_file: Path) -> Path:
     """The scenario's variant ``variant`` (its observer and monitors, their initial estimates, the nominal
     model) on the exported log instead of the simulated robot."""
-    raw = {key: value for key, value in scenario.raw.items()
+    raw = {key: value for key, value in scenario.written().items()
            if key not in SIMULATION_ONLY and key not in ("base", "duration", "control_dt", "figures", "diagnosis")}
     robot = dict(raw["robot"])
     robot["model"] = str(scenario.model_path)
@@ -68,7 +68,7 @@ def test_mcap_export_replays_its_readings(tmp_path):
     closed = run_scenario(scenario, record_poses=False)[0]
     section = {"file": str(tmp_path / "run.smc.mcap"), "format": "mcap", "steps": {"resample": 0.001}}
     raw = {"name": "replay", "robot": {"model": str(scenario.model_path)}, "log": section,
-           "variants": {"do": {"observer": scenario.raw["variants"]["smc"]["observer"]}},
+           "variants": {"do": {"observer": scenario.written()["variants"]["smc"]["observer"]}},
            "metrics": {"window_start": 0.0, "estimation_window_start": 0.0}}
     (tmp_path / "replay.yaml").write_text(yaml.safe_dump(raw))
     log = load_scenario(tmp_path / "replay.yaml").log

@@ -16,13 +16,13 @@ SCENARIO = Path(__file__).resolve().parents[2] / "scenarios" / "puma_fault.yaml"
 def test_a_new_type_with_its_gains_set_alongside_runs():
     scenario = load_scenario(SCENARIO, duration=0.01, overrides=[
         "variants.proposed.observer.type=tosmo", "variants.proposed.observer.gains.D=22"])
-    assert scenario.raw["variants"]["proposed"]["observer"] == {"type": "tosmo", "gains": {"D": 22}}
+    assert scenario.written()["variants"]["proposed"]["observer"] == {"type": "tosmo", "gains": {"D": 22}}
 
 
 def test_the_same_type_keeps_the_files_gains():
-    before = load_scenario(SCENARIO, duration=0.01).raw["variants"]["proposed"]["observer"]["gains"]
+    before = load_scenario(SCENARIO, duration=0.01).written()["variants"]["proposed"]["observer"]["gains"]
     scenario = load_scenario(SCENARIO, duration=0.01, overrides=["variants.proposed.observer.type=hs_tosmo"])
-    assert scenario.raw["variants"]["proposed"]["observer"]["gains"] == before
+    assert scenario.written()["variants"]["proposed"]["observer"]["gains"] == before
 
 
 @pytest.mark.parametrize("method, first, also", [("kalman", "process_d", "; it also needs measurement"),

@@ -82,7 +82,7 @@ def test_best_yaml_below_a_base_line_is_the_tuned_scenario(tuned):
     tuned_file = path.parent / "tuned_scenario.yaml"
     tuned_file.write_text("base: scenario.yaml\n" + (out / "best.yaml").read_text())
     scenario = load_scenario(tuned_file)
-    assert scenario.raw["variants"]["hs"]["controller"]["gains"]["mu"] == pytest.approx(
+    assert scenario.written()["variants"]["hs"]["controller"]["gains"]["mu"] == pytest.approx(
         report["gains"]["tuned"]["variants.hs.controller.gains.mu"], rel=1e-5)
 
 
