@@ -84,6 +84,9 @@ TARGETS: dict[str, Target] = {
         "tests/logs/test_ur10.py::test_free_motion_command_writes_table_json_recording",
     ))),
     "score": Target(("ftc_mj/ranking/score.py",), ("tests/ranking/test_score.py", "tests/ranking/test_score_edges.py")),
+    "statistics": Target(("ftc_mj/campaign/statistics.py",), ("tests/campaign/test_statistics.py",
+                                                               "tests/campaign/test_statistics_coverage.py",
+                                                               "tests/campaign/test_verdicts.py")),
 }
 
 

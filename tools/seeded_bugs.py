@@ -37,6 +37,11 @@ DT = ("tests/analysis/test_diagnosis.py", "tests/analysis/test_diagnoser_edges.p
       "tests/analysis/test_detection_edges.py")
 TM, TC = "tests/methods/observers/", "tests/methods/controllers/"
 BUGS = [
+    Bug("statistics: the bootstrap never draws the last run", "ftc_mj/campaign/statistics.py",
+        "integers(0, n, size=(resamples, n))", "integers(0, n - 1, size=(resamples, n))",
+        ("tests/campaign/test_statistics_coverage.py",)),
+    Bug("statistics: a claim holds on one of its two criteria (and -> or)", "ftc_mj/campaign/statistics.py",
+        "if d.high < 0 and w.low > 0.5:", "if d.high < 0 or w.low > 0.5:", ("tests/campaign/test_verdicts.py",)),
     Bug("momentum: C^T qd - G as G - C^T qd", M + "momentum.py",
         "np.subtract(model.coriolis_transpose, model.gravity,", "np.subtract(model.gravity, model.coriolis_transpose,",
         (TM + "test_momentum.py",)),

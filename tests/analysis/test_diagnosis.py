@@ -117,6 +117,7 @@ def test_baseline_threshold_and_detection_delay() -> None:
     assert np.isnan(m["fault_estimate_rms"][1:]).all()
 
 
+@pytest.mark.slow  # a closed-loop run of seconds
 def test_false_alarms_missed_detection_and_isolation() -> None:
     luaf = healthy_signal()
     luaf[5000:5030, 0] += 3.0  # 30 samples before joint 1's onset: a false alarm

@@ -38,7 +38,7 @@ def _covers(estimate: st.Estimate, truth: float) -> bool:
 
 
 def test_the_bootstrap_of_a_mean_covers_the_mean():
-    rng, draws = np.random.default_rng(11), 400
+    rng, draws = np.random.default_rng(11), 300
     covered = sum(_covers(st.summarise(rng.normal(3.0, 2.0, 80), resamples=400).mean, 3.0) for _ in range(draws))
     low, high = _band(draws)
     assert low <= covered / draws <= high, covered / draws
@@ -76,7 +76,7 @@ def test_the_percentile_intervals_cover_at_least_95_percent(n):
     coverage of [x_(l), x_(u)] for a continuous distribution: x_(l) <= truth iff at least l values are below
     the truth, truth <= x_(u) iff fewer than u are, and the count below the truth is Binomial(n, q). The
     percentile bootstrap these intervals replace covered 84% for the 5th percentile of 60 normal values."""
-    rng, draws = np.random.default_rng(13), 300
+    rng, draws = np.random.default_rng(13), 200
     for q in (0.5, 0.05, 0.95):
         covered, ranks = 0, []
         for _ in range(draws):
@@ -120,6 +120,7 @@ def test_the_wilson_interval_covers_95_percent_on_average_over_the_proportion():
         assert min(coverage) >= 0.85, (n, min(coverage))
 
 
+@pytest.mark.slow  # a simulation of hundreds of samples
 def test_the_auc_bootstrap_covers_the_auc():
     """Healthy peaks N(0, 1), faulty N(1, 1): the AUC is P(fault > healthy) = Phi(1 / sqrt 2)."""
     rng, draws, truth = np.random.default_rng(15), 300, stats.norm.cdf(1 / math.sqrt(2))

@@ -10,6 +10,8 @@ import sys
 import time
 from pathlib import Path
 
+import pytest
+
 import yaml
 
 from ftc_mj.cli import report
@@ -30,6 +32,7 @@ def test_report_prints_nan_infinity_and_1e400_as_undefined(tmp_path, capsys):
         None, None, None, None, 0.5, None]  # as run --json writes them
 
 
+@pytest.mark.slow  # a subprocess
 def test_calibrate_interrupted_exits_130_with_one_line_and_writes_nothing(tmp_path):
     data = small_campaign.scenario()
     (tmp_path / "s.yaml").write_text(yaml.safe_dump(data))

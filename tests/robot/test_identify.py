@@ -108,6 +108,7 @@ def test_friction_only_recovers_the_friction_the_log_was_made_with(ur10e):
     assert np.all(residual_rms(ur10e, fitted, other) < 0.5)
 
 
+@pytest.mark.slow  # a closed-loop run of seconds
 def test_all_recovers_the_torque_and_refuses_data_that_cannot_support_it(ur10e):
     """Every parameter on an exciting synthetic log (every joint over 1 rad, both directions): the fit's
     torque matches the log's to 0.5 N m on another motion, every body is physical and the friction comes
@@ -153,6 +154,7 @@ def test_the_command_writes_a_base_file_that_replays(tmp_path, ur10e, capsys):
     assert scenario.spec.nominal.friction.coulomb[1] == pytest.approx(13.3, rel=0.02)
 
 
+@pytest.mark.slow  # a closed-loop run of seconds
 @pytest.mark.parametrize("case, problem", [
     ("short", "fewer than the 200 identification needs"),
     ("slow", "too slow to identify from"),
