@@ -193,9 +193,14 @@ def _kind_table(medians: dict[str, dict[str, float]]) -> list[str]:
     kinds = sorted({kind for by_kind in medians.values() for kind in by_kind})
     if not kinds:
         return []
-    winners = {kind: min(medians, key=lambda e: medians[e].get(kind, np.inf)) for kind in kinds}
+    winners = {}
+    for kind in kinds:  # a kind is won by the one pair with the lowest median; a tie is nobody's
+        values = {e: medians[e].get(kind, np.inf) for e in medians}
+        best = min(values.values())
+        leaders = [e for e, v in values.items() if v == best]
+        winners[kind] = leaders[0] if len(leaders) == 1 else None
     lines = [f"Median RMS error [rad] of the faulty runs per fault kind (a diverged run at {sc.DIVERGED_RMS:g} rad; "
-             "**bold**: the lowest), and the kinds each pair wins:", "",
+             "**bold**: the lowest, none where pairs tie), and the kinds each pair wins:", "",
              "| entry | " + " | ".join(kinds) + " | wins |", "|" + "---|" * (len(kinds) + 2)]
     for name, by_kind in medians.items():
         cells = [f"**{by_kind[k]:.3g}**" if winners[k] == name else f"{by_kind.get(k, np.nan):.3g}" for k in kinds]

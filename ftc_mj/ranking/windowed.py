@@ -13,6 +13,7 @@ from typing import Any
 
 import numpy as np
 from matplotlib.figure import Figure
+from matplotlib.ticker import FixedLocator, FormatStrFormatter, NullFormatter
 
 from ftc_mj.ranking import calibrated as cal
 from ftc_mj.ranking.entries import Bench, Entry
@@ -230,7 +231,7 @@ def roc_figure(boards: dict[str, RobotBoard]) -> Figure:
 
 def detectability_figure(boards: dict[str, RobotBoard], alpha: float) -> Figure:
     fig, panels = _panels(boards, "Detectability: P_d at the common false-alarm probability against the bias",
-                          "bias [residual units: the healthy residual's 99th percentile]",
+                          "bias [residual units]",
                           f"P_d at {alpha:g} false alarms per window")
     for ax, board, styles in panels:
         names = list(board.windows)
@@ -246,6 +247,7 @@ def detectability_figure(boards: dict[str, RobotBoard], alpha: float) -> Figure:
                     label=name)
         ax.axhline(alpha, color="#999999", linewidth=0.6)
         ax.set_xscale("log")
+        ax.xaxis.set_major_formatter(FormatStrFormatter("%g"))
         ax.set_ylim(-0.03, 1.03)
     return _legend(fig, panels)
 
@@ -265,4 +267,10 @@ def front_figure(boards: dict[str, RobotBoard]) -> Figure:
                     linewidth=1.0, label=name)
         ax.set_xscale("log")
         ax.set_yscale("log")
+        # Plain tick labels at round values (a log axis spanning less than a decade labels its minor ticks in
+        # overlapping powers of ten).
+        for axis, ticks in ((ax.xaxis, (0.01, 0.02, 0.05, 0.1, 0.2, 0.5)), (ax.yaxis, (10, 20, 50, 100, 200, 500))):
+            axis.set_major_locator(FixedLocator(ticks))
+            axis.set_major_formatter(FormatStrFormatter("%g"))
+            axis.set_minor_formatter(NullFormatter())
     return _legend(fig, panels)
