@@ -478,9 +478,10 @@ def check_on_grid(reference: expressions.TimeFunctions, terms: list[CompiledTerm
                                  "while the term is on")
 
 
-def compile_scenario(path: Path, spec: ScenarioSpec) -> Scenario:
+def compile_scenario(path: Path, spec: ScenarioSpec, written: dict[str, Any] | None = None) -> Scenario:
     """Check and compile a validated spec read from ``path``: the robot first (it fixes the number of joints
-    and the joint names), then every section by its own compile function."""
+    and the joint names), then every section by its own compile function. ``written``: the file's fields as
+    written, after ``--set`` (:meth:`Scenario.written`)."""
     file = str(path)
     model_path, model = load_robot(path, spec.robot, file)
     n = model.nv
@@ -504,7 +505,7 @@ def compile_scenario(path: Path, spec: ScenarioSpec) -> Scenario:
         path=path, spec=spec, model_path=model_path, model=model, n_joints=n, timestep=timestep,
         substeps=substeps, q0=q0, qd0=qd0, reference=reference, terms=terms, variants=variants,
         terms_function=terms_function(terms, n, list(spec.parameters)), actuator_faults=actuator_faults,
-        position_sensor=position_sensor, velocity_sensor=velocity_sensor, log=log,
+        position_sensor=position_sensor, velocity_sensor=velocity_sensor, log=log, _written=written or {},
     )
     if spec.diagnosis is not None:
         scenario.diagnoser = compile_diagnoser(spec.diagnosis, spec.control_dt, spec.metrics.estimation_window_start,

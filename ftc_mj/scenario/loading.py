@@ -105,14 +105,13 @@ def load_scenario(
             raise UnknownVariant(file, unknown[0], list(spec.variants))
         spec.variants = {name: spec.variants[name] for name in variants}
     try:
-        scenario = compile_scenario(path, spec)
+        scenario = compile_scenario(path, spec, raw)
     except InputError as exc:
         # The compiler names the scenario file; a value it refuses may have been written by a base.
         writer = provenance.file_of(exc.field.split(".")) if exc.file == file and exc.field else file
         if writer == file:
             raise
         raise InputError(writer, exc.field, exc.problem) from None
-    scenario._written = raw
     log = () if scenario.log is None else (scenario.log.file,)
     scenario.inputs = (*resolved.files, *model_files(scenario.model_path, file), *log)
     return scenario
