@@ -23,7 +23,7 @@ COMMANDS = {
     "tune": "robust gain tuning (CMA-ES) on a campaign's population",
     "bench": "benchmark: score methods on a versioned suite",
     "robot": "check a robot before its first run: per-joint numbers, warnings",
-    "calibrate": "per-joint diagnosis thresholds for a false-alarm rate (or on a healthy log)",
+    "calibrate": "per-joint diagnosis thresholds: for a false-alarm rate, or from a healthy log",
     "identify": "identify joint friction (and inertial parameters) from logs: a scenario base file",
     "monitor": "a scenario's observer and diagnosis on a stream: a log row by row, or a ROS 2 topic (--ros)",
 }
