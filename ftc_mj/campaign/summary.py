@@ -28,7 +28,7 @@ from ftc_mj.analysis.metrics import unit
 from ftc_mj.campaign import statistics as st
 from ftc_mj.campaign.schema import CampaignSpec
 from ftc_mj.config.errors import InputError
-from ftc_mj.outputs.figures import OVER_ALIKE
+from ftc_mj.outputs.figures import over_alike, same_roc
 from ftc_mj.outputs.files import write_atomic
 from ftc_mj.outputs.palette import CAMPAIGN_LINE_STYLES, assign_colours
 
@@ -451,12 +451,9 @@ def _roc_figure(results: Results, curves: dict[str, tuple[np.ndarray, np.ndarray
     drawn: list[np.ndarray] = []
     for variant, (p_fa, p_d) in curves.items():
         colour = _colour(results, variant)
-        curve = np.concatenate([p_fa, p_d])
-        over = any(curve.shape == other.shape and np.allclose(curve, other, atol=0.005, equal_nan=True)
-                   for other in drawn)  # the same curve as one drawn already: dashed, so that both show
-        drawn.append(curve)
+        over = same_roc(p_fa, p_d, drawn)  # the same line as one drawn already: dashed, so that both show
         ax.plot(np.concatenate(([1.0], p_fa, [0.0])), np.concatenate(([1.0], p_d, [0.0])), color=colour,
-                linestyle=OVER_ALIKE if over else _style(results, variant), linewidth=1.6,
+                linestyle=over_alike(over) if over else _style(results, variant), linewidth=1.6,
                 label=f"{variant} (AUC {st.auc(p_fa, p_d):.3f})" + (" = the curve beneath" if over else ""))
         ax.plot(p_fa[one], p_d[one], "o", color=colour, markersize=5)
     ax.plot([0, 1], [0, 1], ":", color="grey", linewidth=0.8)

@@ -34,8 +34,11 @@ ENVELOPE_BINS = 1500
 WIDTH, ROW_HEIGHT = 8.0, 1.55
 TRUTH_ALPHA, TRUTH_WIDTH, LINE_WIDTH = 0.35, 3.0, 0.9
 DASHES = {"solid": "-", "dashed": "--"}
-#: The dash of a line drawn over an alike one: long gaps, so that the line beneath shows.
-OVER_ALIKE = (0, (3.0, 3.0))
+def over_alike(k: int) -> tuple[float, tuple[float, float]]:
+    """The dash of the k-th line (k >= 1) drawn over alike ones: dashes of one period (6 pt) that fall in the
+    earlier lines' gaps (k = 1: [0, 3], 2: [3, 4.5], 3 and more: [4.5, 5.25]), so that every line shows."""
+    offset, on = ((0.0, 3.0), (3.0, 1.5), (4.5, 0.75))[min(k, 3) - 1]
+    return (-offset, (on, 6.0 - on))
 #: Two lines are alike where they differ by less than ALIKE of the panel's data range on ALIKE_SHARE of their
 #: points (a line that covers another for most of its length hides it).
 ALIKE, ALIKE_SHARE = 0.004, 0.9
@@ -153,7 +156,7 @@ def _panel(ax: Axes, variants: Sequence[str], layout: Layout, main: tuple | None
            kind: str | None, span: tuple[float, float]) -> None:
     """One axes: each variant's companion line (truth wide and pale, or threshold dotted) and its own line; the
     legend's first variant drawn last, on top. A line alike to one beneath it (:data:`ALIKE`) is drawn with
-    :data:`OVER_ALIKE` dashes; a truth band alike to one drawn already is not drawn again."""
+    :func:`over_alike` dashes; a truth band alike to one drawn already is not drawn again."""
     drawn: list[np.ndarray] = []
     scale = _scale(main, [layout.column(v) for v in variants], span) if main is not None else 0.0
     if extra is not None and kind == "truth":
@@ -168,8 +171,8 @@ def _panel(ax: Axes, variants: Sequence[str], layout: Layout, main: tuple | None
         if main is not None:
             t, values = main
             cut = _cut(t, values[:, column], span)
-            over = any(_alike(cut[1], other, scale) for other in drawn)
-            ax.plot(*cut, color=style.color, linestyle=OVER_ALIKE if over else DASHES[style.dash],
+            over = sum(_alike(cut[1], other, scale) for other in drawn)
+            ax.plot(*cut, color=style.color, linestyle=over_alike(over) if over else DASHES[style.dash],
                     linewidth=LINE_WIDTH, zorder=3)
             drawn.append(cut[1])
     if extra is not None and kind == "reference":
@@ -193,6 +196,28 @@ def _truth_bands(ax: Axes, variants: Sequence[str], layout: Layout, extra: tuple
     for group in reversed(groups):
         colour = TRUTH_COLOUR if len(groups) == 1 else layout.style(group[0]).color
         ax.plot(*cuts[group[0]], color=colour, alpha=TRUTH_ALPHA, linewidth=TRUTH_WIDTH, zorder=1)
+
+
+def same_roc(p_fa: np.ndarray, p_d: np.ndarray, others: list[np.ndarray], tolerance: float = 0.005) -> int:
+    """How many of ``others`` (each the :func:`roc_profile` of a curve drawn before) the ROC curve through
+    (p_fa, p_d) is drawn as the same line as, to ``tolerance`` (0: none; for :func:`over_alike`): two
+    detectors whose peaks differ but rank the runs alike give one line. Appends this curve's profile."""
+    profile = roc_profile(p_fa, p_d)
+    found = sum(bool(np.allclose(profile, other, atol=tolerance)) for other in others)
+    others.append(profile)
+    return found
+
+
+def roc_profile(p_fa: np.ndarray, p_d: np.ndarray, points: int = 201) -> np.ndarray:
+    """A ROC curve as the highest detection probability reached at or below each of ``points`` false-alarm
+    probabilities from 0 to 1 (the curve is monotone, so this is the line drawn, whatever its thresholds)."""
+    x, y = np.asarray(p_fa, float), np.asarray(p_d, float)
+    ok = np.isfinite(x) & np.isfinite(y)
+    x, y = np.concatenate(([0.0], x[ok])), np.concatenate(([0.0], y[ok]))
+    grid = np.linspace(0.0, 1.0, points)
+    order = np.argsort(x, kind="stable")
+    best = np.maximum.accumulate(y[order])
+    return best[np.searchsorted(x[order], grid, side="right") - 1]
 
 
 def _scale(main: tuple, columns: Sequence[int], span: tuple[float, float]) -> float:

@@ -19,7 +19,7 @@ import pyarrow as pa
 import pyarrow.parquet as pq
 from matplotlib.figure import Figure
 
-from ftc_mj.outputs.figures import OVER_ALIKE
+from ftc_mj.outputs.figures import over_alike, same_roc
 from ftc_mj.ranking import score as sc
 from ftc_mj.ranking import windowed
 from ftc_mj.ranking.execute import Found, damaged
@@ -227,10 +227,9 @@ def roc_figure(bench: Bench, roc_runs: dict[str, dict[str, sc.DiagnosisRuns]]) -
         for name, runs in roc_runs[robot].items():
             p_fa, p_d = sc.roc_curve(runs.healthy_peak, runs.fault_peak)
             colour, style = styles[name]
-            curve = np.concatenate([p_fa, p_d])
-            if any(curve.shape == other.shape and np.allclose(curve, other, atol=0.005) for other in drawn):
-                style = OVER_ALIKE  # the same curve as an entry's drawn before: dashed, so that both show
-            drawn.append(curve)
+            over = same_roc(p_fa, p_d, drawn)
+            if over:
+                style = over_alike(over)  # the same line as an entry's drawn before: dashed, so that both show
             ax.plot(np.concatenate(([1.0], p_fa, [0.0])), np.concatenate(([1.0], p_d, [0.0])), color=colour,
                     linestyle=style, linewidth=1.4, label=f"{name} ({sc.auc(runs.healthy_peak, runs.fault_peak):.3f})")
         ax.plot([0, 1], [0, 1], ":", color="grey", linewidth=0.8)
