@@ -1,10 +1,14 @@
-"""Chapter 2's disturbance observer (DO), eq. (2.6), with its LUaF estimate (2.20). Needs tachometers.
+r"""Chapter 2's disturbance observer (DO), eq. (2.6), with its LUaF estimate (2.20). Needs tachometers.
 
-With x2 the measured velocity and x2~ = x2 - x2_hat:
+With :math:`x_2` the measured velocity and :math:`\tilde x_2 = x_2 - \hat x_2`, (2.6) and (2.20):
 
-    dx2_hat/dt = H(x) + D(x1)^-1 u + zeta_hat
-    zeta_hat   = k1 |x2~|^(1/2) sign(x2~) + p1 x2~ + z                  (2.6), (2.20)
-    dz/dt      = k2 sign(x2~) + p2 x2~
+.. math::
+
+    \dot{\hat x}_2 = H(x) + D(x_1)^{-1} u + \hat\zeta
+
+    \hat\zeta = k_1 |\tilde x_2|^{1/2} \operatorname{sign}(\tilde x_2) + p_1 \tilde x_2 + z
+
+    \dot z = k_2 \operatorname{sign}(\tilde x_2) + p_2 \tilde x_2
 
 a super-twisting observer on the velocity error with added linear terms (Remark 2.2: they speed up the
 convergence far from the origin). zeta_hat contains the integral z, so it needs no filter (Remark 2.3).

@@ -1,18 +1,22 @@
-"""Third-order sliding-mode observers: TOSMO, eq. (3.11)/(4.4), and the high-speed TOSMO, eq. (5.6).
+r"""Third-order sliding-mode observers: TOSMO, eq. (3.11)/(4.4), and the high-speed TOSMO, eq. (5.6).
 
-High-speed TOSMO (5.6), with x1_tilde = x1 - x1_hat:
+High-speed TOSMO (5.6), with :math:`\tilde x_1 = x_1 - \hat x_1`:
 
-    dx1_hat/dt = k1 |x1_tilde|^(2/3) sign(x1_tilde) + x2_hat + Gamma x1_tilde
-    dx2_hat/dt = Psi(x_hat) + M(x1)^-1 u + k2 |x1_tilde|^(1/3) sign(x1_tilde)
-                 + Gamma (dx1_hat/dt - x2_hat) + integral of k3 sign(x1_tilde)
+.. math::
 
-The printed second line ends in "- dz_hat/dt"; with dz_hat/dt = -k3 sign(x1_tilde) that would feed the
-*derivative* of z_hat back, which contradicts the error dynamics (5.7) the proof uses (they carry "+ z_hat").
-We use "- z_hat" as in (3.11), so the LUaF estimate is the integral of k3 sign(x1_tilde), eq. (5.13).
-With Gamma = 0 the observer is the TOSMO (3.11); its LUaF estimate is (3.15).
+    \dot{\hat x}_1 = k_1 |\tilde x_1|^{2/3} \operatorname{sign}(\tilde x_1) + \hat x_2 + \Gamma \tilde x_1
 
-Gains follow Remark 5.3 (and Section 3.3.1): k1 = 2 D^(1/3), k2 = 2.12 D^(2/3), k3 = 1.1 D, from the bound D
-on the LUaF's derivative, unless k1, k2, k3 are given explicitly.
+    \dot{\hat x}_2 = \Psi(\hat x) + M(x_1)^{-1} u + k_2 |\tilde x_1|^{1/3} \operatorname{sign}(\tilde x_1)
+    + \Gamma (\dot{\hat x}_1 - \hat x_2) + \int k_3 \operatorname{sign}(\tilde x_1)\, dt
+
+The printed second line ends in :math:`- \dot{\hat z}`; with :math:`\dot{\hat z} = -k_3 \operatorname{sign}(\tilde x_1)`
+that would feed the *derivative* of :math:`\hat z` back, which contradicts the error dynamics (5.7) the proof
+uses (they carry :math:`+\hat z`). We use :math:`-\hat z` as in (3.11), so the LUaF estimate is the integral of
+:math:`k_3 \operatorname{sign}(\tilde x_1)`, eq. (5.13). With :math:`\Gamma = 0` the observer is the TOSMO
+(3.11); its LUaF estimate is (3.15).
+
+Gains follow Remark 5.3 (and Section 3.3.1): :math:`k_1 = 2 D^{1/3}`, :math:`k_2 = 2.12 D^{2/3}`,
+:math:`k_3 = 1.1 D`, from the bound D on the LUaF's derivative, unless k1, k2, k3 are given explicitly.
 """
 
 from __future__ import annotations
