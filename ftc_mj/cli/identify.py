@@ -6,8 +6,8 @@ Least squares on the joint-torque regressor of the robot's MuJoCo model, on zero
 acceleration (:mod:`ftc_mj.robot.identify`): ``--only friction`` fits viscous, Coulomb and offset friction per
 joint with the model's rigid body kept; ``--all`` fits the base parameters (QR), armature and friction, and is
 refused where the excitation report says the logs cannot support it. Writes FILE.yaml, a file a scenario names
-as its ``base:`` (``nominal.friction``; with ``--all`` also ``robot.armature`` and ``robot.model``, an MJCF
-FILE.xml beside it holding the identified bodies); with ``--base SCENARIO``, a runnable scenario: SCENARIO with
+as its ``base:`` (``nominal.friction``; with ``--all`` also ``robot.model``, an MJCF FILE.xml beside it holding
+the identified bodies and armature); with ``--base SCENARIO``, a runnable scenario: SCENARIO with
 the identified parameters. ``--validate`` prints the torque residual RMS per joint on logs not used for the
 fit. A log's labelled events (``log.events``: pushes, contacts) are left out of both.
 
@@ -142,8 +142,10 @@ def identify(args: argparse.Namespace) -> list[str]:
 
 
 def _identified_mjcf(model_path: Path, model, identified, robot) -> tuple[str, str]:
-    """The robot's MJCF with the identified bodies' inertials (MjSpec, body by name): (file name, text)."""
+    """The robot's MJCF with the identified bodies' inertials and the joints' armature (MjSpec, by name): (file
+    name, text)."""
     import mujoco
+    import numpy as np
 
     from ftc_mj.config.errors import InputError
     from ftc_mj.robot.regressor import Regressor, body_inertial
@@ -157,11 +159,15 @@ def _identified_mjcf(model_path: Path, model, identified, robot) -> tuple[str, s
         target = spec.body(model.body(body).name)
         if target is None:
             raise InputError(str(model_path), "--all", f"body {model.body(body).name!r} is not in the model file")
+        moments, axes = np.linalg.eigh(0.5 * (inertia + inertia.T))  # principal moments and axes
+        if np.linalg.det(axes) < 0:
+            axes[:, 0] = -axes[:, 0]
+        quaternion = np.zeros(4)
+        mujoco.mju_mat2Quat(quaternion, axes.reshape(-1))
         target.explicitinertial = True
-        target.mass, target.ipos = mass, com
-        target.fullinertia = [inertia[0, 0], inertia[1, 1], inertia[2, 2], inertia[0, 1], inertia[0, 2],
-                              inertia[1, 2]]
-        target.iquat = [1.0, 0.0, 0.0, 0.0]
+        target.mass, target.ipos, target.inertia, target.iquat = mass, com, moments, quaternion
+    for dof, armature in enumerate(identified.armature):
+        spec.joint(model.joint(int(model.dof_jntid[dof])).name).armature = float(armature)
     spec.compile()
     return model_path.name, spec.to_xml()
 
@@ -182,9 +188,8 @@ def _fragment(args, identified, joints: list[str], xml, lines: list[str]) -> str
         import os
 
         document = {"base": os.path.relpath(args.base.resolve(), args.out.resolve().parent), **document}
-    if identified.mode == "all":
-        document["robot"] = {"model": args.out.with_suffix(".xml").name,
-                             "armature": [round(float(x), 6) for x in identified.armature]}
+    if identified.mode == "all":  # the bodies and the armature in the model file
+        document["robot"] = {"model": args.out.with_suffix(".xml").name}
     command = " ".join(["ftc-mj identify", *map(str, args.logs), "--all" if args.all else "--only friction",
                         "--out", str(args.out), *(["--robot", str(args.robot)] if args.robot else []),
                         *(["--base", str(args.base)] if args.base else []),

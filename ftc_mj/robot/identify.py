@@ -21,9 +21,12 @@ column carries smoothed by the filter).
   are identifiable: their number is the rank of the stacked regressor, found by QR with column pivoting
   (``scipy.linalg.qr``) on columns scaled to unit norm. The fit is bounded least squares with a small ridge
   pulling every parameter to the model's value (the ridge decides only the unidentifiable directions, which
-  keep the model's values), armature and friction b, c >= 0. The result is refused where a body's parameters
-  are not physical (a mass not positive, an inertia about the centre of mass not positive definite) and
-  where the excitation cannot support it (:func:`excitation`).
+  keep the model's values), armature and friction b, c >= 0. Where that fit asks for a body that is not
+  physical (its pseudo-inertia not positive definite: :func:`pseudo_inertia`), the same fit is solved over
+  physical bodies only, each written by the log-Cholesky factor of its pseudo-inertia (Rucker and Wensing
+  2022), and the logs are refused if that leaves more than :data:`PHYSICAL_COST_RATIO` times the squared
+  residual (they ask for a non-physical arm: a wrong torque sign or scale, an external force). Refused too
+  where the excitation cannot support the fit (:func:`excitation`).
 
 Both refuse a log too short or too slow (:data:`MIN_SAMPLES`, :data:`MIN_SPEED`), with an
 :class:`~ftc_mj.config.errors.InputError` naming the log.
@@ -54,6 +57,11 @@ ALL_MAX_CONDITION = 200.0
 #: Ridge weight (relative to the regressor's column norms) holding the unidentifiable directions at the
 #: model's values in ``all``.
 RIDGE = 1e-6
+#: ``all`` refuses logs whose best physical fit leaves more than this many times the squared residual of the
+#: best fit (which asked for a non-physical body).
+PHYSICAL_COST_RATIO = 4.0
+#: At most this many iterations of the physical fit.
+PHYSICAL_ITERATIONS = 100
 #: Default cutoff of the zero-phase filter [Hz] and its order.
 DEFAULT_CUTOFF = 5.0
 FILTER_ORDER = 4
@@ -262,11 +270,31 @@ def fit_all(model: mujoco.MjModel, motions: list[Motion], joints: list[str],
     lower[body_columns:body_columns + n] = 0.0  # armature
     for j in range(n):
         lower[body_columns + n + 3 * j] = lower[body_columns + n + 3 * j + 1] = 0.0  # b, c
-    solution = optimize.lsq_linear(A, rhs, bounds=(lower * scale, upper * scale)).x / scale
-    phi = solution[:body_columns].reshape(len(regressor.bodies), 10)
+    # ||A x - rhs||^2 = ||R x - Q' rhs||^2 + ||rhs||^2 - ||Q' rhs||^2 (A = Q R): the same minima on a square
+    # system (the solvers' SVD of the tall one, per iteration, cost seconds).
+    Q, R = np.linalg.qr(A)
+    target = Q.T @ rhs
+    constant = max(float(rhs @ rhs - target @ target), 0.0)
+    linear = optimize.lsq_linear(R, target, bounds=(lower * scale, upper * scale)).x / scale
+    bodies = len(regressor.bodies)
+    if all(physical_problem(phi) is None for phi in linear[:body_columns].reshape(bodies, 10)):
+        solution = linear
+    else:  # the same fit over physical bodies only: each body's pseudo-inertia J = U U' (log-Cholesky)
+        solution = _physical_fit(R, target, scale, prior, bodies, lower, upper, linear)
+        linear_cost, physical_cost = (float(np.sum((R @ (x * scale) - target) ** 2)) + constant
+                                      for x in (linear, solution))
+        if physical_cost > PHYSICAL_COST_RATIO * linear_cost:
+            worst = next(k for k, phi in enumerate(linear[:body_columns].reshape(bodies, 10))
+                         if physical_problem(phi) is not None)
+            raise InputError(", ".join(m.name for m in motions), "--all",
+                             f"the fit is not physical: the logs' best fit needs body "
+                             f"{model.body(regressor.bodies[worst]).name!r} with "
+                             f"{physical_problem(linear[10 * worst:10 * worst + 10])}, and the best physical fit "
+                             f"leaves {np.sqrt(physical_cost / linear_cost):.3g} times its residual")
+    phi = solution[:body_columns].reshape(bodies, 10)
     for k, body in enumerate(regressor.bodies):
         problem = physical_problem(phi[k])
-        if problem is not None:
+        if problem is not None:  # pragma: no cover - the log-Cholesky parametrisation keeps every body physical
             raise InputError(", ".join(m.name for m in motions), "--all",
                              f"the fit is not physical: body {model.body(body).name!r}: {problem}")
     friction_parameters = solution[body_columns + n:].reshape(n, 3)
@@ -275,6 +303,83 @@ def fit_all(model: mujoco.MjModel, motions: list[Motion], joints: list[str],
     fit_rms = np.sqrt(np.mean((W @ solution - y).reshape(-1, n) ** 2, axis=0))
     return Identified(friction, "all", phi=phi, armature=solution[body_columns:body_columns + n],
                       excitation=report, fit_rms=fit_rms)
+
+
+def pseudo_inertia(phi: np.ndarray) -> np.ndarray:
+    """The 4 x 4 pseudo-inertia J = [[Sigma, m c], [m c', m]] of one body's ten parameters, Sigma = tr(I)/2 1 - I
+    (I about the body origin): the body is physical (a mass distribution with these moments exists) iff J is
+    positive definite (Wensing, Kim and Slotine, IEEE RA-L 3(1), 2018)."""
+    m, h = phi[0], np.asarray(phi[1:4])
+    Ixx, Ixy, Ixz, Iyy, Iyz, Izz = phi[4:]
+    inertia = np.array([[Ixx, Ixy, Ixz], [Ixy, Iyy, Iyz], [Ixz, Iyz, Izz]])
+    J = np.zeros((4, 4))
+    J[:3, :3] = 0.5 * np.trace(inertia) * np.eye(3) - inertia
+    J[:3, 3] = J[3, :3] = h
+    J[3, 3] = m
+    return J
+
+
+_UPPER = np.triu_indices(4, 1)
+_FLIP = np.eye(4)[::-1]
+
+
+def _cholesky_parameters(phi: np.ndarray) -> np.ndarray:
+    """u (10) with U upper triangular, diag(U) = exp(u[:4]), its upper entries u[4:], U U' = J(phi)
+    (log-Cholesky, Rucker and Wensing, IEEE RA-L 7(2), 2022)."""
+    J = pseudo_inertia(phi) + 1e-9 * np.eye(4)
+    lower = np.linalg.cholesky(_FLIP @ J @ _FLIP)
+    U = _FLIP @ lower @ _FLIP  # upper triangular, U U' = J
+    return np.concatenate([np.log(np.diag(U)), U[_UPPER]])
+
+
+def _parameters_of_cholesky(u: np.ndarray) -> np.ndarray:
+    """phi of the pseudo-inertia U U' (:func:`_cholesky_parameters`' inverse): always physical."""
+    U = np.diag(np.exp(u[:4]))
+    U[_UPPER] = u[4:]
+    J = U @ U.T
+    sigma = J[:3, :3]
+    inertia = np.trace(sigma) * np.eye(3) - sigma
+    return np.array([J[3, 3], *J[:3, 3], inertia[0, 0], inertia[0, 1], inertia[0, 2], inertia[1, 1],
+                     inertia[1, 2], inertia[2, 2]])
+
+
+def _physical_fit(R: np.ndarray, target: np.ndarray, scale: np.ndarray, prior: np.ndarray, bodies: int,
+                  lower: np.ndarray, upper: np.ndarray, start: np.ndarray) -> np.ndarray:
+    """The ridge-held least squares of :func:`fit_all` (its square form ``R``, ``target``, in parameters scaled
+    by ``scale``) with each body's parameters written by their
+    log-Cholesky factor (physical by construction), the armature and friction bounded as before
+    (``scipy.optimize.least_squares``, trust-region reflective), from the prior's bodies and the linear fit's
+    armature and friction."""
+    body_columns = 10 * bodies
+    u0 = np.concatenate([_cholesky_parameters(phi) for phi in prior[:body_columns].reshape(bodies, 10)])
+    rest0 = np.clip(start[body_columns:], lower[body_columns:], upper[body_columns:])
+
+    def theta(x: np.ndarray) -> np.ndarray:
+        phis = [_parameters_of_cholesky(x[10 * k:10 * k + 10]) for k in range(bodies)]
+        return np.concatenate([*phis, x[body_columns:]])
+
+    scaled = R * scale
+
+    def residual(x: np.ndarray) -> np.ndarray:
+        return scaled @ theta(x) - target
+
+    def jacobian(x: np.ndarray) -> np.ndarray:
+        """A diag(scale) dtheta/dx: dtheta/dx is block diagonal, each body's 10 x 10 block by central differences
+        of :func:`_parameters_of_cholesky` (cheap), the identity on the armature and friction."""
+        out = scaled.copy()
+        for k in range(bodies):
+            block = slice(10 * k, 10 * k + 10)
+            u, step = x[block], 1e-6
+            derivative = np.column_stack([(_parameters_of_cholesky(u + step * e) - _parameters_of_cholesky(u - step * e))
+                                          / (2 * step) for e in np.eye(10)])
+            out[:, block] = scaled[:, block] @ derivative
+        return out
+
+    x_lower = np.concatenate([np.full(body_columns, -np.inf), lower[body_columns:]])
+    x_upper = np.concatenate([np.full(body_columns, np.inf), upper[body_columns:]])
+    result = optimize.least_squares(residual, np.concatenate([u0, rest0]), jac=jacobian, bounds=(x_lower, x_upper),
+                                    x_scale="jac", max_nfev=PHYSICAL_ITERATIONS)
+    return theta(result.x)
 
 
 def predicted_torque(model: mujoco.MjModel, identified: Identified, motion: Motion) -> np.ndarray:
