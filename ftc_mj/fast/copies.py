@@ -2,9 +2,9 @@
 
 Each control period the loop writes some ten small arrays into the series: the readings, the true state, the
 torque, each variant's estimates and sliding variable, the bodies' poses; and the command into the plant's
-``ctrl``. As NumPy assignments ``series[k] = source`` each costs about a third of a microsecond, nearly all
-of it NumPy's call (on a single run's row the copy itself is a few nanoseconds), and a compiled kernel that
-takes the arrays as arguments pays about as much again to unbox them.
+``ctrl``. As NumPy assignments ``series[k] = source`` each costs NumPy's call, far more than the copy of a
+single run's row, and a compiled kernel that takes the arrays as arguments pays about as much again to unbox
+them (``benchmarks/step_phases.py`` measures the period's copies).
 :class:`SampleCopies` takes none: it keeps a table of the entries' addresses (source, destination at sample 0,
 the destination's bytes per sample, elements), built once, and one call of a kernel copies every entry for
 sample k.
@@ -16,7 +16,7 @@ strides, a shape NumPy would broadcast) is copied by that NumPy assignment inste
 **The same arrays.** The table holds addresses; the entries hold the arrays they were made of (so the memory
 stays alive as long as the table) and it copies what those array objects hold, as NumPy would. What it cannot
 know is that a caller's attribute now names another array (a plugin may rebind its ``qd_hat`` rather than write
-into it): its caller compares them each period (``is``, a few tens of nanoseconds) and, where one differs,
+into it): its caller compares them each period (``is``) and, where one differs,
 :meth:`SampleCopies.rebind` gives the entries the new arrays and moves them to the NumPy assignments for the
 rest of the run (the table is rebuilt once, not at every later rebinding).
 

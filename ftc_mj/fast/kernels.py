@@ -2,8 +2,8 @@
 dispatcher, one compiled version for every layout of a dtype, and whether its first call will compile.
 
 A Numba dispatcher resolves the types of its arguments on every call (an array's dtype, dimensions, layout
-and flags, each scalar's type) to choose the compiled function: some 0.1 us a call plus 0.02 us an argument,
-which on a single run's few rows is often more than the kernel's own work. The compiled function itself
+and flags, each scalar's type) to choose the compiled function, which on a single run's few rows often costs
+more than the kernel's own work. The compiled function itself
 resolves nothing: handed an array of another dtype, dimension or layout than it was compiled for, it reads
 that array's memory as if it were of the compiled one, silently. So it is never handed out on its own here:
 
@@ -68,7 +68,7 @@ def for_any_layout(dispatcher: Dispatcher | Callable, *arguments: object) -> Cal
     views, broadcasts and contiguous arrays of one dtype and dimension share one compiled version, where the
     dispatcher would compile one per layout. For calls made a few times each, on those very arguments (or
     others of the same dtypes and dimensions: the function is found again by what determines its types,
-    :func:`_type_key`, not by Numba's typing of every argument, some 15 us an array). A plain function (Numba's
+    :func:`_type_key`, not by Numba's typing of every argument, dearer than many a kernel). A plain function (Numba's
     JIT disabled) is itself."""
     if not isinstance(dispatcher, Dispatcher):
         return dispatcher

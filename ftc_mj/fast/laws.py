@@ -2,8 +2,8 @@
 powers left to NumPy.
 
 A law written in NumPy (the definition: every plugin's ``update``, ``advance`` or ``compute``) pays NumPy's
-cost per call, about half a microsecond whatever the size, some fifteen calls per law and period; on a single
-run's row that is most of the law's cost (``benchmarks/fused_laws.py`` prints both). The laws the shipped
+cost per call whatever the size, some fifteen calls per law and period; on a single run's row that is most of
+the law's cost (``benchmarks/fused_laws.py`` prints both). The laws the shipped
 scenarios run most therefore have an accelerator here: the TOSMO and high-speed TOSMO, eqs. (3.11), (5.6);
 the SOSMO, (4.37); the NFTSMC, (5.15)-(5.27). Each does the law's operations in the law's order.
 

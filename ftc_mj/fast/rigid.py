@@ -3,9 +3,9 @@ M^-1 (applied - C qd - G) for many evaluation points at once (eq. (5.2)).
 
 A controller's nominal model is a kinematic tree of rigid links, hinge and slide joints and gravity; nothing
 else of MuJoCo's forward pass is used (the copy in :func:`~ftc_mj.robot.nominal.rigid_body_model` disables the
-rest). On the PUMA560's three joints MuJoCo's ``mj_forward`` still costs about three quarters of one plant step
-per point, most of it in the stages and bookkeeping a general engine needs; a campaign evaluates two points per
-row and control period. The textbook algorithms on that tree, compiled with Numba, take a small fraction:
+rest). MuJoCo's ``mj_forward`` still spends most of a point's cost in the stages and bookkeeping a general
+engine needs, and a campaign evaluates two points per row and control period. The textbook algorithms on that
+tree, compiled with Numba, take a small fraction of it (the nominal-model phase of ``benchmarks/loop_phases.py``):
 
 - kinematics from the joint positions (MuJoCo's conventions: a hinge turns its body about ``jnt_axis``
   through ``jnt_pos``; a slide moves it along the axis; angles from ``qpos0``);
