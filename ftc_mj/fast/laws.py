@@ -55,6 +55,11 @@ def register(method_class: type, make: Callable[[object], object | None]) -> Non
     _REGISTRY[method_class] = make
 
 
+def unregister(method_class: type) -> None:
+    """``method_class`` runs its NumPy law from now on (instances built later)."""
+    _REGISTRY.pop(method_class, None)
+
+
 @contextmanager
 def without_accelerators() -> Iterator[None]:
     """Methods built inside run their NumPy laws, every other fast path as the switch says (what

@@ -278,8 +278,8 @@ class SparseSolver:
     """M(q)^-1 v for many rows at once with MuJoCo's own factorisation ``qLD``, ``qLDiagInv`` of each row: the
     operations of ``mj_solveM`` in its order (:func:`solve_sparse`; with the fast paths on, its accelerator
     :func:`~ftc_mj.fast.rigid.solve_factored`), so each row's answer is bit for bit what ``mj_solveM`` gives on
-    one MjData (tested), in one call whatever the batch size. The model is the one whose sparsity the factors have (any mass scale: only the structure is
-    used)."""
+    one MjData (tested), in one call whatever the batch size. The model is the one whose sparsity the factors
+    have (any mass scale: only the structure is used)."""
 
     def __init__(self, model: mujoco.MjModel):
         # The rows with entries left of the diagonal, in order, and those entries (address in qLD, column),

@@ -78,16 +78,16 @@ class NFTSMC(SlidingModeController):
         #: The integral of A in the surface (5.15).
         self.integral = np.zeros(self.shape)
         c = self.config
-        #: The law's accelerator (:mod:`ftc_mj.fast.laws`) registered for this class exactly, or None.
-        self._accelerator = laws.accelerator(self, c.beta1, c.beta2, c.beta3, c.beta4, c.gamma1, c.gamma2, self._gain)
+        #: The law's accelerator (:mod:`ftc_mj.fast.laws`) registered for this class exactly, or None: the NumPy law.
+        self.accelerator = laws.accelerator(self, c.beta1, c.beta2, c.beta3, c.beta4, c.gamma1, c.gamma2, self._gain)
 
     def reset(self) -> None:
         super().reset()
         self.integral[:] = 0.0
 
     def compute(self, t, q_ref, qd_ref, qdd_ref, q_meas, observer, model):
-        if self._accelerator is not None:
-            return self._accelerator.compute(q_ref, qd_ref, qdd_ref, q_meas, observer, model)
+        if self.accelerator is not None:
+            return self.accelerator.compute(q_ref, qd_ref, qdd_ref, q_meas, observer, model)
         return super().compute(t, q_ref, qd_ref, qdd_ref, q_meas, observer, model)
 
     def surface(self, t: float, e: np.ndarray, e_dot: np.ndarray) -> np.ndarray:

@@ -45,20 +45,20 @@ class SOSMO(Observer):
         #: The LUaF filter's weight: the exact discretisation of d(luaf)/dt = (injection - luaf) / T over one period.
         self.filter_weight = 1.0 - exp(-self.dt / config.filter_time_constant)
         self._q_hat_rate = np.zeros(self.shape)
-        #: The law's accelerator (:mod:`ftc_mj.fast.laws`) registered for this class exactly, or None.
-        self._accelerator = laws.accelerator(self, self.k1, self.k2, self.filter_weight)
+        #: The law's accelerator (:mod:`ftc_mj.fast.laws`) registered for this class exactly, or None: the NumPy law.
+        self.accelerator = laws.accelerator(self, self.k1, self.k2, self.filter_weight)
 
     def update(self, t: float, q_meas: np.ndarray, model: StepModel) -> None:
-        if self._accelerator is not None:
-            self._accelerator.update(q_meas, model)
+        if self.accelerator is not None:
+            self.accelerator.update(q_meas, model)
             return
         error = q_meas - self.q_hat
         self._q_hat_rate[:] = self.qd_hat + self.k1 * signed_power(error, 0.5)
         self.injection[:] = self.k2 * np.sign(error)
 
     def advance(self, tau: np.ndarray, model: StepModel) -> None:
-        if self._accelerator is not None:
-            self._accelerator.advance(tau, model)
+        if self.accelerator is not None:
+            self.accelerator.advance(tau, model)
             return
         qdd_hat = model.psi_hat + model.command_acceleration(tau) + self.injection
         self.q_hat += self.dt * self._q_hat_rate

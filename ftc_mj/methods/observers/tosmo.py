@@ -79,12 +79,12 @@ class TOSMO(Observer):
         self._sign = np.zeros(self.shape)
         self._q_hat_rate = np.zeros(self.shape)
         self._qdd_hat = np.zeros(self.shape)
-        #: The law's accelerator (:mod:`ftc_mj.fast.laws`) registered for this class exactly, or None.
-        self._accelerator = laws.accelerator(self, self.k1, self.k2, self._luaf_step)
+        #: The law's accelerator (:mod:`ftc_mj.fast.laws`) registered for this class exactly, or None: the NumPy law.
+        self.accelerator = laws.accelerator(self, self.k1, self.k2, self._luaf_step)
 
     def update(self, t: float, q_meas: np.ndarray, model: StepModel) -> None:
-        if self._accelerator is not None:
-            self._accelerator.update(q_meas, model)
+        if self.accelerator is not None:
+            self.accelerator.update(q_meas, model)
             return
         error = np.subtract(q_meas, self.q_hat, out=self._error)
         np.sign(error, out=self._sign)
@@ -101,8 +101,8 @@ class TOSMO(Observer):
         return correction
 
     def advance(self, tau: np.ndarray, model: StepModel) -> None:
-        if self._accelerator is not None:
-            self._accelerator.advance(tau, model)
+        if self.accelerator is not None:
+            self.accelerator.advance(tau, model)
             return
         qdd_hat = np.add(model.psi_hat, model.command_acceleration(tau), out=self._qdd_hat)
         qdd_hat += self.injection
