@@ -76,8 +76,8 @@ TARGETS: dict[str, Target] = {
         "tests/analysis/test_diagnosis.py::test_bias_detected_against_the_uncertainty_bound",
     ))),
     "truths": Target(("ftc_mj/engine/truths.py",), ("tests/engine/test_truths.py",)),
-    "copies": Target(("ftc_mj/engine/copies.py",), ("tests/engine/test_copies.py",
-                                                     "tests/engine/test_plugin_batching.py")),
+    "copies": Target(("ftc_mj/fast/copies.py",), ("tests/fast/test_sample_copies.py",
+                                                   "tests/engine/test_plugin_batching.py")),
     "plant": Target(("ftc_mj/engine/plant.py",),
                     ("tests/engine/test_plant.py", "tests/engine/test_log_plant.py", "tests/engine/test_truths.py")),
     "logs": Target(("ftc_mj/logs/*",), ("tests/logs", *_without(
