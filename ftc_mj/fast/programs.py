@@ -357,7 +357,7 @@ def evaluation(function: StateFunction, q: np.ndarray, qd: np.ndarray, parameter
         return function.evaluation(q, qd, parameters, out)
     program = program_of(function)
     if program is not None:
-        announce_compilation()
+        _announce()
         return program.evaluation(q, qd, parameters, out)
     if len(out) > SCALAR_ROWS:
         return function.evaluation(q, qd, parameters, out)
@@ -367,7 +367,7 @@ def evaluation(function: StateFunction, q: np.ndarray, qd: np.ndarray, parameter
     return lambda t: evaluate_rows(function, row, t, q, qd, parameters, out)
 
 
-def announce_compilation() -> None:
+def _announce() -> None:
     """One line on stderr, once per process, when the interpreter will compile (the first run on a machine, or
     after an update)."""
     fast.announce_compilation("the plant terms' interpreter", cache_is_cold(INTERPRETER, __file__),

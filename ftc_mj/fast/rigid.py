@@ -41,7 +41,7 @@ still gets exactly the bits of its single run.
 **First run.** The kernel compiles on its first call on a machine and is cached by Numba: beside this file
 when its folder is writable (an editable install), else in the user's cache folder (a read-only install), or
 in ``NUMBA_CACHE_DIR`` when set. A call that has to compile says so in one line on stderr
-(:func:`announce_compilation`); ``benchmarks/first_compile.py`` measures what it costs.
+(:func:`ftc_mj.fast.announce_compilation`); ``benchmarks/first_compile.py`` measures what it costs.
 """
 
 from __future__ import annotations
@@ -199,7 +199,7 @@ def scratch_size(n: int) -> int:
 def evaluate(arguments: tuple) -> None:
     """The compiled kernel on :meth:`RigidTree.arguments`; its first call in a process may compile it (said once)."""
     if not _evaluate.overloads:  # its ``signatures`` builds a list of types per call: dearer than the kernel
-        announce_compilation()
+        _announce()
     _evaluate(*arguments)
 
 
@@ -207,11 +207,11 @@ def evaluation(arguments: tuple) -> Callable[[], None]:
     """:func:`evaluate` on ``arguments`` (the same buffers every call) as a call without arguments, past Numba's
     dispatcher (:func:`~ftc_mj.fast.kernels.bound`); it may compile the kernel now (said once)."""
     if not _evaluate.overloads:
-        announce_compilation()
+        _announce()
     return bound(_evaluate, *arguments)
 
 
-def announce_compilation() -> None:
+def _announce() -> None:
     """One line on stderr when the kernel is about to compile (the first run on a machine, or after an update)."""
     fast.announce_compilation("the rigid-body model", cache_is_cold(_evaluate, __file__), cache_folder(_evaluate))
 
