@@ -159,6 +159,7 @@ def test_a_subclass_keeps_the_accelerator_by_registering_it():
         laws.unregister(RenamedTOSMO)
 
 
+@pytest.mark.slow  # closed-loop runs
 def test_the_tosmo_reads_no_field_of_its_subclass():
     """The base class's construction asks its class's accelerator, which for the TOSMO needs no Gamma."""
     observer = build(TOSMO, member_gains(OBSERVERS[TOSMO][0]), False)
@@ -176,6 +177,7 @@ def test_the_engine_gives_the_same_series_with_the_laws_accelerated_or_not():
     assert np.abs(fused.series["luaf_hat"]).max() > 0.0
 
 
+@pytest.mark.slow  # closed-loop runs
 def test_the_engine_with_every_fast_path_off_agrees_to_rounding():
     """The switch off (MuJoCo's nominal model for the compiled one, NumPy for every kernel): the series agree
     with the accelerated run's to rounding amplified by half a second of a sliding-mode loop."""

@@ -15,6 +15,7 @@ from ftc_mj import fast
 ROOT = Path(__file__).resolve().parents[2]
 
 
+@pytest.mark.slow  # a subprocess
 @pytest.mark.parametrize(("value", "expected"), [("0", False), ("off", False), ("no", False), ("1", True),
                                                  ("", True), (None, True)])
 def test_the_environment_variable_is_read_at_import(value: str | None, expected: bool) -> None:
