@@ -159,13 +159,14 @@ def test_a_subclass_keeps_the_accelerator_by_registering_it():
         laws.unregister(RenamedTOSMO)
 
 
-@pytest.mark.slow  # closed-loop runs
 def test_the_tosmo_reads_no_field_of_its_subclass():
     """The base class's construction asks its class's accelerator, which for the TOSMO needs no Gamma."""
     observer = build(TOSMO, member_gains(OBSERVERS[TOSMO][0]), False)
     assert not hasattr(observer.config, "gamma") and not hasattr(observer, "linear_gain")
     assert observer.accelerator.linear is False
 
+
+@pytest.mark.slow  # closed-loop runs
 def test_the_engine_gives_the_same_series_with_the_laws_accelerated_or_not():
     """Only the laws switched (the rest of the fast paths on): the engine's series are the same bits."""
     scenario = load_scenario(SCENARIOS / "puma_fault.yaml", duration=0.5)
