@@ -19,7 +19,8 @@ one ulp of the larger magnitude).
 that class exactly: a subclass runs the NumPy law, so that its overrides are honoured, unless it registers an
 accelerator itself. A method asks for its accelerator once, when it is built (:func:`accelerator`); it gets
 none with the fast paths off, for standalone ``(n,)`` states, or where a gain is not a ``(members, n)`` array.
-The kernels are called through Numba's dispatcher, which checks every argument's type.
+Each kernel is bound to the accelerator's and the method's own buffers (:func:`~ftc_mj.fast.kernels.bound`);
+the arrays from outside (readings, reference rows, the nominal model's) are checked at every call.
 """
 
 from __future__ import annotations
@@ -33,7 +34,7 @@ import numpy as np
 from numba.extending import overload
 
 from ftc_mj import fast
-from ftc_mj.fast.kernels import WITHOUT_RUNTIME, cache_folder, cache_is_cold
+from ftc_mj.fast.kernels import WITHOUT_RUNTIME, bound, cache_folder, cache_is_cold
 
 
 class Observed(Protocol):
@@ -95,6 +96,19 @@ def kernel(function: Callable) -> numba.core.registry.CPUDispatcher:
     return numba.njit(cache=True, nogil=True, fastmath=False, error_model="numpy", **WITHOUT_RUNTIME)(function)
 
 
+def _site(owner: object, name: str, kernel: numba.core.registry.CPUDispatcher, *fixed: object) -> Callable:
+    """What ``owner.<name>`` calls ``kernel`` through: ``kernel`` bound to the accelerator's and the method's own
+    buffers ``fixed`` (:func:`~ftc_mj.fast.kernels.bound`) at its first call, with that call's arrays from
+    outside (the readings, the reference, the nominal model's) left free: checked at every call (another dtype or
+    number of dimensions raises TypeError), read in any layout."""
+    def first(*free: object) -> None:
+        call = bound(kernel, *fixed, free=free)
+        setattr(owner, name, call)
+        call(*free)
+
+    return first
+
+
 def entry(values: np.ndarray, member: int, joint: int) -> float:
     """``values[member, joint]`` as NumPy broadcasting reads it: a row ``(n,)`` (the reference shared by every
     member), a row per member ``(members, n)``, or a single row ``(1, n)`` for every member. In a kernel its
@@ -147,25 +161,27 @@ class TOSMOLaw:
         self.powers = np.zeros((2, *shape))
         self.exponents = np.stack([np.full(shape, 2 / 3), np.full(shape, 1 / 3)])
         self.luaf_step = method.dt * method.k3  # as the law's: dt k3
-        self.gamma = method.config.gamma if linear else method.k1  # unread without the linear terms
-        self.period = float(method.dt)
+        gamma = method.config.gamma if linear else method.k1  # unread without the linear terms
+        magnitude, magnitude_third = self.powers
+        m = method
+        self.errors = _site(self, "errors", _tosmo_errors, m.q_hat, self.error, self.sign, magnitude,
+                            magnitude_third)
+        self.corrections = _site(self, "corrections", _tosmo_injection, self.error, magnitude, magnitude_third,
+                                 m.k1, m.k2, gamma, linear, m.qd_hat, m.luaf_hat, self.q_hat_rate, m.injection)
+        self.advance_state = _site(self, "advance_state", _tosmo_advance, m.injection, self.q_hat_rate, float(m.dt),
+                                   self.luaf_step, self.sign, m.q_hat, m.qd_hat, m.luaf_hat)
 
     def update(self, q_meas: np.ndarray, model: object) -> None:
-        m = self.method
-        magnitude, magnitude_third = self.powers
-        _tosmo_errors(q_meas, m.q_hat, self.error, self.sign, magnitude, magnitude_third)
+        self.errors(q_meas)
         np.power(self.powers, self.exponents, self.powers)  # as signed_power raises them
-        _tosmo_injection(self.error, magnitude, magnitude_third, m.k1, m.k2, self.gamma, self.linear, m.qd_hat,
-                         m.luaf_hat, self.q_hat_rate, m.injection)
+        self.corrections()
 
     def advance(self, tau: np.ndarray, model: object) -> None:
-        m = self.method
-        _tosmo_advance(model.psi_hat, model.command_acceleration(tau), m.injection, self.q_hat_rate, self.period,
-                       self.luaf_step, self.sign, m.q_hat, m.qd_hat, m.luaf_hat)
+        self.advance_state(model.psi_hat, model.command_acceleration(tau))
 
 
 @kernel
-def _tosmo_errors(q_meas, q_hat, error, sign_, magnitude, magnitude_third):  # noqa: ANN001, ANN202
+def _tosmo_errors(q_hat, error, sign_, magnitude, magnitude_third, q_meas):  # noqa: ANN001, ANN202
     """x1~ = x1 - x1_hat, its sign, and |x1~| twice (to be raised to 2/3 and 1/3)."""
     for i in range(error.shape[0]):
         for j in range(error.shape[1]):
@@ -194,8 +210,8 @@ def _tosmo_injection(error, power, power_third, k1, k2, gamma, linear, qd_hat, l
 
 
 @kernel
-def _tosmo_advance(psi_hat, command, injection, q_hat_rate, dt, luaf_step, sign_, q_hat, qd_hat,  # noqa: ANN001, ANN202
-                   luaf_hat):
+def _tosmo_advance(injection, q_hat_rate, dt, luaf_step, sign_, q_hat, qd_hat,  # noqa: ANN001, ANN202
+                   luaf_hat, psi_hat, command):
     """One Euler period of (5.6): x1_hat, x2_hat and the LUaF estimate (5.13)."""
     for i in range(q_hat.shape[0]):
         for j in range(q_hat.shape[1]):
@@ -214,23 +230,22 @@ class SOSMOLaw:
     ``signed_power`` takes it)."""
 
     def __init__(self, method: object):
-        self.method = method
+        m = self.method = method
         self.q_hat_rate = np.zeros(method.shape)
-        self.filter_weight = method.filter_weight
-        self.period = float(method.dt)
+        self.update_state = _site(self, "update_state", _sosmo_update, m.q_hat, m.qd_hat, m.k1, m.k2,
+                                  self.q_hat_rate, m.injection)
+        self.advance_state = _site(self, "advance_state", _sosmo_advance, m.injection, self.q_hat_rate, float(m.dt),
+                                   m.filter_weight, m.q_hat, m.qd_hat, m.luaf_hat)
 
     def update(self, q_meas: np.ndarray, model: object) -> None:
-        m = self.method
-        _sosmo_update(q_meas, m.q_hat, m.qd_hat, m.k1, m.k2, self.q_hat_rate, m.injection)
+        self.update_state(q_meas)
 
     def advance(self, tau: np.ndarray, model: object) -> None:
-        m = self.method
-        _sosmo_advance(model.psi_hat, model.command_acceleration(tau), m.injection, self.q_hat_rate, self.period,
-                       self.filter_weight, m.q_hat, m.qd_hat, m.luaf_hat)
+        self.advance_state(model.psi_hat, model.command_acceleration(tau))
 
 
 @kernel
-def _sosmo_update(q_meas, q_hat, qd_hat, k1, k2, q_hat_rate, injection):  # noqa: ANN001, ANN202
+def _sosmo_update(q_hat, qd_hat, k1, k2, q_hat_rate, injection, q_meas):  # noqa: ANN001, ANN202
     """The first line of (4.37) (into ``q_hat_rate``) and the injection k2 sign(x1~) of the second."""
     for i in range(q_hat.shape[0]):
         for j in range(q_hat.shape[1]):
@@ -240,8 +255,8 @@ def _sosmo_update(q_meas, q_hat, qd_hat, k1, k2, q_hat_rate, injection):  # noqa
 
 
 @kernel
-def _sosmo_advance(psi_hat, command, injection, q_hat_rate, dt, filter_weight, q_hat, qd_hat,  # noqa: ANN001, ANN202
-                   luaf_hat):
+def _sosmo_advance(injection, q_hat_rate, dt, filter_weight, q_hat, qd_hat, luaf_hat, psi_hat,  # noqa: ANN001, ANN202
+                   command):
     """One Euler period of (4.37) and the LUaF filter's exact step."""
     for i in range(q_hat.shape[0]):
         for j in range(q_hat.shape[1]):
@@ -266,27 +281,26 @@ class NFTSMCLaw:
         self.error_rate, self.negative_u = np.zeros(shape), np.zeros(shape)
         self.bases, self.powers = np.zeros((3, *shape)), np.zeros((3, *shape))
         self.exponents = np.stack([np.broadcast_to(g, shape) for g in (c.gamma1, c.gamma2, 3.0)])
-        self.period = float(method.dt)
+        m, (magnitude, magnitude_rate, e), (power, power_rate, cube) = method, self.bases, self.powers
+        self.error = e
+        self.errors = _site(self, "errors", _nftsmc_errors, e, self.error_rate, magnitude, magnitude_rate)
+        self.negative_control = _site(self, "negative_control", _nftsmc_negative_control, e, self.error_rate, power,
+                                      power_rate, cube, c.beta1, c.beta2, c.beta3, c.beta4, float(m.dt), m.integral,
+                                      m.sliding, self.negative_u)
 
     def compute(self, q_ref: np.ndarray, qd_ref: np.ndarray, qdd_ref: np.ndarray, q_meas: np.ndarray,
                 observer: object, model: object) -> np.ndarray:
         m = self.method
-        c, e_dot = m.config, self.error_rate
-        magnitude, magnitude_rate, e = self.bases
-        power, power_rate, cube = self.powers
-        _nftsmc_errors(q_meas, q_ref, model.control_velocity(observer.qd_hat), qd_ref, e, e_dot, magnitude,
-                       magnitude_rate)
+        self.errors(q_meas, q_ref, model.control_velocity(observer.qd_hat), qd_ref)
         np.power(self.bases, self.exponents, self.powers)  # as signed_power and e**3 raise them
         compensation = m.observer_compensation(observer)
-        _nftsmc_negative_control(e, e_dot, power, power_rate, cube, c.beta1, c.beta2, c.beta3, c.beta4,
-                                 self.period, m.integral, m.sliding, qdd_ref, model.psi_control,
-                                 e if compensation is None else compensation, compensation is not None,
-                                 m.switching_gain(), self.negative_u)
+        self.negative_control(qdd_ref, model.psi_control, self.error if compensation is None else compensation,
+                              compensation is not None, m.switching_gain())
         return model.apply_M(self.negative_u, out=m.tau)
 
 
 @kernel
-def _nftsmc_errors(q_meas, q_ref, velocity, qd_ref, e, e_dot, magnitude, magnitude_rate):  # noqa: ANN001, ANN202
+def _nftsmc_errors(e, e_dot, magnitude, magnitude_rate, q_meas, q_ref, velocity, qd_ref):  # noqa: ANN001, ANN202
     """e = x1 - x_d, e_dot = x2 - xd_d and their magnitudes (to be raised to gamma1, gamma2)."""
     for i in range(e.shape[0]):
         for j in range(e.shape[1]):
@@ -298,7 +312,7 @@ def _nftsmc_errors(q_meas, q_ref, velocity, qd_ref, e, e_dot, magnitude, magnitu
 
 @kernel
 def _nftsmc_negative_control(e, e_dot, power, power_rate, cube, beta1, beta2, beta3, beta4,  # noqa: ANN001, ANN202
-                             dt, integral, sliding, qdd_ref, psi_control, compensation, compensate, gain, negative_u):
+                             dt, integral, sliding, negative_u, qdd_ref, psi_control, compensation, compensate, gain):
     """The surface (5.15) and -u = xdd_d - (Psi + A) - u_c - (bound + mu) sign(s) of (5.25)-(5.27), in the
     law's order of operations."""
     for i in range(e.shape[0]):
