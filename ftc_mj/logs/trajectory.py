@@ -107,10 +107,13 @@ def compile_log(spec: LogSpec, scenario_path: Path, robot_joints: list[str], dur
     grid = np.arange(steps) * dt  # the run's time grid (ftc_mj.scenario.definition.time_grid)
     differences = np.diff(times)
     events = compile_events(spec.events, list(robot_joints), file)
+    log_end = (available - 1) * dt
     for e, event in enumerate(events):
-        if event.start >= grid[-1]:
-            raise InputError(file, f"log.events.{e}.start", f"{event.start:g} s is after the run's end "
-                             f"({grid[-1]:g} s)")
+        if event.start >= log_end:
+            raise InputError(file, f"log.events.{e}.start", f"{event.start:g} s is after the log's end "
+                             f"({log_end:g} s)")
+    # A run shortened by `duration` scores only the events it reaches: the others did not happen in it.
+    events = [event for event in events if event.start < grid[-1]]
     return Log(path, grid, resample(grid, relative, signal("position")), _maybe(grid, relative, signal("velocity")),
                resample(grid, relative, signal("torque")), dt, float(times[0]),
                (float(differences.min()), float(np.median(differences)), float(differences.max())), events)

@@ -72,3 +72,17 @@ def test_a_logs_table_keeps_what_it_defines():
     shown = log_metrics(EVENTS, results, metrics, ["rms_luaf_error", "false_alarms", "chattering", "rms_error"])
     assert shown == ["rms_error", "events_detected", "alarms_outside_events", "alarms_on_other_joints"]
     assert log_metrics([], results, metrics, ["rms_luaf_error", "false_alarms"]) == ["false_alarms"]
+
+
+def test_a_shortened_run_scores_the_events_it_reaches_and_an_event_past_the_log_is_refused(tmp_path):
+    """``--set duration=...`` on a log with events keeps the events that start within the run; an event that
+    starts after the log itself ends is a mistake in the file and is refused in one line."""
+    from ftc_mj.scenario.loading import load_scenario
+
+    pushed = "scenarios/real/ur10e_pushed.yaml"
+    whole = load_scenario(pushed)
+    short = load_scenario(pushed, overrides=["duration=5"])
+    assert 0 < len(short.log.events) < len(whole.log.events)
+    assert [event.start for event in short.log.events] == [e.start for e in whole.log.events if e.start < 5 - 1e-9]
+    with pytest.raises(InputError, match=r"log.events.0.start: 1000 s is after the log.s end"):
+        load_scenario(pushed, overrides=["log.events.0.start=1000", "log.events.0.end=1001"])
