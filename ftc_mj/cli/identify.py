@@ -21,6 +21,7 @@ import sys
 from collections.abc import Sequence
 from pathlib import Path
 
+from ftc_mj.cli.command import Outputs, exit_status
 from ftc_mj.cli.parser import ArgumentParser
 
 PROG = "ftc-mj identify"
@@ -49,21 +50,16 @@ def build_parser(prog: str = PROG) -> argparse.ArgumentParser:
     return parser
 
 
+@exit_status()
 def main(argv: Sequence[str] | None = None, prog: str = PROG) -> int:
     args = build_parser(prog).parse_args(argv)
-    from ftc_mj.config.errors import InputError
-
-    try:
-        lines = identify(args)
-    except InputError as exc:
-        print(f"error: {exc}", file=sys.stderr)
-        return 2
-    print("\n".join(lines))
+    print("\n".join(identify(args)))
     return 0
 
 
 def _model(args: argparse.Namespace):
-    """The robot's model and joint names (``--robot``, else the first log's scenario)."""
+    """The robot's model, its file, joint names and section (``--robot``, else the first log's scenario), and
+    the files it was read from."""
     from ftc_mj.config.errors import InputError
     from ftc_mj.logs.trajectory import joint_names
     from ftc_mj.robot.model import RobotSpec, load_robot
@@ -72,15 +68,17 @@ def _model(args: argparse.Namespace):
     source = args.robot or args.logs[0]
     if source.suffix in (".yaml", ".yml"):
         scenario = load_scenario(source)
-        return scenario.model, scenario.model_path, joint_names(scenario.model), scenario.spec.robot
+        return (scenario.model, scenario.model_path, joint_names(scenario.model), scenario.spec.robot,
+                list(scenario.inputs))
     if not source.is_file():
         raise InputError(str(source), "--robot", "no such file")
     path, model = load_robot(Path.cwd() / "identify", RobotSpec(model=str(source)), str(source))
-    return model, path, joint_names(model), RobotSpec(model=str(source))
+    return model, path, joint_names(model), RobotSpec(model=str(source)), [source]
 
 
-def _motions(paths: Sequence[Path], joints: list[str], cutoff: float):
-    """Each log's filtered motion, its joints checked against the robot's."""
+def _motions(paths: Sequence[Path], joints: list[str], cutoff: float, read: list[Path]):
+    """Each log's filtered motion, its joints checked against the robot's; the files each scenario read
+    (bases, model, log) appended to ``read``."""
     import numpy as np
 
     from ftc_mj.config.errors import InputError
@@ -91,6 +89,7 @@ def _motions(paths: Sequence[Path], joints: list[str], cutoff: float):
     motions = []
     for path in paths:
         scenario = load_scenario(path)
+        read += scenario.inputs
         if scenario.log is None:
             raise InputError(str(path), "log", "identify needs a scenario with a log section")
         logged = joint_names(scenario.model)
@@ -109,12 +108,18 @@ def _motions(paths: Sequence[Path], joints: list[str], cutoff: float):
 
 def identify(args: argparse.Namespace) -> list[str]:
     """Fit, validate and write; the report's lines. Raises InputError before writing anything."""
-    from ftc_mj.outputs.files import write_atomic
     from ftc_mj.robot.identify import fit_all, fit_friction, residual_rms
 
-    model, model_path, joints, robot = _model(args)
-    motions = _motions(args.logs, joints, args.cutoff)
-    validation = _motions(args.validate, joints, args.cutoff)
+    outputs = Outputs(str(args.logs[0]))
+    outputs.add("--out", args.out)
+    if args.all:
+        outputs.add("--out", args.out.with_suffix(".xml"))
+    given = [*args.logs, *args.validate, *(p for p in (args.robot, args.base) if p is not None)]
+    outputs.check(given)  # before loading: what was named on the command line, whatever it inherits
+    model, model_path, joints, robot, read = _model(args)
+    motions = _motions(args.logs, joints, args.cutoff, read)
+    validation = _motions(args.validate, joints, args.cutoff, read)
+    outputs.check([*given, *read])  # before the fit: their bases, models, meshes and logs too
     fit = fit_all if args.all else fit_friction
     identified = fit(model, motions, joints, args.velocity_scale)
     lines = identified.excitation.lines(joints)
@@ -135,8 +140,8 @@ def identify(args: argparse.Namespace) -> list[str]:
         xml = _identified_mjcf(model_path, model, identified, robot)
     text = _fragment(args, identified, joints, xml, lines)
     if xml is not None:
-        write_atomic(args.out.with_suffix(".xml"), xml[1].encode("utf-8"))
-    write_atomic(args.out, text.encode("utf-8"))
+        outputs.write("--out", args.out.with_suffix(".xml"), xml[1].encode("utf-8"))
+    outputs.write("--out", args.out, text.encode("utf-8"))
     lines.append(f"written: {args.out}" + ("" if xml is None else f" and {args.out.with_suffix('.xml')}"))
     return lines
 

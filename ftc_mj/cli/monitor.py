@@ -16,6 +16,7 @@ import time
 from collections.abc import Sequence
 from pathlib import Path
 
+from ftc_mj.cli.command import exit_status
 from ftc_mj.cli.parser import ArgumentParser
 
 PROG = "ftc-mj monitor"
@@ -45,32 +46,26 @@ def build_parser(prog: str = PROG) -> argparse.ArgumentParser:
     return parser
 
 
+@exit_status(interrupted="interrupted: the monitor stopped")
 def main(argv: Sequence[str] | None = None, prog: str = PROG) -> int:
     args = build_parser(prog).parse_args(argv)
     from ftc_mj.config.errors import InputError
     from ftc_mj.online import InputMap, Monitor
     from ftc_mj.scenario.loading import load_scenario
 
-    try:
-        for option in ("lost_after", "heartbeat", "duration"):
-            value = getattr(args, option)
-            if value is not None and not value > 0:
-                raise InputError("command line", f"--{option.replace('_', '-')}", f"must be positive, not {value}")
-        scenario = load_scenario(args.scenario, overrides=args.overrides)
-        monitor = Monitor(scenario, args.variant)
-        inputs = InputMap.of(scenario)
-        if args.ros:
-            return _ros(args, monitor, inputs)
-        if scenario.log is None:
-            raise InputError(str(args.scenario), "log", "without --ros the monitor streams the scenario's log: "
-                             "give a log section, or --ros")
-        return _stream_log(scenario, monitor, inputs)
-    except InputError as error:
-        print(f"error: {error}", file=sys.stderr)
-        return 2
-    except KeyboardInterrupt:
-        print("interrupted", file=sys.stderr)
-        return 130
+    for option in ("lost_after", "heartbeat", "duration"):
+        value = getattr(args, option)
+        if value is not None and not value > 0:
+            raise InputError("command line", f"--{option.replace('_', '-')}", f"must be positive, not {value}")
+    scenario = load_scenario(args.scenario, overrides=args.overrides)
+    monitor = Monitor(scenario, args.variant)
+    inputs = InputMap.of(scenario)
+    if args.ros:
+        return _ros(args, monitor, inputs)
+    if scenario.log is None:
+        raise InputError(str(args.scenario), "log", "without --ros the monitor streams the scenario's log: "
+                         "give a log section, or --ros")
+    return _stream_log(scenario, monitor, inputs)
 
 
 def _stream_log(scenario, monitor, inputs) -> int:

@@ -211,3 +211,18 @@ def test_all_writes_a_model_file_the_scenario_loads(tmp_path, ur10e):
     identified = load_scenario(out).model
     assert np.all(identified.body_mass[Regressor(ur10e).bodies] > 0) and np.all(identified.dof_armature >= 0)
     assert not np.allclose(identified.body_inertia, ur10e.body_inertia)  # the file holds the fitted bodies
+
+
+@pytest.mark.parametrize("target", ["log scenario", "validation log", "log data"])
+def test_out_never_overwrites_an_input(tmp_path, ur10e, capsys, target):
+    """``--out`` naming a file the command reads (a log's scenario, a validation log, the data a scenario
+    reads) is refused before any fit, in one line, and the file is left as it was."""
+    log = _log_scenario(tmp_path, "log", *synthetic_log(ur10e, 6.0, 0.4, TRUE_FRICTION))
+    check = _log_scenario(tmp_path, "check", *synthetic_log(ur10e, 6.0, 0.4, TRUE_FRICTION))
+    read = [Path(p) for p in load_scenario(log).inputs if Path(p).suffix not in (".yaml", ".yml", ".xml")]
+    out = {"log scenario": log, "validation log": check, "log data": read[0] if read else log}[target]
+    before = out.read_bytes()
+    assert main([str(log), "--only", "friction", "--validate", str(check), "--out", str(out)]) == 2
+    error = capsys.readouterr().err.strip()
+    assert len(error.splitlines()) == 1 and "--out" in error and "is an input" in error, error
+    assert out.read_bytes() == before
