@@ -54,7 +54,7 @@ DIAGNOSIS_SCORES: dict[str, tuple[str, str, bool]] = {
     "auc": ("AUC", "", True),
     "pd_at_pfa": (f"P_d at P_fa <= {FALSE_ALARM_PROBABILITY:g}", "", True),
     "detection_rate": ("detection rate (c = 1)", "", True),
-    "specificity": ("1 - false-alarm rate (c = 1)", "", True),
+    "specificity": ("specificity (c = 1)", "", True),
     "isolation_accuracy": ("isolation accuracy", "", True),
     "delay_median": ("delay median", "s", False),
     "delay_p95": ("delay p95", "s", False),
