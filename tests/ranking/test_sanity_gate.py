@@ -6,7 +6,12 @@ plugin, are scored by ``ftc-mj bench``.
 
 It fails the suite unless, on every robot: oracle_fault's AUC >= 0.99 and its P_d at the common false-alarm
 probability >= 0.95 on the faults that act; null's AUC interval holds 1/2; no entry's AUC interval lies above
-oracle_luaf's; and the third-party noise observer's AUC interval holds 1/2."""
+oracle_luaf's; and the third-party noise observer's AUC interval holds 1/2.
+
+What it does not cover: the quick tier's small biases (0.3 and 1 residual unit), on which observers beat
+oracle_luaf beyond its interval on three robots (docs/results/baselines.md says why: the residual is taken
+about the healthy LUaF's baseline mean, not its trajectory). The gate printed in the quick tier's leaderboard
+fails there; this reduced protocol, with faults of 10 units and floats only, checks the pipeline, not that."""
 
 from __future__ import annotations
 
