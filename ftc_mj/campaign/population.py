@@ -4,7 +4,8 @@ Run k (0-based) is point ``(sample s, case c, grid point g, replicate r)`` with
 ``k = ((s C + c) G + g) R + r``, so the first N runs of a sampled campaign are its first N/(C G R) samples
 whatever ``samples.runs``, and its seed is ``seed + s R + r``: the cases and the grid's points share seeds
 (common random numbers: a sweep compares its points on the same noise), every sample and replicate has its own;
-with ``case_seeds`` it is ``seed + (s C + c) R + r``, each case its own seeds.
+with ``case_draws`` it is ``seed + (s C + c) R + r`` and its sampled values are point s C + c: each case its
+own draws, independent of the other cases'.
 
 A run's fields split in two (:func:`ftc_mj.engine.batching.batchable`): what may differ between the members
 of one batch (seed, initial states, parameters, mass scales, gains) and what is the batch's structure (a
@@ -72,15 +73,17 @@ def digest(content: Any, length: int = 12) -> str:
     return hashlib.sha256(text.encode()).hexdigest()[:length]
 
 
-def unit_points(spec: CampaignSpec) -> np.ndarray:
-    """The sampled points in the unit cube, ``(runs, fields)``; point s is the same whatever ``runs``."""
+def unit_points(spec: CampaignSpec, count: int | None = None) -> np.ndarray:
+    """The sampled points in the unit cube, ``(count, fields)`` (default ``samples.runs``); point s is the same
+    whatever the count."""
     samples = spec.samples
     if samples is None:
         return np.zeros((1, 0))
+    count = samples.runs if count is None else count
     d = len(samples.fields)
     if samples.method == "random":
         return np.array([np.random.default_rng(np.random.SeedSequence(samples.seed, spawn_key=(s,))).random(d)
-                         for s in range(samples.runs)])
+                         for s in range(count)])
     # Imported here: scipy.stats costs a second to import, and a campaign's workers, which import this module
     # with the campaign's, never draw points.
     from scipy.stats import qmc
@@ -89,8 +92,8 @@ def unit_points(spec: CampaignSpec) -> np.ndarray:
         qmc.Halton(d, scramble=True, seed=samples.seed)
     if samples.method == "sobol":
         # Sobol points come in powers of two for their balance; any prefix is still the same points.
-        return engine.random_base2(max(0, math.ceil(math.log2(samples.runs))))[:samples.runs]
-    return engine.random(samples.runs)
+        return engine.random_base2(max(0, math.ceil(math.log2(count))))[:count]
+    return engine.random(count)
 
 
 def population_size(spec: CampaignSpec) -> int:
@@ -106,17 +109,20 @@ def population(spec: CampaignSpec, base_seed: int) -> list[Run]:
     grid_paths = list(spec.grid)
     grid_points = list(itertools.product(*(spec.grid[path] for path in grid_paths))) or [()]
     sample_fields = list(spec.samples.fields.items()) if spec.samples is not None else []
-    points = unit_points(spec)
-    also = {path: distribution.also for path, distribution in sample_fields}
     R, C, G = spec.replicates, len(cases), len(grid_points)
+    samples = spec.samples.runs if spec.samples is not None else 1
+    points = unit_points(spec, samples * C if spec.case_draws else None)
+    also = {path: distribution.also for path, distribution in sample_fields}
     runs = []
-    for s, u in enumerate(points):
-        sampled = {path: distribution.value(float(x)) for (path, distribution), x in zip(sample_fields, u)}
+    for s in range(samples):
         for c, case in enumerate(cases):
+            draw = s * C + c if spec.case_draws else s
+            u = points[draw]
+            sampled = {path: distribution.value(float(x)) for (path, distribution), x in zip(sample_fields, u)}
             for g, point in enumerate(grid_points):
                 values = {**dict(zip(grid_paths, point)), **sampled}
                 for r in range(R):
-                    seed = base_seed + ((s * C + c) if spec.case_seeds else s) * R + r
+                    seed = base_seed + draw * R + r
                     structure = {**spec.set, **case.set}
                     member: dict[str, Any] = {"seed": seed}
                     for path, value in values.items():
@@ -140,8 +146,8 @@ def fingerprint(spec: CampaignSpec, scenario: Scenario) -> str:
         content["samples"].pop("runs")
     content.pop("report")
     content.pop("description")
-    if not content.get("case_seeds"):  # the default: the fingerprint of a campaign written before the field
-        content.pop("case_seeds", None)
+    if not content.get("case_draws"):  # the default: the fingerprint of a campaign written before the field
+        content.pop("case_draws", None)
     content["scenario"] = scenario.spec.model_dump(mode="json", exclude={"name", "description", "figures", "output"})
     content["robot_file"] = hashlib.sha256(Path(scenario.model_path).read_bytes()).hexdigest()
     return digest(content, 24)

@@ -199,9 +199,10 @@ class CampaignSpec(Strict):
     #: Seed of run k's random streams: seed + its sample index x replicates + its replicate (default: the
     #: scenario's seed). The grid's points and the cases share seeds (common random numbers).
     seed: SeedInt | None = None
-    #: Each case its own seeds (seed + (sample index x cases + case index) x replicates + replicate) rather than
-    #: the common random numbers: the cases' runs are then independent but for the sampled values they share.
-    case_seeds: StrictBool = False
+    #: Each case its own draws, rather than the common random numbers: its own seeds (seed + (sample index x
+    #: cases + case index) x replicates + replicate) and its own sampled points (point sample index x cases +
+    #: case index), so that the cases' runs are independent.
+    case_draws: StrictBool = False
     #: Fields set in every run, by dotted path as ``--set`` takes them, any YAML value.
     set: dict[FieldPath, Any] = {}
     #: Structural alternatives; every case is run on every point of the grid and the samples.

@@ -88,7 +88,7 @@ def protocol_digest(bench: Bench, robot: str, task: str, population: str, tier: 
         content["robot"] = {k: v for k, v in robot_spec.items() if k in ("scenario", "loop", "terms")}
         if population == "faults":
             content["cases"] = suite.fault_cases(robot, task)
-            content["draws"] = "per case"  # each case its own seeds (the campaign's case_seeds)
+            content["draws"] = "per case, seeds and mass scales"  # the campaign's case_draws
         else:
             content.pop("faults")
     return digest(content, 16)
@@ -305,8 +305,10 @@ def _collect_windows(chunk: Chunk, campaign: campaign_execute.Campaign) -> None:
     merged = {name: values[order] for name, values in merged.items()}
     by_index = {run.index: run for run in campaign.runs}
     runs = [by_index[int(i)] for i in merged["run"]]
-    # The draw a run shares with other runs: its sample (mass scale), which every case of it has.
-    merged["draw"] = np.array([run.index // max(1, len(campaign.spec.cases)) for run in runs])
+    # The draw a run shares with other runs (the clusters of the bootstrap): its sample, which every case of it
+    # has; with each case its own draws (suite v2), the run itself.
+    cases = 1 if campaign.spec.case_draws else max(1, len(campaign.spec.cases))
+    merged["draw"] = np.array([run.index // cases for run in runs])
     for field in ("kind", "fault_size", "fault_joint", "onset"):
         values = [run.case_values.get(field) for run in runs]
         if any(v is not None for v in values):

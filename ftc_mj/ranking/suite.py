@@ -343,8 +343,8 @@ class Suite:
         }
         if population == "faults":
             out["cases"] = self.fault_cases(robot, task)
-            if self.spec.populations:  # v2: each case its own draws of noise (the mass scales are shared)
-                out["case_seeds"] = True
+            if self.spec.populations:  # v2: each case its own draws (seeds and mass scales)
+                out["case_draws"] = True
         return out
 
 

@@ -34,17 +34,20 @@ def test_size_order_and_seeds():
     assert len({r.run_id for r in runs}) == 24
 
 
-def test_case_seeds_give_each_case_its_own_seeds_and_keep_the_samples():
-    runs = population(spec(case_seeds=True), base_seed=10)
+def test_case_draws_give_each_case_its_own_seeds_and_sampled_points():
+    runs = population(spec(case_draws=True), base_seed=10)
     for run in runs:
         s, rest = divmod(run.index, 8)
         c, rest = divmod(rest, 4)
         g, r = divmod(rest, 2)
         assert run.seed == 10 + (s * 2 + c) * 2 + r
+    by_case = {case: [r for r in runs if r.case == case] for case in "ab"}
+    assert not {r.seed for r in by_case["a"]} & {r.seed for r in by_case["b"]}
+    sizes = {case: {r.values["parameters.size"] for r in rs} for case, rs in by_case.items()}
+    assert len(sizes["a"]) == 3 and not sizes["a"] & sizes["b"]  # the cases' sampled values are their own
     shared = population(spec(), base_seed=10)
-    assert [r.values for r in runs] == [r.values for r in shared]  # the sampled values stay common
-    by_case = {case: {r.seed for r in runs if r.case == case} for case in "ab"}
-    assert not by_case["a"] & by_case["b"]
+    assert [r.values["parameters.size"] for r in shared if r.case == "a"] == \
+        [r.values["parameters.size"] for r in shared if r.case == "b"]  # common random numbers by default
 
 
 def test_batchable_fields_go_to_the_member_and_the_rest_to_the_structure():

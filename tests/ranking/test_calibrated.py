@@ -101,10 +101,17 @@ def test_the_gate_fails_a_broken_pipeline():
     bad, _ = cal.windows("e", calibrate, healthy, leaning, LAYERS, 0.05, 0.0)
     scores = {"oracle_fault": cal.scores(good, 100), "oracle_luaf": cal.scores(bad, 100),
               "null": cal.scores(bad, 100), "entry": cal.scores(good, 100)}
-    gate = cal.gate(scores, {"oracle_fault": good})
+    gate = cal.gate(scores, {"oracle_fault": good, "null": bad})
     assert gate.oracle_fault_auc == 1.0 and gate.oracle_fault_pd == 1.0
     assert not gate.passed and gate.beating_oracle_luaf == ("entry",)
     assert [ok for _, ok in gate.conditions()] == [True, True, False, False]
+
+
+def test_chance_interval_covers_a_useless_detector_95_percent_of_the_time():
+    rng = np.random.default_rng(7)
+    inside = [cal.consistent_with_chance(mann_whitney(rng.random(64), rng.random(12)), 64, 12) for _ in range(2000)]
+    assert 0.93 <= np.mean(inside) <= 0.97
+    assert not cal.consistent_with_chance(0.75, 64, 12)
 
 
 def test_detectability_counts_windows_per_size():

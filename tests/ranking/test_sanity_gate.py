@@ -5,8 +5,9 @@ draws; about 40 s of CPU). The three sanity rows and one entry, a noise observer
 plugin, are scored by ``ftc-mj bench``.
 
 It fails the suite unless, on every robot: oracle_fault's AUC >= 0.99 and its P_d at the common false-alarm
-probability >= 0.95 on the faults that act; null's AUC interval holds 1/2; no entry's AUC interval lies above
-oracle_luaf's; and the third-party noise observer's AUC interval holds 1/2.
+probability >= 0.95 on the faults that act; null's AUC is at chance (1/2 in its bootstrap interval, or the AUC
+within the 95% range the Mann-Whitney statistic has under no difference); no entry's AUC interval lies above
+oracle_luaf's; and the third-party noise observer's AUC is at chance alike.
 
 What it does not cover: the quick tier's small biases (0.3 and 1 residual unit), on which observers beat
 oracle_luaf beyond its interval on three robots (docs/results/baselines.md says why: the residual is taken
@@ -27,6 +28,7 @@ from ftc_mj.cli.bench import main
 from ftc_mj.methods import observers, registry
 from ftc_mj.methods.gains import GainConfig
 from ftc_mj.methods.observers.base import Observer
+from ftc_mj.ranking.calibrated import consistent_with_chance
 from reduced_v2 import reduced_suite
 
 pytestmark = pytest.mark.slow  # a closed-loop experiment: the full suite's, not the fast tier's
@@ -92,7 +94,8 @@ def test_the_sanity_gate_holds(board, robot):
 def test_a_third_party_noise_observer_scores_one_half(board, robot):
     rows, _, _ = board
     auc = rows[robot, "noise", "auc"]
-    assert auc["low"] <= 0.5 <= auc["high"], auc
+    healthy, faulty = rows[robot, "noise", "false_alarm"]["n"], rows[robot, "noise", "pd"]["n"]
+    assert auc["low"] <= 0.5 <= auc["high"] or consistent_with_chance(auc["value"], healthy, faulty), auc
     assert rows[robot, "oracle_fault", "auc"]["value"] >= 0.99
 
 
