@@ -346,17 +346,18 @@ class Gate:
     @property
     def null_at_chance(self) -> bool:
         """null's AUC is 1/2 within its interval: the bootstrap's, or the range chance gives its windows."""
-        return self.null_auc[1] <= 0.5 <= self.null_auc[2] or self.chance[0] <= self.null_auc[0] <= self.chance[1]
+        return bool(self.null_auc[1] <= 0.5 <= self.null_auc[2]
+                    or self.chance[0] <= self.null_auc[0] <= self.chance[1])
 
     @property
     def passed(self) -> bool:
-        return (self.oracle_fault_auc >= 0.99 and self.oracle_fault_pd >= 0.95 and self.null_at_chance
-                and not self.beating_oracle_luaf)
+        return bool(self.oracle_fault_auc >= 0.99 and self.oracle_fault_pd >= 0.95 and self.null_at_chance
+                    and not self.beating_oracle_luaf)
 
     def conditions(self) -> list[tuple[str, bool]]:
-        return [(f"oracle_fault AUC {self.oracle_fault_auc:.3f} >= 0.99", self.oracle_fault_auc >= 0.99),
+        return [(f"oracle_fault AUC {self.oracle_fault_auc:.3f} >= 0.99", bool(self.oracle_fault_auc >= 0.99)),
                 (f"oracle_fault P_d {self.oracle_fault_pd:.3f} >= 0.95 on faults that act",
-                 self.oracle_fault_pd >= 0.95),
+                 bool(self.oracle_fault_pd >= 0.95)),
                 (f"null AUC {self.null_auc[0]:.3f} [{self.null_auc[1]:.3f}, {self.null_auc[2]:.3f}] at chance "
                  f"(1/2 in its interval, or the AUC in chance's range [{self.chance[0]:.3f}, {self.chance[1]:.3f}])",
                  self.null_at_chance),
