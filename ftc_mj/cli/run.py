@@ -417,7 +417,8 @@ def _write_outputs(args: argparse.Namespace, scenario: Scenario, outputs: Output
         with outputs.writing("--out", path):
             write_recording(path, scenario=scenario.name, model=scenario.model, results=results,
                             fault_onsets=scenario.fault_onsets, seed=scenario.spec.seed, figures=scenario.figures,
-                            colours=scenario.colours)
+                            colours=scenario.colours,
+                            replayed=scenario.log.file.name if scenario.log is not None else None)
     if args.json is not None:
         document = metrics_document(scenario, results, metrics)
         outputs.write("--json", args.json, (json.dumps(document, indent=2) + "\n").encode("utf-8"))

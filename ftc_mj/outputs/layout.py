@@ -359,3 +359,37 @@ def data_range(values: np.ndarray) -> tuple[float, float] | None:
     low, high = float(finite.min()), float(finite.max())
     margin = 0.05 * (high - low) or max(abs(high), 1e-12) * 0.05
     return low - margin, high + margin
+
+
+#: The most intervals between labelled ticks a stacked time-series panel of the viewer shows readably: its
+#: plots (about 90 pixels high when six joints share a tab) label the y axis only at multiples of a power of
+#: ten at least about 20 pixels apart.
+MAX_TICK_INTERVALS = 4
+#: The margin above and below a plot's data and ticks, in parts of its range.
+TICK_MARGIN = 0.05
+
+
+def tick_range(values: np.ndarray, intervals: int = MAX_TICK_INTERVALS) -> tuple[float, float] | None:
+    """A vertical range over every finite value that holds at least two multiples of ``step``, the smallest
+    power of ten with at most ``intervals`` steps over the data: the viewer's plots label only multiples of a
+    power of ten far enough apart, so they show at least two labelled ticks, never a lone ``0``. The data's own
+    range where it holds two such multiples; else its ends moved out to the next multiples (one end where one
+    multiple is inside already, the one that costs the least room). None without finite values."""
+    finite = values[np.isfinite(values)]
+    if finite.size == 0:
+        return None
+    low, high = float(finite.min()), float(finite.max())
+    if high - low <= 1e-9 * max(abs(low), abs(high)):  # a constant: a tenth of its size about it (zero: +-1)
+        size = max(abs(low), abs(high))
+        low, high = (low - 0.05 * size, high + 0.05 * size) if size > 0 else (-1.0, 1.0)
+    step = 10.0 ** np.ceil(np.log10((high - low) / intervals))
+    first = float(np.ceil(low / step) * step)  # the lowest multiple of step within the data, if any
+    if first + step <= high:  # two inside
+        bottom, top = low, high
+    elif first <= high:  # one inside (the span is below two steps: either range stays within ``intervals``)
+        bottom, top = (first - step, high) if low - (first - step) < first + step - high else (low, first + step)
+    else:
+        bottom, top = first - step, first
+    # A margin: the viewer leaves out a tick label at the very edge of a plot.
+    margin = TICK_MARGIN * (top - bottom)
+    return float(bottom - margin), float(top + margin)

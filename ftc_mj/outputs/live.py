@@ -32,7 +32,7 @@ from ftc_mj.config.errors import InputError
 from ftc_mj.outputs.layout import Figure, Layout, generic_figures, variant_styles
 from ftc_mj.outputs.recording import (DIAGNOSIS_SERIES, GENERIC_QUANTITIES, LAYOUT_PROPERTY, LINE_WIDTH,
                                       OPTIONAL_SERIES, SERIES, SHARED_SERIES, TRUTH_WIDTH, _blueprint, _ep,
-                                      _common_time, _hex_rgb, _info_markdown, _layout, _log_events, _log_geometry, _name, _pale, _series,
+                                      _common_time, _hex_rgb, _info_markdown, _layout, _log_events, _log_geometry, _name, _pale, _robot_title, _series,
                                       _time_column, _xyzw)
 from ftc_mj.results import VariantResult
 
@@ -105,7 +105,7 @@ class LiveRecording:
                         samples={n: len(times) for n in names}, figures=chosen)
         rec = rr.RecordingStream("ftc_mj", recording_id=str(uuid.uuid4()))
         skeleton = _skeleton(layout, len(times), optional, diagnosis)
-        rec.set_sinks(*sinks, default_blueprint=_blueprint(layout, skeleton, times, names[0] if posed else None, model))
+        rec.set_sinks(*sinks, default_blueprint=_blueprint(layout, skeleton, times, _robot_title(names[0]) if posed else None, model))
         rec.send_recording_name(scenario)
         rec.send_property(LAYOUT_PROPERTY, rr.AnyValues(json=layout.to_json()))
         rec.log("/info", rr.TextDocument(f"# {scenario}\n\nrunning: {len(times)} samples of "
@@ -196,7 +196,7 @@ class LiveRecording:
             kept = np.unique(np.append(np.arange(-(-start // POSE_STRIDE) * POSE_STRIDE, n, POSE_STRIDE), n - 1))
             _send_poses(rec, self.bodies, np.asarray(posed.t)[kept], np.asarray(posed.body_xpos)[kept],
                         np.asarray(posed.body_xquat)[kept])
-        rec.send_blueprint(_blueprint(layout, series, t, posed.name if posed else None, model,
+        rec.send_blueprint(_blueprint(layout, series, t, _robot_title(posed.name) if posed else None, model,
                                       *((posed.body_xpos, posed.body_xquat) if posed else ())), make_active=True)
         rec.flush(timeout_sec=FLUSH_TIMEOUT)  # a viewer closed during the run: give up, never hang
         if not self.serving:  # a server in this process ends with the stream: kept until close()

@@ -43,8 +43,8 @@ import rerun.blueprint as rrb
 
 from ftc_mj.results import VariantResult
 from ftc_mj.outputs.files import atomic_path
-from ftc_mj.outputs.layout import (Figure, Layout, VariantStyle, data_range, generic_figures, variant_styles,
-                                   zoom_span)
+from ftc_mj.outputs.layout import (Figure, Layout, VariantStyle, generic_figures, tick_range,
+                                   variant_styles, zoom_span)
 from ftc_mj.outputs.palette import colour_name
 
 TIMELINE = "sim_time"
@@ -128,8 +128,12 @@ def write_recording(
     figures: Sequence[Figure] | None = None,
     colours: Mapping[str, str] | None = None,
     sinks: Sequence[object] = (),
+    replayed: str | None = None,
 ) -> None:
     """Write all ``results`` of ``scenario`` into one ``.rrd`` at ``path``, atomically.
+
+    ``replayed``: the name of the log a replay reads (a scenario with a ``log`` section); the 3-D panel then
+    shows the logged arm (its logged positions), not a simulated variant's robot.
 
     ``figures`` (a scenario's, :attr:`ftc_mj.scenario.definition.Scenario.figures`) lay out the viewer and are stored
     for ``ftc-mj figures``; without them, one figure per core quantity. ``colours`` (a scenario's,
@@ -153,7 +157,7 @@ def write_recording(
         rec = rr.RecordingStream("ftc_mj", recording_id=str(uuid.uuid4()))
         try:
             series = _series(results, len(t), layout.variants)
-            blueprint = _blueprint(layout, series, t, posed.name if posed else None, model,
+            blueprint = _blueprint(layout, series, t, _robot_title(posed.name, replayed) if posed else None, model,
                                    *((posed.body_xpos, posed.body_xquat) if posed else ()))
             if sinks:
                 rec.set_sinks(rr.FileSink(tmp), *sinks, default_blueprint=blueprint)
@@ -380,21 +384,26 @@ def _log_events(rec: rr.RecordingStream, results: Sequence[VariantResult], fault
 
 def _info_markdown(scenario: str, seed: int | None, results: Sequence[VariantResult],
                    fault_onsets: Sequence[float], styles: Sequence[VariantStyle]) -> str:
-    """The info panel: one heading line and a narrow table that reads whole in the side panel (a third of a
-    laptop screen). A column whose value every variant shares (the status of runs that all ended "ok", the
-    controller of a host and its monitors) is said once in the heading instead of repeated on every row."""
+    """The info panel: one heading line and a narrow table that reads whole in the side panel (a quarter of a
+    1600-pixel screen): at most three columns, the variant with its colour ("proposed (red)"), its controller
+    and observer in one ("nftsmc / tosmo") and its status. A value every variant shares (the status of runs
+    that all ended "ok", the controller of a host and its monitors) is said once in the heading instead of
+    repeated on every row."""
     rows = [{"observer": r.observer, "controller": r.controller,
              "status": r.status if r.diverged_at is None else f"diverged at {r.diverged_at:g} s"} for r in results]
     shared = {key: rows[0][key] for key in ("observer", "controller", "status")
               if len(rows) > 1 and all(row[key] == rows[0][key] for row in rows)}
-    kept = [key for key in ("observer", "controller", "status") if key not in shared]
+    kept = [key for key in ("controller", "observer") if key not in shared]
+    columns = {" / ".join(kept): [" / ".join(row[key] for key in kept) for row in rows]} if kept else {}
+    if "status" not in shared:
+        columns["status"] = [row["status"] for row in rows]
     heading = (f"**{scenario}** · seed {seed if seed is not None else 'not set'} · fault onsets [s]: "
                f"{', '.join(f'{t:g}' for t in fault_onsets) or 'none'} · {len(results[0].t) if results else 0} "
                "samples" + "".join(f" · {key}: {value}" for key, value in shared.items()))
-    lines = [heading, "", "| " + " | ".join(["variant", "colour", *kept]) + " |",
-             "|" + "---|" * (2 + len(kept))]
-    for r, row, style in zip(results, rows, styles):
-        lines.append("| " + " | ".join([r.name, colour_name(style.color), *(row[key] for key in kept)]) + " |")
+    lines = [heading, "", "| " + " | ".join(["variant (colour)", *columns]) + " |", "|" + "---|" * (1 + len(columns))]
+    for k, (r, style) in enumerate(zip(results, styles)):
+        cells = [f"{r.name} ({colour_name(style.color)})", *(values[k] for values in columns.values())]
+        lines.append("| " + " | ".join(cells) + " |")
     return "\n".join(lines) + "\n"
 
 
@@ -510,20 +519,29 @@ def tab_labels(figures: Sequence[Figure], other: bool) -> list[str]:
     return short + (["other"] if other else [])
 
 
+def _robot_title(variant: str, replayed: str | None = None) -> str:
+    """The 3-D panel's title: the variant whose simulated robot it shows, or, in a log replay (where every
+    variant reads the same logged positions), the logged arm."""
+    return f"Logged arm: {replayed}" if replayed is not None else f"Robot: variant {variant}"
+
+
 def _blueprint(layout: Layout, series: Series, t: np.ndarray, posed: str | None,
                model: mujoco.MjModel | None = None, body_xpos: np.ndarray | None = None,
                body_xquat: np.ndarray | None = None) -> rrb.Blueprint:
-    """The robot, info and events on the left; on the right one tab per figure (per-joint plots stacked, each
-    with its zoom panel beside it), then a tab of the other recorded signals. Sized for 1600 x 1000: every
+    """The robot (``posed``: the 3-D panel's title, :func:`_robot_title`), info and events on the left; on the
+    right one tab per figure (per-joint plots stacked, each with its zoom panel beside it), then a tab of the
+    other recorded signals. Sized for 1600 x 1000: every
     tab label visible (:func:`tab_labels`), the info table whole (its share grows with the variants), the robot
     framed over the poses ``body_xpos``, ``body_xquat`` of the variant ``posed`` (:func:`_eye`)."""
     shown = {figure.entity for figure in layout.figures}
     others = [rrb.TimeSeriesView(name=title, origin="/", contents=[f"/{p}/**" for p in prefixes] + [f"/{p}" for p in prefixes],
-                                 plot_legend=rrb.PlotLegend(visible=False))
+                                 plot_legend=rrb.PlotLegend(visible=False),
+                                 axis_y=_ticked_axis(series, tuple(f"/{p}" for p in prefixes)))
               for title, prefixes in OTHER_VIEWS
               if any(e.startswith(tuple(f"/{p}" for p in prefixes)) for e in series) and not shown.issuperset(prefixes)]
     others += [rrb.TimeSeriesView(name=f"extra: {e.split('/')[2]}", origin=e.rsplit("/", 1)[0],
-                                  plot_legend=rrb.PlotLegend(visible=False))
+                                  plot_legend=rrb.PlotLegend(visible=False),
+                                  axis_y=_ticked_axis(series, (e.rsplit("/", 1)[0],)))
                for e in sorted({e.rsplit("/", 1)[0] + "/joint1" for e in series if e.startswith("/extras/")})
                if e.split("/")[2] not in {f.quantity.removeprefix("extras.") for f in layout.figures}]
     labels = tab_labels(layout.figures, bool(others))
@@ -541,7 +559,7 @@ def _blueprint(layout: Layout, series: Series, t: np.ndarray, posed: str | None,
     rows = len(layout.variants)
     shares = [2.0 + 0.3 * max(0, rows - 6), max(1.0, 1.6 - 0.3 * max(0, rows - 6))]
     if posed is not None:
-        side.insert(0, rrb.Spatial3DView(name=f"Robot: variant {posed}", origin="/world",
+        side.insert(0, rrb.Spatial3DView(name=posed, origin="/world",
                                          eye_controls=None if model is None else _eye(model, body_xpos, body_xquat)))
         shares.insert(0, max(1.6, 2.4 - 0.25 * max(0, rows - 8)))
     return rrb.Blueprint(
@@ -609,17 +627,22 @@ def _figure_tab(figure: Figure, layout: Layout, series: Series, t: np.ndarray, t
             title = label
         legend = rrb.PlotLegend(visible=False)
         window = figure.window
+        # A vertical range with two labelled ticks at least (:func:`tick_range`): left to the viewer, a plot
+        # whose data fall between its coarse ticks shows a lone 0.
+        span = (t >= window[0]) & (t <= window[1]) if window else np.ones(len(t), dtype=bool)
+        overview_range = tick_range(np.concatenate(
+            [np.ravel(_shown(series[e][0][span], shown)) for e in entities] or [np.zeros(0)]))
         overview = rrb.TimeSeriesView(
             name=title, origin="/", contents=entities, overrides=overrides, plot_legend=legend,
-            axis_x=rrb.TimeAxis(link="Independent", view_range=_time_range(*window)) if window else None)
+            axis_x=rrb.TimeAxis(link="Independent", view_range=_time_range(*window)) if window else None,
+            axis_y=rrb.ScalarAxis(range=overview_range) if overview_range is not None else None)
         if zoom is None:
             rows.append(overview)
             continue
         limits = figure.zoom_range
         if limits is None and main is not None:
             inside = (t >= zoom[0]) & (t <= zoom[1])
-            values = series[main][0][inside]
-            limits = data_range(values[:, in_zoom] if values.shape[1] == len(in_zoom) else values)
+            limits = tick_range(_shown(series[main][0][inside], in_zoom))
         zoom_overrides = {e: rr.SeriesLines(visible_series=in_zoom) for e in entities
                           if series[e][0].shape[1] == len(in_zoom) and not in_zoom.all()}
         zoomed = rrb.TimeSeriesView(
@@ -629,6 +652,20 @@ def _figure_tab(figure: Figure, layout: Layout, series: Series, t: np.ndarray, t
             axis_y=rrb.ScalarAxis(range=limits) if limits is not None else None)
         rows.append(rrb.Horizontal(overview, zoomed, column_shares=[3, 2]))
     return rrb.Vertical(*rows, name=tab)
+
+
+def _ticked_axis(series: Series, prefixes: tuple[str, ...]) -> rrb.ScalarAxis | None:
+    """A vertical axis with two labelled ticks at least (:func:`tick_range`) over every series at or under
+    the entities ``prefixes``; None (the viewer's own) without finite values."""
+    limits = tick_range(np.concatenate([np.ravel(values) for e, (values, *_) in series.items()
+                                        if e in prefixes or e.startswith(tuple(f"{p}/" for p in prefixes))]
+                                       or [np.zeros(0)]))
+    return rrb.ScalarAxis(range=limits) if limits is not None else None
+
+
+def _shown(values: np.ndarray, columns: np.ndarray) -> np.ndarray:
+    """The ``columns`` (a mask over the variants) of an (N, V) series; a shared series (one column) whole."""
+    return values[:, columns] if values.shape[1] == len(columns) else values
 
 
 def _time_range(start: float, end: float) -> rrb.TimeRange:

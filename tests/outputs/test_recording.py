@@ -12,11 +12,12 @@ import numpy as np
 import pyarrow as pa
 import pytest
 import rerun as rr
+import rerun.blueprint as rrb
 from rerun.chunk import RrdReader
 
 from ftc_mj.results import VariantResult
 from ftc_mj.outputs.files import TEMPORARY
-from ftc_mj.outputs.layout import Figure, variant_styles
+from ftc_mj.outputs.layout import MAX_TICK_INTERVALS, TICK_MARGIN, Figure, tick_range, variant_styles
 from ftc_mj.outputs.recording import (DIAGNOSIS_SERIES, EYE_DISTANCE, OPTIONAL_SERIES, SERIES, _eye, read_layout,
                                      read_series, tab_labels, write_recording)
 
@@ -366,8 +367,101 @@ def test_the_info_table_says_a_shared_column_once_in_its_heading():
     host_and_monitor = _info_markdown("s", 1, [result("a", "hs_tosmo"), result("a.m", "momentum")], [10.0],
                                       [style, style])
     assert "· controller: nftsmc · status: ok" in host_and_monitor.splitlines()[0]
-    assert "| variant | colour | observer |" in host_and_monitor and "| a.m | red | momentum |" in host_and_monitor
+    assert "| variant (colour) | observer |" in host_and_monitor and "| a.m (red) | momentum |" in host_and_monitor
     one_diverged = _info_markdown("s", 1, [result("a", "hs_tosmo"), result("b", "sosmo", 2.0)], [10.0],
                                   [style, style])
-    assert "| variant | colour | observer | status |" in one_diverged and "| b | red | sosmo | diverged at 2 s |" \
+    assert "| variant (colour) | observer | status |" in one_diverged and "| b (red) | sosmo | diverged at 2 s |" \
         in one_diverged
+
+
+def test_the_info_table_has_at_most_three_columns():
+    """Controllers, observers and statuses that all differ: the controller and observer share a column and the
+    colour the variant's, so the table reads whole in a side panel a quarter of 1600 pixels wide."""
+    from types import SimpleNamespace
+
+    from ftc_mj.outputs.recording import _info_markdown
+
+    results = [SimpleNamespace(name="proposed", observer="tosmo", controller="sigmoid_nftsmc", status="ok",
+                               diverged_at=None, t=np.zeros(4)),
+               SimpleNamespace(name="smc_sosmo", observer="sosmo", controller="smc", status="diverged",
+                               diverged_at=1.5, t=np.zeros(4))]
+    table = [line for line in _info_markdown("s", 1, results, [], [SimpleNamespace(color="#d62728"),
+                                             SimpleNamespace(color="#1f77b4")]).splitlines() if line.startswith("|")]
+    assert table[0] == "| variant (colour) | controller / observer | status |"
+    assert all(line.count("|") == 4 for line in table)
+    assert table[2] == "| proposed (red) | sigmoid_nftsmc / tosmo | ok |"
+    assert table[3] == "| smc_sosmo (blue) | smc / sosmo | diverged at 1.5 s |"
+
+
+def _views(container: object) -> list:
+    """Every view of a blueprint or container, depth first."""
+    if isinstance(container, rrb.Blueprint):
+        return _views(container.root_container)
+    if isinstance(container, rrb.Container):
+        return [view for child in container.contents for view in _views(child)]
+    return [container]
+
+
+def _blueprints(monkeypatch: pytest.MonkeyPatch, tmp_path: Path, model: mujoco.MjModel, results: list[VariantResult],
+                **options: object) -> rrb.Blueprint:
+    """The blueprint ``write_recording`` stores with these options."""
+    from ftc_mj.outputs import recording
+
+    made: list[rrb.Blueprint] = []
+
+    def kept(*args: object, **kwargs: object) -> rrb.Blueprint:
+        made.append(original(*args, **kwargs))
+        return made[-1]
+
+    original = recording._blueprint
+    monkeypatch.setattr(recording, "_blueprint", kept)
+    write_recording(tmp_path / "bp.rrd", scenario="bp", model=model, results=results, **options)
+    return made[-1]
+
+
+def _labelled_ticks(low: float, high: float) -> int:
+    """The most multiples of one power of ten within [low, high] that are at least a quarter of a 90-pixel plot
+    apart less the margins (at most 4.4 steps over the range): the labels the viewer shows on a stacked plot."""
+    best = 0
+    for k in range(-12, 13):
+        step = 10.0 ** k
+        if (high - low) / step <= MAX_TICK_INTERVALS * (1 + 2 * TICK_MARGIN) + 1e-9:
+            best = max(best, int(np.floor(high / step) - np.ceil(low / step) + 1))
+    return best
+
+
+def test_every_time_series_panel_has_a_scale(monkeypatch: pytest.MonkeyPatch, tmp_path: Path,
+                                            model: mujoco.MjModel, results: list[VariantResult]) -> None:
+    """Every time-series panel fixes a vertical range with at least two labelled ticks (left to the viewer, a
+    stacked plot whose data lie between its coarse ticks shows a lone 0), and the range holds its data."""
+    views = [v for v in _views(_blueprints(monkeypatch, tmp_path, model, results)) if isinstance(v, rrb.TimeSeriesView)]
+    assert len(views) > 10
+    for view in views:
+        axis = view.properties.get("ScalarAxis")
+        assert axis is not None, view.name
+        low, high = axis.range.as_arrow_array().to_pylist()[0]
+        assert _labelled_ticks(low, high) >= 2, (view.name, low, high)
+    luaf = next(v for v in views if str(v.name).startswith("LUaF: true and estimate"))
+    low, high = luaf.properties["ScalarAxis"].range.as_arrow_array().to_pylist()[0]
+    values = np.concatenate([r.luaf_hat.ravel() for r in results] + [r.luaf_true.ravel() for r in results])
+    assert low <= values.min() and values.max() <= high
+
+
+@pytest.mark.parametrize("data", [(0.0, 8.7), (0.0, 42.0), (-16.4, 42.0), (0.0, 3.1), (0.2, 0.7), (0.21, 0.29),
+                                  (13.6, 13.6), (0.0, 0.0), (-1e-7, 2e-7), (-52.0, 44.0), (980.0, 1004.0)])
+def test_tick_range_holds_the_data_and_two_labelled_ticks(data: tuple[float, float]) -> None:
+    low, high = tick_range(np.array([*data, np.nan, np.inf]))
+    assert low < data[0] and data[1] < high
+    assert _labelled_ticks(low, high) >= 2
+    assert tick_range(np.array([np.nan])) is None
+
+
+def test_a_replay_labels_its_3d_panel_the_logged_arm(monkeypatch: pytest.MonkeyPatch, tmp_path: Path,
+                                                      model: mujoco.MjModel, results: list[VariantResult]) -> None:
+    """A log replay has no simulated robot per variant: its 3-D panel is titled for the logged arm."""
+    def robot(**options: object) -> str:
+        views = _views(_blueprints(monkeypatch, tmp_path, model, results, **options))
+        return str(next(v for v in views if isinstance(v, rrb.Spatial3DView)).name)
+
+    assert robot() == f"Robot: variant {results[0].name}"
+    assert robot(replayed="no_torque.csv") == "Logged arm: no_torque.csv"
