@@ -9,10 +9,10 @@ probability >= 0.95 on the faults that act; null's AUC is at chance (1/2 in its 
 within the 95% range the Mann-Whitney statistic has under no difference); no entry's AUC interval lies above
 oracle_luaf's; and the third-party noise observer's AUC is at chance alike.
 
-What it does not cover: the quick tier's small biases (0.3 and 1 residual unit), on which observers beat
-oracle_luaf beyond its interval on three robots (docs/results/baselines.md says why: the residual is taken
-about the healthy LUaF's baseline mean, not its trajectory). The gate printed in the quick tier's leaderboard
-fails there; this reduced protocol, with faults of 10 units and floats only, checks the pipeline, not that."""
+What it does not cover: the quick tier's small biases (0.3 and 1 residual unit), on which the observers'
+point AUCs exceed oracle_luaf's on three robots, inside its interval (docs/results/baselines.md says why: the
+residual is taken about the healthy LUaF's baseline mean, not its trajectory). This reduced protocol, with
+faults of 10 units and floats only, checks the pipeline, not that."""
 
 from __future__ import annotations
 
