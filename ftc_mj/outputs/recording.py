@@ -43,7 +43,7 @@ import rerun.blueprint as rrb
 
 from ftc_mj.results import VariantResult
 from ftc_mj.outputs.files import atomic_path
-from ftc_mj.outputs.layout import (Figure, Layout, VariantStyle, generic_figures, tick_range,
+from ftc_mj.outputs.layout import (Figure, Layout, MAX_TICK_INTERVALS, VariantStyle, generic_figures, tick_range,
                                    variant_styles, zoom_span)
 from ftc_mj.outputs.palette import colour_name
 
@@ -498,6 +498,11 @@ SHORT_TABS = {"position": "position", "tracking_error": "tracking error", "veloc
               "fault_torque": "fault force", "fault_acceleration": "fault accel.", "residual": "residual",
               "fault_estimate": "fault estimate", "alarm": "alarms"}
 OTHER_TAB = "Other signals"
+#: The other signals' tab: its plots in this many columns.
+OTHER_COLUMNS = 2
+#: The tabs' height [pixels] on a 1000-pixel screen, a plot's title bar and time axis, and the least distance
+#: between two y-axis tick labels the viewer shows.
+TABS_HEIGHT, PLOT_CHROME, TICK_SPACING = 720, 45, 20
 
 
 def tab_labels(figures: Sequence[Figure], other: bool) -> list[str]:
@@ -534,21 +539,22 @@ def _blueprint(layout: Layout, series: Series, t: np.ndarray, posed: str | None,
     tab label visible (:func:`tab_labels`), the info table whole (its share grows with the variants), the robot
     framed over the poses ``body_xpos``, ``body_xquat`` of the variant ``posed`` (:func:`_eye`)."""
     shown = {figure.entity for figure in layout.figures}
-    others = [rrb.TimeSeriesView(name=title, origin="/", contents=[f"/{p}/**" for p in prefixes] + [f"/{p}" for p in prefixes],
+    other_views = [(title, tuple(f"/{p}" for p in prefixes)) for title, prefixes in OTHER_VIEWS
+                   if any(e.startswith(tuple(f"/{p}" for p in prefixes)) for e in series)
+                   and not shown.issuperset(prefixes)]
+    other_views += [(f"extra: {e.split('/')[2]}", (e.rsplit("/", 1)[0],))
+                    for e in sorted({e.rsplit("/", 1)[0] + "/joint1" for e in series if e.startswith("/extras/")})
+                    if e.split("/")[2] not in {f.quantity.removeprefix("extras.") for f in layout.figures}]
+    intervals = tick_intervals(-(-len(other_views) // OTHER_COLUMNS))
+    others = [rrb.TimeSeriesView(name=title, origin="/", contents=[f"{p}/**" for p in prefixes] + list(prefixes),
                                  plot_legend=rrb.PlotLegend(visible=False),
-                                 axis_y=_ticked_axis(series, tuple(f"/{p}" for p in prefixes)))
-              for title, prefixes in OTHER_VIEWS
-              if any(e.startswith(tuple(f"/{p}" for p in prefixes)) for e in series) and not shown.issuperset(prefixes)]
-    others += [rrb.TimeSeriesView(name=f"extra: {e.split('/')[2]}", origin=e.rsplit("/", 1)[0],
-                                  plot_legend=rrb.PlotLegend(visible=False),
-                                  axis_y=_ticked_axis(series, (e.rsplit("/", 1)[0],)))
-               for e in sorted({e.rsplit("/", 1)[0] + "/joint1" for e in series if e.startswith("/extras/")})
-               if e.split("/")[2] not in {f.quantity.removeprefix("extras.") for f in layout.figures}]
+                                 axis_y=_ticked_axis(series, prefixes, intervals))
+              for title, prefixes in other_views]
     labels = tab_labels(layout.figures, bool(others))
     tabs: list[rrb.Container] = [_figure_tab(figure, layout, series, t, label, label != figure.title)
                                  for figure, label in zip(layout.figures, labels)]
     if others:
-        tabs.append(rrb.Grid(*others, grid_columns=2, name=labels[-1]))
+        tabs.append(rrb.Grid(*others, grid_columns=OTHER_COLUMNS, name=labels[-1]))
     events = rrb.TextLogView(name="Events", origin="/events", columns=rrb.archetypes.TextLogColumns(
         text_log_columns=[rrb.encodings.TextLogColumn("EntityPath", visible=False),
                           rrb.encodings.TextLogColumn("LogLevel", visible=False),
@@ -631,7 +637,8 @@ def _figure_tab(figure: Figure, layout: Layout, series: Series, t: np.ndarray, t
         # whose data fall between its coarse ticks shows a lone 0.
         span = (t >= window[0]) & (t <= window[1]) if window else np.ones(len(t), dtype=bool)
         overview_range = tick_range(np.concatenate(
-            [np.ravel(_shown(series[e][0][span], shown)) for e in entities] or [np.zeros(0)]))
+            [np.ravel(_shown(series[e][0][span], shown)) for e in entities] or [np.zeros(0)]),
+            tick_intervals(len(figure.joints)))
         overview = rrb.TimeSeriesView(
             name=title, origin="/", contents=entities, overrides=overrides, plot_legend=legend,
             axis_x=rrb.TimeAxis(link="Independent", view_range=_time_range(*window)) if window else None,
@@ -642,7 +649,7 @@ def _figure_tab(figure: Figure, layout: Layout, series: Series, t: np.ndarray, t
         limits = figure.zoom_range
         if limits is None and main is not None:
             inside = (t >= zoom[0]) & (t <= zoom[1])
-            limits = tick_range(_shown(series[main][0][inside], in_zoom))
+            limits = tick_range(_shown(series[main][0][inside], in_zoom), tick_intervals(len(figure.joints)))
         zoom_overrides = {e: rr.SeriesLines(visible_series=in_zoom) for e in entities
                           if series[e][0].shape[1] == len(in_zoom) and not in_zoom.all()}
         zoomed = rrb.TimeSeriesView(
@@ -654,12 +661,19 @@ def _figure_tab(figure: Figure, layout: Layout, series: Series, t: np.ndarray, t
     return rrb.Vertical(*rows, name=tab)
 
 
-def _ticked_axis(series: Series, prefixes: tuple[str, ...]) -> rrb.ScalarAxis | None:
+def tick_intervals(rows: int) -> int:
+    """How many intervals between labelled ticks a plot in a column of ``rows`` shows: its height on a
+    1600 x 1000 screen (:data:`TABS_HEIGHT` shared, less :data:`PLOT_CHROME` each) over :data:`TICK_SPACING`,
+    from 1 to :data:`ftc_mj.outputs.layout.MAX_TICK_INTERVALS`."""
+    return int(np.clip((TABS_HEIGHT / max(rows, 1) - PLOT_CHROME) // TICK_SPACING, 1, MAX_TICK_INTERVALS))
+
+
+def _ticked_axis(series: Series, prefixes: tuple[str, ...], intervals: int) -> rrb.ScalarAxis | None:
     """A vertical axis with two labelled ticks at least (:func:`tick_range`) over every series at or under
     the entities ``prefixes``; None (the viewer's own) without finite values."""
     limits = tick_range(np.concatenate([np.ravel(values) for e, (values, *_) in series.items()
                                         if e in prefixes or e.startswith(tuple(f"{p}/" for p in prefixes))]
-                                       or [np.zeros(0)]))
+                                       or [np.zeros(0)]), intervals)
     return rrb.ScalarAxis(range=limits) if limits is not None else None
 
 
