@@ -9,6 +9,9 @@ conformance test against its definition (random and edge-case inputs) in ``tests
 
 **The switch.** ``FTC_MJ_FAST=0`` in the environment (read once, at import), or :func:`set_enabled` (False)
 before a run is built, runs everything on the NumPy definitions: the fast paths are never compiled or called.
+The results then agree with the fast paths' to rounding, not bit for bit: the nominal model's definition is
+MuJoCo's own forward pass, which the compiled rigid-body algorithms equal to about 1e-15, and a chattering
+sliding-mode loop amplifies such differences (``CHANGELOG.md`` gives the main job's figures).
 
 This module is the only one that sets Numba's process options: importing it sets ``NUMBA_DISABLE_INTEL_SVML=1``
 (unless already set) before Numba is imported anywhere in the package, so that compiled loops round as the
