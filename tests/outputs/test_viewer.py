@@ -87,10 +87,12 @@ def test_recording_opens_in_the_web_viewer(tmp_path: Path) -> None:
     browser = None
     try:
         assert listening(web, 60), "the rerun web viewer did not start"
+        # --remote-allow-origins: a current Chromium refuses the debugging websocket of a client that sends an
+        # Origin header (as websocket-client does) unless that origin is allowed.
         browser = subprocess.Popen(
             [CHROMIUM, "--headless=new", "--no-sandbox", "--use-angle=swiftshader", "--enable-unsafe-swiftshader",
              "--ignore-gpu-blocklist", "--window-size=1600,1000", f"--user-data-dir={profile}",
-             f"--remote-debugging-port={debug}", "about:blank"],
+             f"--remote-debugging-port={debug}", "--remote-allow-origins=*", "about:blank"],
             stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL, start_new_session=True)
         tabs = None
         for _ in range(150):
