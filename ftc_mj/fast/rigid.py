@@ -241,12 +241,7 @@ def _apply_inertia(m: float, h: np.ndarray, inertia: np.ndarray, motion: np.ndar
     _cross(h[0], h[1], h[2], w, out[3:], -1.0)
 
 
-#: The options of the kernel's parts: compiled as the kernel is (no fast-math, NumPy's division), each a
-#: function of its own that the kernel calls per point and node.
-_PART = dict(cache=True, nogil=True, fastmath=False, error_model="numpy", **WITHOUT_RUNTIME)
-
-
-@numba.njit(**_PART)
+@numba.njit(cache=True, nogil=True, fastmath=False, error_model="numpy", **WITHOUT_RUNTIME)
 def _evaluate(parent, offset_position, offset_rotation, hinge, axis, anchor, reference, gravity, sparse_row,
               sparse_column, mass, first_moment, inertia, armature, qpos, qvel, applied, sparse_M, factor,
               diagonal_inverse, qacc, bias, velocity_points, momentum_points, coriolis_transpose,
@@ -298,249 +293,195 @@ def _evaluate(parent, offset_position, offset_rotation, hinge, axis, anchor, ref
         with_velocity = p < velocity_points
         with_momentum = with_velocity and any_momentum and momentum_points[p]
         for i in range(n):
-            _place(i, parent[i], offset_position[i], offset_rotation[i], hinge[i], axis[i], anchor[i],
-                   qpos[p, i] - reference[i], rotation, position, subspace[i], before, turn, world_axis,
-                   world_anchor)
-            _world_inertia(i, mass[p, i], first_moment[p, i], inertia[p, i], rotation[i], position[i], turn, h,
-                           c_mass, c_first, c_inertia)
-        if with_velocity:
-            for i in range(n):
-                _newton_euler_forward(i, parent[i], subspace[i], qvel[p, i], gravity, velocity, acceleration, force,
-                                      column, momentum, c_mass, c_first, c_inertia, subtree_momentum, with_momentum)
-        _backward(p, parent, subspace, force, bias, subtree_momentum, c_mass, c_first, c_inertia, with_velocity,
-                  with_momentum)
-        if with_momentum:
-            _momentum_terms(p, velocity, subspace, subtree_momentum, c_mass, c_first, c_inertia, base, column,
-                            coriolis_transpose, gravity_torque)
-        _mass_and_factor(p, parent, subspace, c_mass, c_first, c_inertia, armature, sparse_row, sparse_column, column,
-                         dense, sparse_M, factor, diagonal_inverse)
-        if with_velocity:
-            _accelerate(p, parent, dense, applied, bias, diagonal_inverse, rhs, qacc)
-
-
-@numba.njit(**_PART)
-def _place(i, up, offset_position, offset_rotation, hinge, axis, anchor, displacement, rotation,  # noqa: ANN001, ANN202
-           position, subspace, before, turn, world_axis, world_anchor):  # pragma: no cover - compiled
-    """Node i's body frame in the world (``rotation[i]``, ``position[i]``) and its joint's motion subspace, from
-    its parent ``up``'s frame (-1: the world), its offset and its joint's ``displacement`` from the reference."""
-    # The body frame before the joint: the parent's frame composed with the offset.
-    for r in range(3):
-        for c in range(3):
-            if up < 0:
-                before[r, c] = offset_rotation[r, c]
-            else:
-                before[r, c] = (rotation[up, r, 0] * offset_rotation[0, c] + rotation[up, r, 1] * offset_rotation[1, c]
-                                + rotation[up, r, 2] * offset_rotation[2, c])
-        if up < 0:
-            position[i, r] = offset_position[r]
-        else:
-            position[i, r] = (position[up, r] + rotation[up, r, 0] * offset_position[0]
-                              + rotation[up, r, 1] * offset_position[1] + rotation[up, r, 2] * offset_position[2])
-    for r in range(3):
-        world_axis[r] = _row_dot(before, r, axis)
-        world_anchor[r] = position[i, r] + _row_dot(before, r, anchor)
-    if hinge:
-        _turn(axis, displacement, turn)  # the body turns by the angle about its axis, through the anchor
-        for r in range(3):
-            for c in range(3):
-                rotation[i, r, c] = before[r, 0] * turn[0, c] + before[r, 1] * turn[1, c] + before[r, 2] * turn[2, c]
-        for r in range(3):
-            position[i, r] = world_anchor[r] - _row_dot(rotation[i], r, anchor)
-        for r in range(3):
-            subspace[r] = world_axis[r]
-        subspace[3] = world_anchor[1] * world_axis[2] - world_anchor[2] * world_axis[1]
-        subspace[4] = world_anchor[2] * world_axis[0] - world_anchor[0] * world_axis[2]
-        subspace[5] = world_anchor[0] * world_axis[1] - world_anchor[1] * world_axis[0]
-    else:
-        for r in range(3):
-            for c in range(3):
-                rotation[i, r, c] = before[r, c]
-        for r in range(3):
-            position[i, r] += world_axis[r] * displacement
-        subspace[:3] = 0.0
-        for r in range(3):
-            subspace[3 + r] = world_axis[r]
-
-
-@numba.njit(cache=True, nogil=True, inline="always")
-def _turn(axis: np.ndarray, angle: float, turn: np.ndarray) -> None:
-    """Rodrigues' rotation by ``angle`` about the unit ``axis``."""
-    s, c1 = np.sin(angle), 1.0 - np.cos(angle)
-    x, y, z = axis[0], axis[1], axis[2]
-    turn[0, 0] = 1.0 - c1 * (y * y + z * z)
-    turn[1, 1] = 1.0 - c1 * (x * x + z * z)
-    turn[2, 2] = 1.0 - c1 * (x * x + y * y)
-    turn[0, 1] = c1 * x * y - s * z
-    turn[1, 0] = c1 * x * y + s * z
-    turn[0, 2] = c1 * x * z + s * y
-    turn[2, 0] = c1 * x * z - s * y
-    turn[1, 2] = c1 * y * z - s * x
-    turn[2, 1] = c1 * y * z + s * x
-
-
-@numba.njit(**_PART)
-def _world_inertia(i, m, first_moment, inertia, rotation, d, turn, h, c_mass, c_first,  # noqa: ANN001, ANN202
-                   c_inertia):  # pragma: no cover - compiled
-    """Node i's inertia in world coordinates about the world origin, the start of its composite inertia: R I R'
-    shifted by the position d, I_O = R I R' - m [d][d] - [d][h] - [h][d] with h = R h_body the first moment
-    about the body origin."""
-    for r in range(3):
-        h[r] = _row_dot(rotation, r, first_moment)
-    for r in range(3):
-        for c in range(3):
-            turn[r, c] = (inertia[r, 0] * rotation[c, 0] + inertia[r, 1] * rotation[c, 1]
-                          + inertia[r, 2] * rotation[c, 2])
-    for r in range(3):
-        for c in range(3):
-            c_inertia[i, r, c] = rotation[r, 0] * turn[0, c] + rotation[r, 1] * turn[1, c] + rotation[r, 2] * turn[2, c]
-    # -[a][b] = (a . b) E - b a'; the shift is m(-[d][d]) + (-[d][h]) + (-[h][d]).
-    dd, dh = d[0] * d[0] + d[1] * d[1] + d[2] * d[2], d[0] * h[0] + d[1] * h[1] + d[2] * h[2]
-    for r in range(3):
-        for c in range(3):
-            shift = -m * d[c] * d[r] - h[r] * d[c] - d[r] * h[c]
-            if r == c:
-                shift += m * dd + 2.0 * dh
-            c_inertia[i, r, c] += shift
-    c_mass[i] = m
-    for r in range(3):
-        c_first[i, r] = m * d[r] + h[r]
-
-
-@numba.njit(**_PART)
-def _newton_euler_forward(i, up, subspace, speed, gravity, velocity, acceleration, force,  # noqa: ANN001, ANN202
-                          column, momentum, c_mass, c_first, c_inertia, subtree_momentum,
-                          with_momentum):  # pragma: no cover - compiled
-    """Newton-Euler's forward pass at node i: its velocity, its acceleration with qdd = 0 and the base at
-    -gravity, and its force I a + V x* (I V) (its momentum I V kept where the momentum terms are asked)."""
-    for k in range(6):
-        velocity[i, k] = (0.0 if up < 0 else velocity[up, k]) + subspace[k] * speed
-        column[k] = subspace[k] * speed
-    if up < 0:
-        acceleration[i, :3] = 0.0
-        for r in range(3):
-            acceleration[i, 3 + r] = -gravity[r]
-    else:
-        for k in range(6):
-            acceleration[i, k] = acceleration[up, k]
-    # + V x S qd (motion cross product: [w x a_w; w x a_v + v x a_w])
-    w, v = velocity[i, :3], velocity[i, 3:]
-    _cross(w[0], w[1], w[2], column[:3], acceleration[i, :3], 1.0)
-    _cross(w[0], w[1], w[2], column[3:], acceleration[i, 3:], 1.0)
-    _cross(v[0], v[1], v[2], column[:3], acceleration[i, 3:], 1.0)
-    # f = I a + V x* (I V) (force cross product: [w x f_n + v x f_f; w x f_f])
-    _apply_inertia(c_mass[i], c_first[i], c_inertia[i], acceleration[i], force[i])
-    _apply_inertia(c_mass[i], c_first[i], c_inertia[i], velocity[i], momentum)
-    if with_momentum:
-        for k in range(6):
-            subtree_momentum[i, k] = momentum[k]
-    _cross(w[0], w[1], w[2], momentum[:3], force[i, :3], 1.0)
-    _cross(v[0], v[1], v[2], momentum[3:], force[i, :3], 1.0)
-    _cross(w[0], w[1], w[2], momentum[3:], force[i, 3:], 1.0)
-
-
-@numba.njit(**_PART)
-def _backward(p, parent, subspace, force, bias, subtree_momentum, c_mass, c_first, c_inertia,  # noqa: ANN001, ANN202
-              with_velocity, with_momentum):  # pragma: no cover - compiled
-    """From the last node up: Newton-Euler's joint forces (C qd + G into ``bias[p]``), the subtrees' momenta,
-    and the composite inertias for the CRBA."""
-    for i in range(len(parent) - 1, -1, -1):
-        up = parent[i]
-        if with_velocity:
-            total = 0.0
-            for k in range(6):
-                total += subspace[i, k] * force[i, k]
-            bias[p, i] = total
-        if up >= 0:
-            if with_velocity:
-                for k in range(6):
-                    force[up, k] += force[i, k]
-            if with_momentum:
-                for k in range(6):
-                    subtree_momentum[up, k] += subtree_momentum[i, k]
-            c_mass[up] += c_mass[i]
+            # The body frame before the joint: the parent's frame composed with the offset.
+            up = parent[i]
             for r in range(3):
-                c_first[up, r] += c_first[i, r]
                 for c in range(3):
-                    c_inertia[up, r, c] += c_inertia[i, r, c]
-
-
-@numba.njit(**_PART)
-def _momentum_terms(p, velocity, subspace, subtree_momentum, c_mass, c_first, c_inertia, base,  # noqa: ANN001, ANN202
-                    column, coriolis_transpose, gravity_torque):  # pragma: no cover - compiled
-    """C^T qd = (V_i x S_i)' h_i and G_i = S_i' I^c_i a_0 at point p (the module docstring)."""
-    for i in range(len(c_mass)):
-        w, v, s_w, s_v = velocity[i, :3], velocity[i, 3:], subspace[i, :3], subspace[i, 3:]
-        column[:] = 0.0  # V_i x S_i = [w x s_w; w x s_v + v x s_w]
-        _cross(w[0], w[1], w[2], s_w, column[:3], 1.0)
-        _cross(w[0], w[1], w[2], s_v, column[3:], 1.0)
-        _cross(v[0], v[1], v[2], s_w, column[3:], 1.0)
-        total = 0.0
-        for k in range(6):
-            total += column[k] * subtree_momentum[i, k]
-        coriolis_transpose[p, i] = total
-        _apply_inertia(c_mass[i], c_first[i], c_inertia[i], base, column)
-        total = 0.0
-        for k in range(6):
-            total += subspace[i, k] * column[k]
-        gravity_torque[p, i] = total
-
-
-@numba.njit(**_PART)
-def _mass_and_factor(p, parent, subspace, c_mass, c_first, c_inertia, armature, sparse_row,  # noqa: ANN001, ANN202
-                     sparse_column, column, dense, sparse_M, factor, diagonal_inverse):  # pragma: no cover
-    """M at point p by composite rigid bodies, M[i, j] = S_j' (I^c_i S_i) along i's ancestors j, plus the
-    armature; then M = L' D L from the last row up (mj_factorM's order; a tree's structure has no fill-in), in
-    MuJoCo's sparse layout (``sparse_M``, ``factor``, ``diagonal_inverse``). ``dense`` keeps the factor."""
-    n = len(parent)
-    for i in range(n):
-        _apply_inertia(c_mass[i], c_first[i], c_inertia[i], subspace[i], column)
-        j = i
-        while j >= 0:
-            total = 0.0
-            for k in range(6):
-                total += subspace[j, k] * column[k]
-            dense[i, j] = total
-            j = parent[j]
-        dense[i, i] += armature[p, i]
-    for entry in range(len(sparse_row)):
-        sparse_M[p, entry] = dense[sparse_row[entry], sparse_column[entry]]
-    for k in range(n - 1, -1, -1):
-        inverse = 1.0 / dense[k, k]
-        j = parent[k]
-        while j >= 0:
-            scaled = dense[k, j] * inverse
-            i = j
-            while i >= 0:
-                dense[j, i] -= scaled * dense[k, i]
-                i = parent[i]
-            dense[k, j] = scaled
-            j = parent[j]
-    for entry in range(len(sparse_row)):
-        factor[p, entry] = dense[sparse_row[entry], sparse_column[entry]]
-    for i in range(n):
-        diagonal_inverse[p, i] = 1.0 / dense[i, i]
-
-
-@numba.njit(**_PART)
-def _accelerate(p, parent, dense, applied, bias, diagonal_inverse, rhs, qacc):  # noqa: ANN001, ANN202
-    """qacc = M^-1 (applied - bias) at point p from the factor in ``dense``: x <- L'^-1 x, x <- D^-1 x,
-    x <- L^-1 x."""  # pragma: no cover - compiled
-    n = len(parent)
-    for i in range(n):
-        rhs[i] = applied[p, i] - bias[p, i]
-    for i in range(n - 1, -1, -1):
-        j = parent[i]
-        while j >= 0:
-            rhs[j] -= dense[i, j] * rhs[i]
-            j = parent[j]
-    for i in range(n):
-        rhs[i] *= diagonal_inverse[p, i]
-    for i in range(n):
-        j = parent[i]
-        while j >= 0:
-            rhs[i] -= dense[i, j] * rhs[j]
-            j = parent[j]
-        qacc[p, i] = rhs[i]
+                    if up < 0:
+                        before[r, c] = offset_rotation[i, r, c]
+                    else:
+                        before[r, c] = (rotation[up, r, 0] * offset_rotation[i, 0, c]
+                                        + rotation[up, r, 1] * offset_rotation[i, 1, c]
+                                        + rotation[up, r, 2] * offset_rotation[i, 2, c])
+                if up < 0:
+                    position[i, r] = offset_position[i, r]
+                else:
+                    position[i, r] = (position[up, r] + rotation[up, r, 0] * offset_position[i, 0]
+                                      + rotation[up, r, 1] * offset_position[i, 1]
+                                      + rotation[up, r, 2] * offset_position[i, 2])
+            for r in range(3):
+                world_axis[r] = _row_dot(before, r, axis[i])
+                world_anchor[r] = position[i, r] + _row_dot(before, r, anchor[i])
+            displacement = qpos[p, i] - reference[i]
+            if hinge[i]:
+                # Rodrigues: the body turns by the angle about its axis, through the anchor.
+                s, c1 = np.sin(displacement), 1.0 - np.cos(displacement)
+                x, y, z = axis[i, 0], axis[i, 1], axis[i, 2]
+                turn[0, 0] = 1.0 - c1 * (y * y + z * z)
+                turn[1, 1] = 1.0 - c1 * (x * x + z * z)
+                turn[2, 2] = 1.0 - c1 * (x * x + y * y)
+                turn[0, 1] = c1 * x * y - s * z
+                turn[1, 0] = c1 * x * y + s * z
+                turn[0, 2] = c1 * x * z + s * y
+                turn[2, 0] = c1 * x * z - s * y
+                turn[1, 2] = c1 * y * z - s * x
+                turn[2, 1] = c1 * y * z + s * x
+                for r in range(3):
+                    for c in range(3):
+                        rotation[i, r, c] = (before[r, 0] * turn[0, c] + before[r, 1] * turn[1, c]
+                                             + before[r, 2] * turn[2, c])
+                for r in range(3):
+                    position[i, r] = world_anchor[r] - _row_dot(rotation[i], r, anchor[i])
+                for r in range(3):
+                    subspace[i, r] = world_axis[r]
+                subspace[i, 3] = world_anchor[1] * world_axis[2] - world_anchor[2] * world_axis[1]
+                subspace[i, 4] = world_anchor[2] * world_axis[0] - world_anchor[0] * world_axis[2]
+                subspace[i, 5] = world_anchor[0] * world_axis[1] - world_anchor[1] * world_axis[0]
+            else:
+                for r in range(3):
+                    for c in range(3):
+                        rotation[i, r, c] = before[r, c]
+                for r in range(3):
+                    position[i, r] += world_axis[r] * displacement
+                subspace[i, :3] = 0.0
+                for r in range(3):
+                    subspace[i, 3 + r] = world_axis[r]
+            # The node's inertia in world coordinates about the world origin: R I R' shifted by the position d,
+            # I_O = R I R' - m [d][d] - [d][h] - [h][d] with h = R h_body the first moment about the body origin.
+            m, d = mass[p, i], position[i]
+            for r in range(3):
+                h[r] = _row_dot(rotation[i], r, first_moment[p, i])
+            for r in range(3):
+                for c in range(3):
+                    turn[r, c] = (inertia[p, i, r, 0] * rotation[i, c, 0] + inertia[p, i, r, 1] * rotation[i, c, 1]
+                                  + inertia[p, i, r, 2] * rotation[i, c, 2])
+            for r in range(3):
+                for c in range(3):
+                    c_inertia[i, r, c] = (rotation[i, r, 0] * turn[0, c] + rotation[i, r, 1] * turn[1, c]
+                                          + rotation[i, r, 2] * turn[2, c])
+            # -[a][b] = (a . b) E - b a'; the shift is m(-[d][d]) + (-[d][h]) + (-[h][d]).
+            dd, dh = d[0] * d[0] + d[1] * d[1] + d[2] * d[2], d[0] * h[0] + d[1] * h[1] + d[2] * h[2]
+            for r in range(3):
+                for c in range(3):
+                    shift = -m * d[c] * d[r] - h[r] * d[c] - d[r] * h[c]
+                    if r == c:
+                        shift += m * dd + 2.0 * dh
+                    c_inertia[i, r, c] += shift
+            c_mass[i] = m
+            for r in range(3):
+                c_first[i, r] = m * d[r] + h[r]
+        if with_velocity:
+            # Newton-Euler, forward: velocities, and accelerations with qdd = 0 and the base at -gravity.
+            for i in range(n):
+                up = parent[i]
+                speed = qvel[p, i]
+                for k in range(6):
+                    velocity[i, k] = (0.0 if up < 0 else velocity[up, k]) + subspace[i, k] * speed
+                    column[k] = subspace[i, k] * speed
+                if up < 0:
+                    acceleration[i, :3] = 0.0
+                    for r in range(3):
+                        acceleration[i, 3 + r] = -gravity[r]
+                else:
+                    for k in range(6):
+                        acceleration[i, k] = acceleration[up, k]
+                # + V x S qd (motion cross product: [w x a_w; w x a_v + v x a_w])
+                w, v = velocity[i, :3], velocity[i, 3:]
+                _cross(w[0], w[1], w[2], column[:3], acceleration[i, :3], 1.0)
+                _cross(w[0], w[1], w[2], column[3:], acceleration[i, 3:], 1.0)
+                _cross(v[0], v[1], v[2], column[:3], acceleration[i, 3:], 1.0)
+                # f = I a + V x* (I V) (force cross product: [w x f_n + v x f_f; w x f_f])
+                _apply_inertia(c_mass[i], c_first[i], c_inertia[i], acceleration[i], force[i])
+                _apply_inertia(c_mass[i], c_first[i], c_inertia[i], velocity[i], momentum)
+                if with_momentum:
+                    for k in range(6):
+                        subtree_momentum[i, k] = momentum[k]
+                _cross(w[0], w[1], w[2], momentum[:3], force[i, :3], 1.0)
+                _cross(v[0], v[1], v[2], momentum[3:], force[i, :3], 1.0)
+                _cross(w[0], w[1], w[2], momentum[3:], force[i, 3:], 1.0)
+        # Backward: Newton-Euler's joint forces, and the composite inertias for the CRBA.
+        for i in range(n - 1, -1, -1):
+            up = parent[i]
+            if with_velocity:
+                total = 0.0
+                for k in range(6):
+                    total += subspace[i, k] * force[i, k]
+                bias[p, i] = total
+            if up >= 0:
+                if with_velocity:
+                    for k in range(6):
+                        force[up, k] += force[i, k]
+                if with_momentum:
+                    for k in range(6):
+                        subtree_momentum[up, k] += subtree_momentum[i, k]
+                c_mass[up] += c_mass[i]
+                for r in range(3):
+                    c_first[up, r] += c_first[i, r]
+                    for c in range(3):
+                        c_inertia[up, r, c] += c_inertia[i, r, c]
+        if with_momentum:
+            # C^T qd = (V_i x S_i)' h_i and G_i = S_i' I^c_i a_0 (the module docstring).
+            for i in range(n):
+                w, v, s_w, s_v = velocity[i, :3], velocity[i, 3:], subspace[i, :3], subspace[i, 3:]
+                column[:] = 0.0  # V_i x S_i = [w x s_w; w x s_v + v x s_w]
+                _cross(w[0], w[1], w[2], s_w, column[:3], 1.0)
+                _cross(w[0], w[1], w[2], s_v, column[3:], 1.0)
+                _cross(v[0], v[1], v[2], s_w, column[3:], 1.0)
+                total = 0.0
+                for k in range(6):
+                    total += column[k] * subtree_momentum[i, k]
+                coriolis_transpose[p, i] = total
+                _apply_inertia(c_mass[i], c_first[i], c_inertia[i], base, column)
+                total = 0.0
+                for k in range(6):
+                    total += subspace[i, k] * column[k]
+                gravity_torque[p, i] = total
+        # Composite rigid bodies: M[i, j] = S_j' (I^c_i S_i) along i's ancestors j.
+        for i in range(n):
+            _apply_inertia(c_mass[i], c_first[i], c_inertia[i], subspace[i], column)
+            j = i
+            while j >= 0:
+                total = 0.0
+                for k in range(6):
+                    total += subspace[j, k] * column[k]
+                dense[i, j] = total
+                j = parent[j]
+            dense[i, i] += armature[p, i]
+        for entry in range(len(sparse_row)):
+            sparse_M[p, entry] = dense[sparse_row[entry], sparse_column[entry]]
+        # M = L' D L, from the last row up (mj_factorM's order; a tree's structure has no fill-in).
+        for k in range(n - 1, -1, -1):
+            inverse = 1.0 / dense[k, k]
+            j = parent[k]
+            while j >= 0:
+                scaled = dense[k, j] * inverse
+                i = j
+                while i >= 0:
+                    dense[j, i] -= scaled * dense[k, i]
+                    i = parent[i]
+                dense[k, j] = scaled
+                j = parent[j]
+        for entry in range(len(sparse_row)):
+            factor[p, entry] = dense[sparse_row[entry], sparse_column[entry]]
+        for i in range(n):
+            diagonal_inverse[p, i] = 1.0 / dense[i, i]
+        if with_velocity:
+            # qacc = M^-1 (applied - bias): x <- L'^-1 x, x <- D^-1 x, x <- L^-1 x.
+            for i in range(n):
+                rhs[i] = applied[p, i] - bias[p, i]
+            for i in range(n - 1, -1, -1):
+                j = parent[i]
+                while j >= 0:
+                    rhs[j] -= dense[i, j] * rhs[i]
+                    j = parent[j]
+            for i in range(n):
+                rhs[i] *= diagonal_inverse[p, i]
+            for i in range(n):
+                j = parent[i]
+                while j >= 0:
+                    rhs[i] -= dense[i, j] * rhs[j]
+                    j = parent[j]
+                qacc[p, i] = rhs[i]
 
 
 @numba.njit(cache=True, nogil=True, fastmath=False, error_model="numpy", **WITHOUT_RUNTIME)
