@@ -36,8 +36,8 @@ def outcomes(path: Path, seeds: list[int], overrides: list[str], healthy: bool, 
              ) -> dict[str, list[dict]]:
     assignments = None
     if healthy:
-        raw = load_scenario(path, overrides=overrides).raw
-        assignments = {"actuator_faults": [], "terms": [t for t in raw.get("terms") or [] if t.get("kind") != "fault"]}
+        terms = load_scenario(path, overrides=overrides).written("terms") or []
+        assignments = {"actuator_faults": [], "terms": [t for t in terms if t.get("kind") != "fault"]}
     scenario = load_scenario(path, overrides=overrides, assignments=assignments, variants=variants)
     found: dict[str, list[dict]] = {}
     for o in run_batch(scenario, members_from_overrides(scenario, [{"seed": s} for s in seeds])):
