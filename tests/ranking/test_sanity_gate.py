@@ -17,17 +17,15 @@ faults of 10 units and floats only, checks the pipeline, not that."""
 from __future__ import annotations
 
 import json
-from typing import ClassVar
+import sys
+from pathlib import Path
 
-import numpy as np
 import pyarrow.parquet as pq
 import pytest
 import yaml
 
 from ftc_mj.cli.bench import main
 from ftc_mj.methods import observers, registry
-from ftc_mj.methods.gains import GainConfig
-from ftc_mj.methods.observers.base import Observer
 from ftc_mj.ranking.calibrated import consistent_with_chance
 from reduced_v2 import reduced_suite
 
@@ -35,33 +33,10 @@ pytestmark = pytest.mark.slow  # a closed-loop experiment: the full suite's, not
 ROBOTS = ("two_link", "puma560", "ur5e", "panda")
 
 
-class NoiseObserverConfig(GainConfig):
-    pass
-
-
-class NoiseObserver(Observer):
-    """A useless observer as a third party might ship one: its LUaF estimate is white noise in the diagnosis
-    space (torque), M(q)^-1 times unit white noise, drawn from a stream seeded by the first readings (the
-    encoders' noise differs between runs). White noise in acceleration would not do: the torque-space residual
-    is M(q_meas) times the estimate, and a fault that moves the arm's posture moves M (a float on the Panda's
-    elbow raises the scale of M(q) n, AUC 0.59-0.87 in a first try)."""
-
-    name: ClassVar[str] = "test_noise"
-    Config: ClassVar[type[NoiseObserverConfig]] = NoiseObserverConfig
-
-    def __init__(self, config: NoiseObserverConfig, n_joints: int, dt: float, members: int | None = None):
-        super().__init__(config, n_joints, dt, members)
-        self._rng: np.random.Generator | None = None
-
-    def update(self, t: float, q_meas: np.ndarray, model) -> None:
-        if self._rng is None:
-            self._rng = np.random.default_rng(np.frombuffer(np.ascontiguousarray(q_meas).tobytes(), np.uint32))
-        self.q_hat[:] = q_meas
-        self.luaf_hat[:] = model.solve_M(self._rng.standard_normal(self.shape))
-        self.injection[:] = 0.0
-
-    def advance(self, tau: np.ndarray, model) -> None:
-        pass
+#: The useless observer as a third party ships one (examples/ftc_mj_white_noise), registered here as its entry
+#: point would register it when installed.
+sys.path.insert(0, str(Path(__file__).resolve().parents[2] / "examples" / "ftc_mj_white_noise"))
+from ftc_mj_white_noise.observer import WhiteNoiseObserver as NoiseObserver  # noqa: E402
 
 
 @pytest.fixture(scope="module")
