@@ -14,7 +14,12 @@ Several faults may act on one joint: they are applied in the scenario's order, e
 one delivers. The additive faults of the dissertation are plant ``terms`` with ``kind: fault``.
 
 The fault acts on the plant through ``qfrc_applied`` as delivered - commanded: the command in ``ctrl``
-(and the recorded ``tau``) stays what the controller asked for, so no controller can see the fault.
+(and the recorded ``tau``) stays what the controller asked for, so no controller can see the fault. Where the
+motor limits its torque (``ctrlrange``, :attr:`~ftc_mj.scenario.definition.Scenario.torque_limits`), the fault
+acts on what the limited motor gives, u = clip(command), its output is clipped again (a bias included), and
+delivered - u adds to MuJoCo's own clip(command): a floating joint then gets no torque whatever the command.
+(Acting on the command itself, a float on a joint commanded beyond its limit would receive clip(command) -
+command, the excess with the opposite sign: a scenario's ``faults_after_torque_limit: false``.)
 Everything that depends only on time (profiles, alpha(t), offset(t), the instants a lock freezes) is
 tabulated on the run's time grid before the loop; a step only combines the command with table rows.
 """
@@ -120,9 +125,13 @@ class ActuatorFaults:
     commanded, the generalized force the fault adds), both ``shape``: ``(rows, n)`` in a batch.
     """
 
-    def __init__(self, faults: list[ActuatorFault], times: np.ndarray, shape: int | tuple[int, ...]):
+    def __init__(self, faults: list[ActuatorFault], times: np.ndarray, shape: int | tuple[int, ...],
+                 limits: np.ndarray | None = None):
         self.delivered = np.zeros(shape)
         self.torque = np.zeros(shape)
+        #: Per joint, the motor's |torque| limit the faults act after (inf: none); None: on the command.
+        self.limits = None if limits is None or np.isinf(limits).all() else np.asarray(limits, dtype=float)
+        self._limited = np.zeros(shape)
         self._actions = [_action(fault, times, shape) for fault in faults]
         #: Per sample, whether any actuator fault is on.
         self.active = np.zeros(len(times), dtype=bool)
@@ -131,10 +140,14 @@ class ActuatorFaults:
 
     def apply(self, k: int, command: np.ndarray) -> None:
         """Fill ``delivered`` and ``torque`` for sample ``k`` of the grid and the command ``command``."""
+        if self.limits is not None:  # what the limited motor gives (MuJoCo clips ctrl alike)
+            command = np.clip(command, -self.limits, self.limits, out=self._limited)
         np.copyto(self.delivered, command)
         for action in self._actions:
             if action.on[k]:
                 action(k, self.delivered)
+        if self.limits is not None:  # a bias neither: the motor gives at most its limit
+            np.clip(self.delivered, -self.limits, self.limits, out=self.delivered)
         np.subtract(self.delivered, command, out=self.torque)
 
 

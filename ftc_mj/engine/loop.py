@@ -577,7 +577,9 @@ def _inputs(scenario: Scenario, members: Members, layout: RowLayout) -> PlantInp
     rows, n, times = layout.rows, scenario.n_joints, scenario.times
     terms = PlantTerms(scenario.terms, times, rows, n, layout.per_row(members.parameters),
                        list(scenario.spec.parameters), scenario.terms_function)
-    actuators = ActuatorFaults(scenario.actuator_faults, times, (rows, n)) if scenario.actuator_faults else None
+    limits = scenario.torque_limits if scenario.spec.faults_after_torque_limit else None
+    actuators = (ActuatorFaults(scenario.actuator_faults, times, (rows, n), limits) if scenario.actuator_faults
+                 else None)
     fault_on = terms.fault_on | (False if actuators is None else actuators.active)
     return PlantInputs(terms, actuators, fault_on.tolist(), terms.fault_on.tolist())
 

@@ -86,6 +86,8 @@ def protocol_digest(bench: Bench, robot: str, task: str, population: str, tier: 
         content["sanity"] = suite.spec.calibration.oracle_noise * min(suite.spec.robots[robot].residual_unit or
                                                                       suite.spec.robots[robot].torque_scale)
         content["robot"] = {k: v for k, v in robot_spec.items() if k in ("scenario", "loop", "terms")}
+        if task == "tracking":  # the plant's torque limits, the actuator faults acting after them
+            content["torque_limit"] = robot_spec.get("torque_limit") or []
         if population == "faults":
             content["cases"] = suite.fault_cases(robot, task)
             content["draws"] = "per case, seeds and mass scales"  # the campaign's case_draws

@@ -121,6 +121,10 @@ class SuiteRobot(Strict):
     residual_unit: list[PositiveFloat] = []
     #: What the robot's nominal model leaves out (the declared healthy uncertainty), in words.
     uncertainty: StrictStr = ""
+    #: Per controlled joint, the |torque| [N m] its motor delivers at most in the tracking task: every entry's
+    #: command is clipped to it by the plant, as an actuator would (MuJoCo's ``ctrlrange``), and the actuator
+    #: faults act on what the limited motor gives. Diagnosis runs keep the scenario's own limits.
+    torque_limit: list[PositiveFloat] = []
 
     @model_validator(mode="after")
     def _per_joint(self) -> "SuiteRobot":
@@ -222,6 +226,10 @@ class Suite:
             if isinstance(robot.loop, str) and robot.loop not in variants:
                 raise InputError(str(path), f"robots.{name}.loop", f"{robot.loop!r} is not a variant of "
                                  f"{robot.scenario} (its variants: {', '.join(variants)})")
+            limit, joints = robot.torque_limit, len(self.resolved[name].get("reference") or [])
+            if limit and len(limit) != joints:
+                raise InputError(str(path), f"robots.{name}.torque_limit", f"{len(limit)} values for {joints} "
+                                 "controlled joints (one per joint)")
             known = [term.get("name") for term in self.resolved[name].get("terms") or []]
             for term in robot.terms:
                 if term not in known:
@@ -286,7 +294,24 @@ class Suite:
         }
         if kept:
             out["terms"] = kept
+        limit = self.spec.robots[robot].torque_limit
+        if task == "tracking" and limit:
+            out["robot"]["torque_limits"] = list(limit)
+            if not base["robot"].get("joints"):  # an MJCF in the testbed's form: limits need it rebuilt
+                out["robot"]["joints"] = self._joint_names(robot)
+        elif task == "diagnosis" or not self.calibrated:
+            # The runs as computed before actuator faults acted after the motor's limit (suite v1, and suite
+            # v2's diagnosis task, whose populations are not to change within the version).
+            out["faults_after_torque_limit"] = False
         return out
+
+    def _joint_names(self, robot: str) -> list[str]:
+        """The joints of the robot's model, in its order (a model in the testbed's form: every joint)."""
+        import mujoco
+
+        model = mujoco.MjModel.from_xml_path(str((self.scenarios[robot].parent / self.resolved[robot]["robot"]["model"])
+                                                 .resolve()))
+        return [model.joint(j).name for j in range(model.njnt)]
 
     # -------------------------------------------------------------------------------------------- populations
 

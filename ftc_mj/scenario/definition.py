@@ -28,7 +28,7 @@ from typing import Annotated, Any, Literal
 import mujoco
 import numpy as np
 import sympy
-from pydantic import AfterValidator, Field, field_validator, model_validator
+from pydantic import AfterValidator, Field, StrictBool, field_validator, model_validator
 
 from ftc_mj.analysis.diagnosis import Diagnoser, DiagnosisSpec, compile_diagnoser
 from ftc_mj.analysis.metrics import MetricsSpec
@@ -153,6 +153,8 @@ class ScenarioSpec(Strict):
                                   "robot; default: none.")
     actuator_faults: list[ActuatorFaultSpec] = Field([], description="Faults of what the actuators deliver "
                                                      "(loss of effectiveness, bias, lock...); default: none.")
+    faults_after_torque_limit: StrictBool = Field(True,
+        description="Whether an actuator fault acts on what the torque-limited motor gives (default: a floating joint gets no torque whatever the command) or on the command, the motor's limit clipping after it (false: a float on a joint commanded beyond its limit then receives the excess with the opposite sign; kept only so that suite v2's diagnosis runs stay as they were computed).")
     sensors: SensorsSpec = Field(SensorsSpec(), description="Sensor effects (noise, quantisation, faults) of "
                                  "the encoders and tachometers; default: exact readings.")
     nominal: NominalSpec = Field(NominalSpec(), description="The controllers' and observers' model of the "
