@@ -88,7 +88,8 @@ def _rst_to_md(text: str) -> str:
 
 
 def _math_directives(text: str) -> str:
-    """Each ``.. math::`` directive (its indented lines, one equation per paragraph) as display equations."""
+    """Each ``.. math::`` directive (its indented lines, one equation per paragraph) as display equations, at the
+    directive's indentation (one inside a list item stays in it)."""
     lines, out, k = text.splitlines(), [], 0
     while k < len(lines):
         match = re.match(r"^(\s*)\.\. math::\s*$", lines[k])
@@ -100,13 +101,33 @@ def _math_directives(text: str) -> str:
         while k < len(lines) and (not lines[k].strip() or len(lines[k]) - len(lines[k].lstrip()) > indent):
             body.append(lines[k].strip())
             k += 1
-        for equation in "\n".join(body).strip().split("\n\n"):
-            out += ["", "\\[" + " ".join(equation.split("\n")) + "\\]", ""]
+        for equation in "\n".join(body).strip().split("\n\n"):  # at the directive's indentation: in its list item
+            out += ["", " " * indent + "\\[" + " ".join(equation.split("\n")) + "\\]", ""]
     return "\n".join(out)
 
 
 def _cell(text: str) -> str:
-    return _rst_to_md(text).replace("|", "\\|").replace("\n", " ")
+    """A table cell: Markdown, one line, its pipes escaped; a pipe inside mathematics (an absolute value) as
+    ``\\vert``, which the table's escape would otherwise turn into the norm ``\\|``."""
+    text = _rst_to_md(text)
+    text = re.sub(r"\\\((.*?)\\\)", lambda m: "\\(" + m.group(1).replace("|", "\\vert ") + "\\)", text)
+    return text.replace("|", "\\|").replace("\n", " ")
+
+
+try:
+    from griffe import Extension as _GriffeExtension
+except ImportError:  # pragma: no cover - griffe comes with the docs extra (mkdocstrings)
+    _GriffeExtension = object
+
+
+class DocstringMath(_GriffeExtension):
+    """A Griffe extension (``mkdocs.yml``: the python handler's ``extensions``): the docstrings the API
+    reference renders through mkdocstrings pass through :func:`_rst_to_md` too, so that their ``:math:`` and
+    ``.. math::`` render there as on the methods page (mkdocstrings reads Markdown, not Sphinx roles)."""
+
+    def on_instance(self, *, obj, **kwargs) -> None:
+        if obj.docstring is not None:
+            obj.docstring.value = _rst_to_md(obj.docstring.value)
 
 
 _CONSTRAINTS = {annotated_types.Gt: ("gt", "> {}"), annotated_types.Ge: ("ge", ">= {}"),

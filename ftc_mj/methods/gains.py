@@ -38,9 +38,11 @@ class GainConfig(BaseModel):
 
 
 class SuperTwistingGains(GainConfig):
-    """The gains of a super-twisting term k1 |x|^(1/2) sign(x) + integral k2 sign(x): either ``L``, the bound
-    that Levant's rule takes them from (k1 = 1.5 L^(1/2), k2 = 1.1 L; Levant 1998, 2003), or both ``k1`` and
-    ``k2``. Shared by the super-twisting observer (4.37) and the super-twisting controller."""
+    r"""The gains of a super-twisting term
+    :math:`k_1 |x|^{1/2} \operatorname{sign}(x) + \int k_2 \operatorname{sign}(x)\, dt`: either ``L``, the
+    bound that Levant's rule takes them from (:math:`k_1 = 1.5 L^{1/2}`, :math:`k_2 = 1.1 L`; Levant 1998,
+    2003), or both ``k1`` and ``k2``. Shared by the super-twisting observer (4.37) and the super-twisting
+    controller."""
 
     L: PositiveJoints | None = None
     k1: PositiveJoints | None = None
@@ -56,7 +58,7 @@ class SuperTwistingGains(GainConfig):
         return self
 
     def gains(self) -> tuple[np.ndarray, np.ndarray]:
-        """(k1, k2), from Levant's rule when only L is given."""
+        """(``k1``, ``k2``), from Levant's rule when only ``L`` is given."""
         if self.L is not None:
             return 1.5 * np.sqrt(self.L), 1.1 * self.L
         return self.k1, self.k2

@@ -69,12 +69,13 @@ def _operand(x: ArrayOrNumber, exponent: ArrayOrNumber) -> np.ndarray:
 
 
 def power(x: ArrayOrNumber, exponent: ArrayOrNumber, out: np.ndarray | None = None) -> np.ndarray:
-    """x^p element-wise, with the exponent p a Python number (the same for every element) or an array.
+    r""":math:`x^p` element-wise, with the exponent p a Python number (the same for every element) or an array.
 
-    A number is one exponent for every element: -1, 0, 0.5, 1, 2 are computed exactly (1/x, 1, sqrt(x), x,
-    x*x), every other value by pow, in every shape (it is NumPy's own ``x ** p``, without converting ``p`` on
-    every call). An array is one exponent per element, always by pow (so an exponent of 0.5 in an array is
-    pow's x^0.5, not sqrt: the gains a plugin receives are such arrays). An array with fewer elements than the
+    A number is one exponent for every element: -1, 0, 0.5, 1, 2 are computed exactly (``1/x``, ``1``,
+    ``sqrt(x)``, ``x``, ``x*x``), every other value by pow, in every shape (it is NumPy's own ``x ** p``,
+    without converting ``p`` on every call). An array is one exponent per element, always by pow (so an
+    exponent of 0.5 in an array is pow's :math:`x^{0.5}`, not sqrt: the gains a plugin receives are such
+    arrays). An array with fewer elements than the
     result (a column, a row) is first expanded to the result's shape, so that NumPy never sees it with stride
     0 in some shapes and not in others; pass exponents of the result's shape (the engine's gains are
     ``(members, n)``, as the states are) to avoid that copy. In place (``out`` is ``x``) with an array exponent
@@ -97,14 +98,15 @@ def power(x: ArrayOrNumber, exponent: ArrayOrNumber, out: np.ndarray | None = No
 
 
 def signed_power(x: ArrayOrNumber, exponent: ArrayOrNumber, out: np.ndarray | None = None) -> np.ndarray:
-    """|x|^p sign(x), the building block of every sliding-mode term in the dissertation; sign(0) = 0 (|0|^p = 0
-    for p > 0).
+    r""":math:`|x|^p \operatorname{sign}(x)`, the building block of every sliding-mode term in the dissertation
+    (e.g. the TOSMO's :math:`k_1 |\tilde x_1|^{2/3} \operatorname{sign}(\tilde x_1)`, eq. (5.6));
+    :math:`\operatorname{sign}(0) = 0` (:math:`|0|^p = 0` for :math:`p > 0`).
 
     The exponent p as for :func:`power` (a number: exact for 0.5 and the other special exponents; an array:
     pow per element). The result is written into ``out`` if given (it must not be ``x``, whose signs it
-    needs), else into a new array. With a number no temporary is made beyond the result (|x| is raised in
-    place); with an array exponent |x| is one temporary, since NumPy's in-place loop over a single element sees
-    the exponent with stride 0 (and would take sqrt for 0.5 where a batch takes pow).
+    needs), else into a new array. With a number no temporary is made beyond the result (:math:`|x|` is raised
+    in place); with an array exponent :math:`|x|` is one temporary, since NumPy's in-place loop over a single
+    element sees the exponent with stride 0 (and would take sqrt for 0.5 where a batch takes pow).
     """
     if out is x:
         raise ValueError("signed_power: out must not be x (the signs of x are read after |x|^p is written)")
@@ -125,7 +127,7 @@ def signed_power(x: ArrayOrNumber, exponent: ArrayOrNumber, out: np.ndarray | No
 
 
 def exp(x: ArrayOrNumber, out: np.ndarray | None = None) -> np.ndarray:
-    """e^x element-wise, by NumPy's array kernel: each element's bits depend on that element alone (in a batch
+    r""":math:`e^x` element-wise, by NumPy's array kernel: each element's bits depend on that element alone (in a batch
     or alone, at any position, contiguous or strided).
 
     Never ``math.exp`` on a member's value instead: the C library's exp differs from NumPy's in the last bit

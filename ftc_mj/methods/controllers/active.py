@@ -1,4 +1,4 @@
-"""Active fault-tolerant control: controllers that read the diagnosis and change the loop on its decisions.
+r"""Active fault-tolerant control: controllers that read the diagnosis and change the loop on its decisions.
 
 Active FTC couples fault detection and diagnosis with a reconfiguration mechanism that changes the controller
 once a fault is detected or isolated (Zhang and Jiang, "Bibliographical review on reconfigurable
@@ -7,30 +7,55 @@ fault-tolerant control systems", Annual Reviews in Control 32, 2008; Blanke, Kin
 controller for every fault it must tolerate. A controller here declares ``reads_diagnosis``; the engine then
 steps the scenario's causal diagnosis inside the loop, before the controllers, and hands each of them its
 variant's component as ``self.diagnosis`` (:class:`~ftc_mj.analysis.causal.CausalDiagnoser`, one row per
-member: ``alarm``, ``isolated``, ``fault_estimate``, ``alarm_time``). Three of the field's standard patterns:
+member: ``alarm``, ``isolated``, ``fault_estimate``, ``alarm_time``). Three of the field's standard patterns
+follow.
 
-* :class:`EventCompensatedNFTSMC` (``event_nftsmc``): the dissertation's AFTC made event-driven. The NFTSMC
-  of (5.25)-(5.27) without compensation and with a switching gain that covers the healthy uncertainty
-  (``bound_healthy``) until the diagnosis detects a fault; from then on the observer's compensation u_c of
-  (5.26) and the gain ``bound`` of (5.27). ``engage: any`` switches every joint at the first alarm (the fault's
-  acceleration reaches the joints M(q)^-1 couples), ``joint`` each joint at its own.
-* :class:`Supervisor` (``supervisor``): a supervisor over two controller plugins, ``nominal`` until the
-  diagnosis isolates a fault on any joint and ``reconfigured`` from then on (controller switching, Blanke et
-  al. 2016, section 7.5; Zhang and Jiang 2008, section 4). By default the reconfigured controller takes over
-  from its initial state, which for an integral sliding surface is the surface started at zero at the switch
-  (the integral sliding mode's own initialisation, no reaching phase: Utkin and Shi, "Integral sliding mode in
-  systems operating under uncertainty conditions", CDC 1996); ``transfer: warm`` runs it from the start beside
-  the nominal one instead (warm standby, Astrom and Hagglund, "Advanced PID Control", 2006, section 3.6), whose
-  integral then holds what the nominal loop's errors integrated to.
-* :class:`EffectivenessAccommodation` (``loe_accommodation``): accommodation of an estimated loss of
-  effectiveness. An actuator that delivers (1 - alpha) tau leaves the torque-space fault estimate
-  f = -alpha tau; alpha_j is estimated by recursive least squares with forgetting on f_j and the command from
-  the joint's isolation on (both through the same first-order low-pass filter: a sliding-mode command
-  chatters far beyond the observer's bandwidth, and the regression must see the part of it the estimate
-  answers), and the command of the inner controller on that joint is divided by
-  1 - alpha_hat (the effectiveness-factor redesign of Zhang and Jiang, "Active fault-tolerant control system
-  against partial actuator failures", IEE Proc. Control Theory Appl. 149(1), 2002, with a scalar effectiveness
-  per joint). It needs the diagnosis in torque space.
+**:class:`EventCompensatedNFTSMC`** (``event_nftsmc``): the dissertation's AFTC made event-driven. The NFTSMC
+of (5.25)-(5.27) without compensation and with a switching gain that covers the healthy uncertainty
+(``bound_healthy``, :math:`\Delta_h`) until the diagnosis detects a fault; from then on the observer's
+compensation :math:`u_c` of (5.26) and the gain ``bound`` (:math:`\Delta_\delta` of (5.27)):
+
+.. math::
+
+    u = -M(x_1) \left(u_{eq} + \delta\, u_c + u_{sw}\right), \quad
+    u_{sw} = \left((1 - \delta) \Delta_h + \delta \Delta_\delta + \mu\right) \operatorname{sign}(\hat s)
+
+with :math:`\delta_j(t) \in \{0, 1\}` the latched decision: ``engage: any`` switches every joint at the first
+alarm (the fault's acceleration reaches the joints :math:`M(q)^{-1}` couples), ``joint`` each joint at its
+own.
+
+**:class:`Supervisor`** (``supervisor``): a supervisor over two controller plugins, ``nominal`` until the
+diagnosis isolates a fault on any joint and ``reconfigured`` from then on (controller switching, Blanke et
+al. 2016, section 7.5; Zhang and Jiang 2008, section 4). By default the reconfigured controller takes over
+from its initial state, which for an integral sliding surface is the surface started at zero at the switch
+(the integral sliding mode's own initialisation, no reaching phase: Utkin and Shi, "Integral sliding mode in
+systems operating under uncertainty conditions", CDC 1996); ``transfer: warm`` runs it from the start beside
+the nominal one instead (warm standby, Astrom and Hagglund, "Advanced PID Control", 2006, section 3.6), whose
+integral then holds what the nominal loop's errors integrated to. Per member,
+:math:`\tau = \tau_{\mathrm{nominal}}` before the first isolation on any joint,
+:math:`\tau = \tau_{\mathrm{reconfigured}}` from then on.
+
+**:class:`EffectivenessAccommodation`** (``loe_accommodation``): accommodation of an estimated loss of
+effectiveness. An actuator that delivers :math:`(1 - \alpha) \tau` leaves the torque-space fault estimate
+:math:`f = -\alpha \tau`; :math:`\alpha_j` is estimated by recursive least squares with forgetting
+:math:`\lambda` on :math:`f_j` and the command from the joint's isolation on (both through the same
+first-order low-pass filter, :math:`\bar f` and :math:`\bar u`: a sliding-mode command chatters far beyond
+the observer's bandwidth, and the regression must see the part of it the estimate answers), and the command
+of the inner controller on that joint is divided by :math:`1 - \hat\alpha` (the effectiveness-factor
+redesign of Zhang and Jiang, "Active fault-tolerant control system against partial actuator failures", IEE
+Proc. Control Theory Appl. 149(1), 2002, with a scalar effectiveness per joint). With the filter's pole
+:math:`a = \exp(-T / T_f)`, per joint from its isolation at period :math:`k_0`:
+
+.. math::
+
+    \bar f_k = a \bar f_{k-1} + (1 - a) f_k, \quad \bar u_k = a \bar u_{k-1} + (1 - a) \tau_{k-1}
+
+    \hat\alpha_k = \min\left(\max\left(-\frac{\sum_{i=k_0}^{k} \lambda^{k-i} \bar f_i \bar u_i}
+    {\sum_{i=k_0}^{k} \lambda^{k-i} \bar u_i^2}, 0\right), \alpha_{\mathrm{max}}\right), \quad
+    \tau_k = \frac{\tau_{\mathrm{inner},k}}{1 - \hat\alpha_k}
+
+(:math:`\alpha_{\mathrm{max}}` the gain ``max_loss``; :math:`f_k` answers the command applied over the last period).
+It needs the diagnosis in torque space.
 
 Every switch is latched: a decision is not taken back within the run (a diagnoser's alarm may clear while the
 fault stays). The decisions' times are recorded as the signal ``reconfigured`` (0 before, 1 after, per joint).
@@ -65,8 +90,8 @@ class DiagnosisReader:
 
 
 class EventNFTSMCConfig(NFTSMCConfig):
-    """The NFTSMC's gains with ``compensation`` (applied from detection on) and ``bound`` (its switching bound
-    then, Delta_delta of (5.27)); ``bound_healthy``: the bound before detection, without compensation (the
+    r"""The NFTSMC's gains with ``compensation`` (applied from detection on) and ``bound`` (its switching bound
+    then, :math:`\Delta_\delta` of (5.27)); ``bound_healthy``: the bound before detection, without compensation (the
     uncompensated comparator's, which covers the healthy LUaF); ``engage``: every joint at the first alarm
     (``any``) or each at its own (``joint``)."""
 
@@ -75,7 +100,8 @@ class EventNFTSMCConfig(NFTSMCConfig):
 
 
 class EventCompensatedNFTSMC(DiagnosisReader, NFTSMC):
-    """NFTSMC (5.25)-(5.27) whose compensation is switched on at detection (the module docstring)."""
+    r"""NFTSMC (5.25)-(5.27) whose compensation :math:`u_c` and switching bound are switched at detection (the
+    module docstring)."""
 
     name: ClassVar[str] = "event_nftsmc"
     signal_names: ClassVar[frozenset[str] | None] = frozenset({"reconfigured"})
@@ -206,10 +232,11 @@ class Supervisor(DiagnosisReader, Controller):
 
 
 class AccommodationConfig(GainConfig):
-    """The controller whose command is accommodated; the least-squares forgetting factor per period
-    (``forgetting``, 0 < lambda <= 1: memory of about dt / (1 - lambda) seconds); the time constant of the
-    low-pass filter on the fault estimate and the command [s]; the largest loss of effectiveness believed
-    (``max_loss``: 1 - alpha_hat is kept at least 1 - max_loss)."""
+    r"""The controller whose command is accommodated; the least-squares forgetting factor per period
+    (``forgetting``, :math:`0 < \lambda \le 1`: memory of about :math:`T / (1 - \lambda)` seconds); the time
+    constant :math:`T_f` of the low-pass filter on the fault estimate and the command [s]; the largest loss of
+    effectiveness believed (``max_loss``, :math:`\alpha_{\mathrm{max}}`: :math:`1 - \hat\alpha` is kept at least
+    :math:`1 - \alpha_{\mathrm{max}}`)."""
 
     controller: ControllerChoice
     forgetting: float = 0.999
@@ -229,9 +256,9 @@ class AccommodationConfig(GainConfig):
 
 
 class EffectivenessAccommodation(DiagnosisReader, Controller):
-    """tau_j = tau_inner_j / (1 - alpha_hat_j) on the isolated joints, alpha_hat_j by recursive least squares
-    from the torque-space fault estimate (the module docstring). ``alpha_hat`` is recorded as the signal
-    ``loss_estimate``."""
+    r""":math:`\tau_j = \tau_{\mathrm{inner},j} / (1 - \hat\alpha_j)` on the isolated joints, :math:`\hat\alpha_j` by
+    recursive least squares from the torque-space fault estimate (the module docstring). :math:`\hat\alpha` is
+    recorded as the signal ``loss_estimate``."""
 
     name: ClassVar[str] = "loe_accommodation"
     signal_names: ClassVar[frozenset[str] | None] = frozenset({"reconfigured", "loss_estimate"})

@@ -1,28 +1,31 @@
-"""The controller plugin protocol and the sliding-mode structure the dissertation's laws share.
+r"""The controller plugin protocol and the sliding-mode structure the dissertation's laws share.
 
-Every law of Chapters 2-5 has the form
+Every law of Chapters 2-5 has the form of (2.24), (2.32), (3.26), (3.47), (3.51), (4.16), (4.43), (5.25):
 
-    u = -M(x1) (u_eq + u_c + u_sw)          (2.24), (2.32), (3.26), (3.47), (3.51), (4.16), (4.43), (5.25) ...
+.. math::
 
-with a sliding surface s, an equivalent control u_eq = Psi(x_hat) + (surface terms) - xdd_d, a compensation
-u_c taken from the observer, and a switching law u_sw = K sign(s). :class:`SlidingModeController` implements
-that frame; a concrete law supplies only the surface (and its terms in u_eq) and the switching gain K:
+    u = -M(x_1) \left(u_{eq} + u_c + u_{sw}\right)
 
-=====================  ==========================================  ==================  =====================
-law                    surface                                     compensation        K
-=====================  ==========================================  ==================  =====================
-``smc``                e_dot + c e  (3.46)                         any                 bound + mu
-``ntsmc``              (3.50), time-varying terminal term          any                 bound + mu
-``nftsmc``             integral NFTSM (2.22), (4.15), (5.15)       any                 bound + mu
-``a_nftsmc``           as ``nftsmc``                               any                 K_hat + mu, (2.36)
-``sigmoid_nftsmc``     (3.18), sigmoid-blended linear/terminal     any                 bound + mu
-=====================  ==========================================  ==================  =====================
+with a sliding surface s, an equivalent control :math:`u_{eq} = \Psi(\hat x) + (\text{surface terms}) - \ddot x_d`,
+a compensation :math:`u_c` taken from the observer, and a switching law :math:`u_{sw} = K \operatorname{sign}(s)`.
+:class:`SlidingModeController` implements that frame; a concrete law supplies only the surface (and its terms
+in :math:`u_{eq}`) and the switching gain K. (5.25) prints :math:`u = -M(x_1)(u_{eq} + u_{sw})` with the
+compensation inside :math:`u_{eq}` (5.26); the frame keeps it apart, so that a scenario can choose it.
 
-The printed laws write M(x) or g(x_hat)^-1 and Psi(x); we use M at the measured position (M depends only on
-x1, which is measured). The velocity in e_dot and in Psi is the scenario's explicit choice
-(``controller_velocity``): the tachometer reading where the robot has tachometers and the chapter feeds the
-controller measured states (Chapter 2: (2.22)-(2.35) are written on x2), else the observer's x2_hat
-(Chapters 3-5, positions only). It does not depend on which observer is plugged in.
+| law | surface | compensation | K |
+|---|---|---|---|
+| ``smc`` | :math:`\dot e + c e`, (3.46) | any | :math:`\Delta + \mu` |
+| ``ntsmc`` | (3.50), time-varying terminal term | any | :math:`\Delta + \mu` |
+| ``nftsmc`` | integral NFTSM (2.22), (4.15), (5.15) | any | :math:`\Delta + \mu` |
+| ``a_nftsmc`` | as ``nftsmc`` | any | :math:`\hat K + \mu`, (2.36) |
+| ``sigmoid_nftsmc`` | (3.18), sigmoid-blended linear/terminal | any | :math:`\Delta + \mu` |
+
+(:math:`\Delta` is the gain ``bound``, :math:`\mu` the gain ``mu``.) The printed laws write
+:math:`M(x)` or :math:`g(\hat x)^{-1}` and :math:`\Psi(x)`; we use M at the measured position (M depends only
+on :math:`x_1`, which is measured). The velocity in :math:`\dot e` and in :math:`\Psi` is the scenario's
+explicit choice (``controller_velocity``): the tachometer reading where the robot has tachometers and the
+chapter feeds the controller measured states (Chapter 2: (2.22)-(2.35) are written on :math:`x_2`), else the
+observer's :math:`\hat x_2` (Chapters 3-5, positions only). It does not depend on which observer is plugged in.
 
 A controller sees the reference, the measured positions, the observer's estimates and the nominal model;
 never MjData. The math runs over arrays whose last axis is the joint.
@@ -46,16 +49,17 @@ Compensation = Literal["injection", "estimate", "none"]
 
 
 class SwitchingConfig(GainConfig):
-    """What every law's switching part takes: mu (the margin of every reaching condition) and the
-    compensation. Laws with a fixed gain add ``bound`` (:class:`BoundedSwitchingConfig`)."""
+    r"""What every law's switching part takes: ``mu`` (:math:`\mu`, the margin of every reaching condition) and
+    the compensation :math:`u_c`. Laws with a fixed gain add ``bound`` (:class:`BoundedSwitchingConfig`)."""
 
     mu: PositiveJoints
     compensation: Compensation = "injection"
 
 
 class BoundedSwitchingConfig(SwitchingConfig):
-    """A fixed switching gain bound + mu: Delta_d of (3.28), K of (2.27), Xi of (4.18), Lambda of (4.45),
-    Delta_delta of (5.27): the bound the switching term must dominate."""
+    r"""A fixed switching gain ``bound`` + ``mu``: :math:`\Delta_d` of (3.28), K of (2.27), :math:`\Xi` of
+    (4.18), :math:`\Lambda` of (4.45), :math:`\Delta_\delta` of (5.27): the bound the switching term must
+    dominate."""
 
     bound: NonNegativeJoints
 
@@ -88,7 +92,8 @@ class Controller(Method):
 
 
 class SlidingModeController(Controller):
-    """u = -M(x1) (u_eq + u_c + u_sw) with u_eq = Psi(x_hat) + surface terms - xdd_d.
+    r""":math:`u = -M(x_1) (u_{eq} + u_c + u_{sw})` with
+    :math:`u_{eq} = \Psi(\hat x) + (\text{surface terms}) - \ddot x_d`.
 
     Subclasses define :meth:`surface`; the switching gain is ``bound + mu`` unless they override
     :meth:`switching_gain` (the adaptive law does).
@@ -101,19 +106,20 @@ class SlidingModeController(Controller):
 
     @abstractmethod
     def surface(self, t: float, e: np.ndarray, e_dot: np.ndarray) -> np.ndarray:
-        """Update ``self.sliding`` from the tracking errors and return the surface's terms in u_eq
-        (the part of ds/dt that is not e_ddot). ``e_dot`` is the controller's velocity (measured or the
-        observer's estimate, see the module docstring) minus the reference's."""
+        r"""Update ``self.sliding`` from the tracking errors and return the surface's terms in :math:`u_{eq}`
+        (the part of :math:`\dot s` that is not :math:`\ddot e`). ``e_dot`` is the controller's velocity
+        (measured or the observer's estimate, see the module docstring) minus the reference's."""
 
     def switching_gain(self) -> np.ndarray:
-        """The gain K of the switching law K sign(s), called once per period after :meth:`surface`."""
+        r"""The gain K of the switching law :math:`K \operatorname{sign}(s)`, called once per period after
+        :meth:`surface`."""
         return self._gain
 
     def switching(self) -> np.ndarray:
         return self.switching_gain() * np.sign(self.sliding)
 
     def observer_compensation(self, observer: Observer) -> np.ndarray | None:
-        """u_c: the observer's injection, its LUaF estimate, or None (no compensation)."""
+        r""":math:`u_c`: the observer's injection, its LUaF estimate, or None (no compensation)."""
         if self.compensation == "injection":
             return observer.injection
         if self.compensation == "estimate":

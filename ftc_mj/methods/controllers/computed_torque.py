@@ -1,31 +1,40 @@
-"""Computed-torque (inverse-dynamics) control with PD error feedback: the field's model-based FTC baseline.
+r"""Computed-torque (inverse-dynamics) control with PD error feedback: the field's model-based FTC baseline.
 
-With e = x1 - x_d and e_dot = x2 - xd_d (x2 the controller's velocity, see :mod:`.base`), the law is
+With :math:`e = x_1 - x_d` and :math:`\dot e = x_2 - \dot x_d` (:math:`x_2` the controller's velocity, see
+:mod:`.base`), the law is
 
-    tau = M(x1) (xdd_d - K_d e_dot - K_p e - u_c) + C(x, x2) x2 + g(x1)
+.. math::
+
+    \tau = M(x_1) \left(\ddot x_d - K_d \dot e - K_p e - u_c\right) + C(x_1, x_2)\, x_2 + g(x_1)
 
 (Spong, Hutchinson and Vidyasagar, "Robot Modeling and Control", Wiley 2006, section 8.3 "Inverse dynamics";
 Siciliano, Sciavicco, Villani and Oriolo, "Robotics: Modelling, Planning and Control", Springer 2009, section
-8.5.2 "Inverse dynamics control"). Since Psi = -M^-1 (C qd + g) (eq. (5.2)), C x2 + g = -M Psi(x) and the law is one
-product with M:
+8.5.2 "Inverse dynamics control"). Since :math:`\Psi = -M^{-1} (C \dot q + g)` (eq. (5.2)),
+:math:`C x_2 + g = -M \Psi(x)` and the law is one product with M:
 
-    tau = M(x1) (xdd_d - Psi(x) - K_d e_dot - K_p e - u_c)
+.. math::
 
-On the plant qdd = Psi + M^-1 tau + LUaF (5.2) with the exact model this leaves the error dynamics
+    \tau = M(x_1) \left(\ddot x_d - \Psi(x) - K_d \dot e - K_p e - u_c\right)
 
-    e_ddot + K_d e_dot + K_p e = LUaF - u_c
+On the plant (5.2), :math:`\ddot q = \Psi + M^{-1} \tau + \Delta`, with the exact model this leaves the error
+dynamics
 
-so without uncertainty e follows the linear PD dynamics, and with an observer's LUaF estimate as u_c
+.. math::
+
+    \ddot e + K_d \dot e + K_p e = \Delta - u_c
+
+so without uncertainty e follows the linear PD dynamics, and with an observer's LUaF estimate as :math:`u_c`
 (``compensation: estimate``) the residual is the estimation error: the usual "computed torque + disturbance
 observer" fault-tolerant baseline (e.g. Chen, Ballance, Gawthrop and O'Reilly, IEEE TIE 47(4), 2000, for the
 manipulator DOB). ``compensation: injection`` subtracts the observer's whole velocity-equation injection, as
 the sliding-mode laws do; ``none`` (the default) is plain computed torque.
 
-Design rule: K_d = 2 sqrt(K_p) per joint when ``kd`` is not given, which makes each joint's error dynamics
-critically damped with the double pole -sqrt(K_p) (Spong et al., section 8.3: omega = sqrt(K_p), zeta = 1).
+Design rule: :math:`K_d = 2 \sqrt{K_p}` per joint when ``kd`` is not given, which makes each joint's error
+dynamics critically damped with the double pole :math:`-\sqrt{K_p}` (Spong et al., section 8.3:
+:math:`\omega = \sqrt{K_p}`, :math:`\zeta = 1`).
 
-The recorded sliding variable is s = e_dot + (K_p / K_d) e, the PD feedback (K_d e_dot + K_p e) / K_d in
-velocity units: zero exactly where the PD term commands no correction.
+The recorded sliding variable is :math:`s = \dot e + (K_p / K_d)\, e`, the PD feedback
+:math:`(K_d \dot e + K_p e) / K_d` in velocity units: zero exactly where the PD term commands no correction.
 """
 
 from __future__ import annotations
@@ -40,8 +49,8 @@ from ftc_mj.methods.gains import GainConfig, PositiveJoints
 
 
 class ComputedTorqueConfig(GainConfig):
-    """Per-joint PD gains K_p [1/s^2] and K_d [1/s] of the error dynamics; ``kd`` defaults to 2 sqrt(K_p)
-    (critical damping). ``compensation`` as for the sliding-mode laws; default ``none``."""
+    r"""Per-joint PD gains :math:`K_p` [1/s^2] and :math:`K_d` [1/s] of the error dynamics; ``kd`` defaults to
+    :math:`2 \sqrt{K_p}` (critical damping). ``compensation`` as for the sliding-mode laws; default ``none``."""
 
     kp: PositiveJoints
     kd: PositiveJoints | None = None
@@ -55,8 +64,8 @@ class ComputedTorqueConfig(GainConfig):
 
 
 class ComputedTorque(Controller):
-    """tau = M(x1) (xdd_d - Psi(x) - K_d e_dot - K_p e - u_c): inverse-dynamics control (Spong et al. 8.3,
-    Siciliano et al. 8.5.2) with C x2 + g = -M Psi of (5.2)."""
+    r""":math:`\tau = M(x_1) (\ddot x_d - \Psi(x) - K_d \dot e - K_p e - u_c)`: inverse-dynamics control (Spong
+    et al. section 8.3, Siciliano et al. section 8.5.2) with :math:`C x_2 + g = -M \Psi` of (5.2)."""
 
     name: ClassVar[str] = "computed_torque"
     signal_names: ClassVar[frozenset[str] | None] = frozenset()

@@ -1,28 +1,45 @@
-"""Non-singular fast terminal sliding-mode control on an integral surface: Chapters 2, 4 and 5.
+r"""Non-singular fast terminal sliding-mode control on an integral surface: Chapters 2, 4 and 5.
 
-Surface (2.22) = (5.15), with e = x1 - x_d and e_dot the observer's velocity minus xd_d ((5.14); the measured
-one in Chapter 2, where the DO passes the tachometer through):
+Surface (2.22) = (5.15), with :math:`e = x_1 - x_d` and :math:`\hat e = \hat x_2 - \dot x_d` the observer's
+velocity minus the reference's ((5.14); the measured one in Chapter 2, where the DO passes the tachometer
+through):
 
-    s = e_dot + integral of A,   A = b1 |e|^g1 sign(e) + b2 |e_dot|^g2 sign(e_dot) + b3 e + b4 e^3
+.. math::
 
-Chapter 4's surface (4.15) is the same with b3 = b4 = 0 (kappa1 -> beta1, alpha1 -> gamma1, kappa2 -> beta2,
-alpha2 -> gamma2). Control (2.24)-(2.27), (4.16)-(4.18), (5.25)-(5.27):
+    \hat s = \hat e + \int_0^t A\, dt, \qquad
+    A = \beta_1 |e|^{\gamma_1} \operatorname{sign}(e) + \beta_2 |\hat e|^{\gamma_2} \operatorname{sign}(\hat e)
+    + \beta_3 e + \beta_4 e^3
 
-    u = -M(x1) (u_eq + u_c + u_sw),  u_eq = Psi(x_hat) + A - xdd_d,  u_sw = (bound + mu) sign(s)
+with :math:`0 < \gamma_1 < 1` and :math:`\gamma_2 = 2 \gamma_1 / (1 + \gamma_1)` by default ((2.23), (4.12)).
+(2.22) writes the gains :math:`\kappa_i` and the exponents :math:`\beta_i` (:math:`\kappa_i \to \beta_i`,
+:math:`\beta_i \to \gamma_i` here); Chapter 4's surface (4.15) is the same with :math:`\beta_3 = \beta_4 = 0`
+(:math:`\kappa_1 \to \beta_1`, :math:`\alpha_1 \to \gamma_1`, :math:`\kappa_2 \to \beta_2`,
+:math:`\alpha_2 \to \gamma_2`). Control (2.24)-(2.27), (4.16)-(4.18), (5.25)-(5.27):
 
-The compensation u_c selects the variant:
+.. math::
+
+    u = -M(x_1) \left(u_{eq} + u_c + u_{sw}\right), \quad u_{eq} = \Psi(\hat x) + A - \ddot x_d, \quad
+    u_{sw} = (\Delta + \mu) \operatorname{sign}(\hat s)
+
+(:math:`\Delta` the gain ``bound``: :math:`\Delta_\delta` of (5.27), K of (2.27), :math:`\Xi` of (4.18),
+:math:`\Lambda` of (4.45)). In discrete time :math:`\hat s_k = \hat e_k + I_k`, then
+:math:`I_{k+1} = I_k + T A_k` (explicit Euler). The compensation :math:`u_c` selects the variant:
 
 * ``injection``: the observer's whole velocity-equation injection. With the TOSMO this is
-  k2 |x1~|^(1/3) sign(x1~) + integral k3 sign(x1~), the bracket of (4.17); with the high-speed TOSMO the
-  bracket of (5.26); with the SOSMO k2 sign(x1~), the u_c of (4.53). ds/dt = -K sign(s) exactly, then.
-* ``estimate``: only the LUaF estimate: integral k3 sign(x1~) of (4.61) (Appendix D), the DO's zeta_hat of
-  (2.26).
+  :math:`k_2 |\tilde x_1|^{1/3} \operatorname{sign}(\tilde x_1) + \int k_3 \operatorname{sign}(\tilde x_1)\, dt`,
+  the observer's terms of (4.17) (which prints :math:`\lambda_3` for the TOSMO's :math:`\gamma_3`); with the
+  high-speed TOSMO those of (5.26), the same plus :math:`\Gamma (\dot{\hat x}_1 - \hat x_2)`; with the SOSMO
+  :math:`k_2 \operatorname{sign}(\tilde x_1)`, the :math:`u_c` of (4.53).
+  :math:`\dot{\hat s} = -(\Delta + \mu) \operatorname{sign}(\hat s)` exactly, then.
+* ``estimate``: only the LUaF estimate: :math:`\int k_3 \operatorname{sign}(\tilde x_1)\, dt` of (4.61)
+  (Appendix D), the DO's :math:`\hat\zeta` of (2.26).
 * ``none``: no compensation; the switching gain covers the whole LUaF ((2.27) comparator, Appendix B (4.45)).
 
-(5.26) prints Psi(x), which needs the velocity; we use Psi(x_hat), which is what the proof's (5.31) contains.
+(5.26) prints :math:`\Psi(x)`, which needs the velocity; we use :math:`\Psi(\hat x)`, which is what the proof's
+(5.31) contains.
 
-:class:`AdaptiveNFTSMC` replaces the fixed gain by K_hat + mu with K_hat' = rho |s| (2.36), or with the
-dead-zone law (2.43) that stops the drift once |s| < epsilon.
+:class:`AdaptiveNFTSMC` replaces the fixed gain by :math:`\hat K + \mu` with :math:`\dot{\hat K} = \rho |\hat s|`
+(2.36), or with the dead-zone law (2.43) that stops the drift once :math:`|\hat s| < \varepsilon`.
 """
 
 from __future__ import annotations
@@ -39,8 +56,9 @@ from ftc_mj.methods.primitives import signed_power
 
 
 class NFTSMCSurfaceConfig(SwitchingConfig):
-    """Gains of the surface (2.22)/(5.15); ``gamma2`` defaults to 2 gamma1 / (1 + gamma1), as (2.23)
-    prescribes. ``beta3``, ``beta4`` default to 0, which is Chapter 4's surface (4.15)."""
+    r"""Gains of the surface (2.22)/(5.15): :math:`\beta_1, \ldots, \beta_4`, :math:`\gamma_1`, :math:`\gamma_2`;
+    ``gamma2`` defaults to :math:`2 \gamma_1 / (1 + \gamma_1)`, as (2.23) prescribes. ``beta3``, ``beta4``
+    default to 0, which is Chapter 4's surface (4.15)."""
 
     beta1: PositiveJoints
     beta2: PositiveJoints
@@ -60,8 +78,8 @@ class NFTSMCSurfaceConfig(SwitchingConfig):
 
 
 class NFTSMCConfig(NFTSMCSurfaceConfig):
-    """Adds the bound the switching term must dominate: Delta_delta of (5.27), K of (2.27), Xi of (4.18),
-    Lambda of (4.45)."""
+    r"""Adds the bound the switching term must dominate: :math:`\Delta_\delta` of (5.27), K of (2.27),
+    :math:`\Xi` of (4.18), :math:`\Lambda` of (4.45)."""
 
     bound: NonNegativeJoints
 
@@ -75,7 +93,7 @@ class NFTSMC(SlidingModeController):
 
     def __init__(self, config: NFTSMCSurfaceConfig, n_joints: int, dt: float, members: int | None = None):
         super().__init__(config, n_joints, dt, members)
-        #: The integral of A in the surface (5.15).
+        #: The integral of A in the surface (5.15), :math:`I = \int_0^t A\, dt`.
         self.integral = np.zeros(self.shape)
         c = self.config
         #: The law's accelerator (:mod:`ftc_mj.fast.laws`) registered for this class exactly, or None: the NumPy law.
@@ -104,8 +122,8 @@ class NFTSMC(SlidingModeController):
 
 
 class AdaptiveNFTSMCConfig(NFTSMCSurfaceConfig):
-    """Gains of (2.32)-(2.36) and (2.43): adaptation gain rho, dead zone epsilon (0 = the plain law (2.36)),
-    and the initial switching-gain estimate K_hat(0)."""
+    r"""Gains of (2.32)-(2.36) and (2.43): adaptation gain :math:`\rho`, dead zone :math:`\varepsilon` (0 = the
+    plain law (2.36)), and the initial switching-gain estimate :math:`\hat K(0)`."""
 
     rho: PositiveJoints
     dead_zone: NonNegativeFloat = 0.0
@@ -113,9 +131,16 @@ class AdaptiveNFTSMCConfig(NFTSMCSurfaceConfig):
 
 
 class AdaptiveNFTSMC(NFTSMC):
-    """A-NFTSMC, eqs. (2.32)-(2.36): u_sw = (K_hat + mu) sign(s), K_hat' = rho |s|; with ``dead_zone`` > 0 the
-    drift-free law (2.43): K_hat' = rho |s| only while |s| >= epsilon. K_hat is recorded as the signal
-    ``switching_gain`` (Fig. 2.8)."""
+    r"""A-NFTSMC, eqs. (2.32)-(2.36): :math:`u_{sw} = (\hat K + \mu) \operatorname{sign}(s)`,
+    :math:`\dot{\hat K} = \rho |s|`; with ``dead_zone`` :math:`\varepsilon > 0` the drift-free law (2.43):
+
+    .. math::
+
+        \dot{\hat K} = \begin{cases} \rho |s|, & |s| \ge \varepsilon \\ 0, & \text{else} \end{cases}
+
+    In discrete time the period's gain is :math:`\hat K_k + \mu`, then
+    :math:`\hat K_{k+1} = \hat K_k + T \dot{\hat K}_k` (explicit Euler). :math:`\hat K` is recorded as the
+    signal ``switching_gain`` (Fig. 2.8)."""
 
     name: ClassVar[str] = "a_nftsmc"
     signal_names: ClassVar[frozenset[str] | None] = frozenset({"switching_gain"})

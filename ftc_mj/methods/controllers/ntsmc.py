@@ -1,14 +1,26 @@
-"""Non-singular terminal sliding-mode control, Chapter 3 Appendix B, eqs. (3.50)-(3.53).
+r"""Non-singular terminal sliding-mode control, Chapter 3 Appendix B, eqs. (3.50)-(3.53).
 
-    s = e_dot + b1 e + b2 exp(-lambda t) (e^T e)^(-alpha) e                                   (3.50)
-    u = -M(x1) (u_eq + u_c + u_sw),  u_eq = Psi(x_hat) + b1 e_dot + b2 A - xdd_d               (3.52)
-    A = d/dt [exp(-lambda t) (e^T e)^(-alpha) e]
-      = exp(-lambda t) (e^T e)^(-alpha) [ -lambda e - 2 alpha (e^T e)^(-1) (e^T e_dot) e + e_dot ]
+With :math:`e = x_1 - x_d` and :math:`\hat e = \hat x_2 - \dot x_d` ((3.16), (3.17)), the surface (3.50) and
+the control (3.51)-(3.53):
 
-e^T e couples the joints (one norm over the arm). The terminal term is |e|^(1 - 2 alpha) in size: it vanishes
-at e = 0 for alpha < 1/2, but A carries |e|^(-2 alpha) e_dot, which grows without bound as e -> 0; the
-factor exp(-lambda t) is what makes the law usable, by fading the term out. At e = 0 exactly both are set
-to 0 (their limit along the surface). (3.52) writes e_dot; without tachometers we use the observer's.
+.. math::
+
+    \hat s = \hat e + \beta_1 e + \beta_2 \exp(-\lambda t) (e^T e)^{-\alpha} e
+
+    u = -M(x_1) \left(u_{eq} + u_c + u_{sw}\right), \quad
+    u_{eq} = \Psi(\hat x) + \beta_1 \hat e + \beta_2 A - \ddot x_d, \quad
+    u_{sw} = (\Delta_d + \mu) \operatorname{sign}(\hat s)
+
+    A = \frac{d}{dt}\left[\exp(-\lambda t) (e^T e)^{-\alpha} e\right]
+    = \exp(-\lambda t) (e^T e)^{-\alpha} \left[-\lambda e - 2 \alpha (e^T e)^{-1} (e^T \hat e)\, e + \hat e\right]
+
+(A as the text after (3.53) prints it; :math:`u_c` defaults to the estimate of (3.52),
+:math:`\int \gamma_3 \operatorname{sign}(\tilde x_1)\, dt`: ``compensation: estimate``). :math:`e^T e`
+couples the joints (one norm over the arm). The terminal term is :math:`\|e\|^{1 - 2\alpha}` in size: it
+vanishes at :math:`e = 0` for :math:`\alpha < 1/2`, but A carries :math:`\|e\|^{-2\alpha} \hat e`, which grows
+without bound as :math:`e \to 0`; the factor :math:`\exp(-\lambda t)` is what makes the law usable, by fading
+the term out. At :math:`e = 0` exactly both are set to 0 (their limit along the surface). (3.52) writes
+:math:`\dot e`; without tachometers we use the observer's :math:`\hat e`.
 """
 
 from __future__ import annotations
@@ -23,7 +35,8 @@ from ftc_mj.methods.primitives import exp, power
 
 
 class NTSMCConfig(BoundedSwitchingConfig):
-    """beta1, beta2, lambda, alpha of (3.50) (Table 3.2: 1.5, 0.4, 0.7, 0.3), Delta_d and mu of (3.53)."""
+    r""":math:`\beta_1, \beta_2, \lambda, \alpha` of (3.50) (Table 3.2: 1.5, 0.4, 0.7, 0.3; :math:`\lambda` is
+    ``decay``), :math:`\Delta_d` (``bound``) and :math:`\mu` of (3.53)."""
 
     beta1: PositiveJoints
     beta2: PositiveJoints
@@ -33,7 +46,8 @@ class NTSMCConfig(BoundedSwitchingConfig):
 
 
 class NTSMC(SlidingModeController):
-    """NTSMC with the time-decaying terminal term of (3.50)."""
+    r"""NTSMC with the time-decaying terminal term :math:`\beta_2 \exp(-\lambda t) (e^T e)^{-\alpha} e` of
+    (3.50)."""
 
     name: ClassVar[str] = "ntsmc"
     signal_names: ClassVar[frozenset[str] | None] = frozenset()

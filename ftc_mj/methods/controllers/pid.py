@@ -1,17 +1,30 @@
-"""Independent joint PID with anti-windup and torque limits: the industrial baseline.
+r"""Independent joint PID with anti-windup and torque limits: the industrial baseline.
 
-Each joint on its own, with e = x1 - x_d and e_dot the controller's velocity minus xd_d (the tachometer
-reading or the observer's x2_hat, :meth:`~ftc_mj.robot.nominal.StepModel.control_velocity`, as for every law):
+Each joint on its own, with :math:`e = x_1 - x_d` and :math:`\dot e` the controller's velocity minus
+:math:`\dot x_d` (the tachometer reading or the observer's :math:`\hat x_2`,
+:meth:`~ftc_mj.robot.nominal.StepModel.control_velocity`, as for every law):
 
-    v = -K_p e - K_i I - K_d e_dot,   tau = sat(v) = clip(v, -tau_max, tau_max),   dI/dt = e (gated below)
+.. math::
 
-No model: the law ignores the nominal model (no M, no Psi, no gravity feed-forward) and the observer's LUaF
-estimate; the integrator alone holds gravity and every other constant load (Spong, Hutchinson and
-Vidyasagar, "Robot Modeling and Control", Wiley 2006, section 6.3, set-point tracking by independent joint PD and PID compensators).
+    v = -K_p e - K_i I - K_d \dot e, \quad
+    \tau = \operatorname{sat}(v) = \min\left(\max(v, -\tau_{\mathrm{max}}), \tau_{\mathrm{max}}\right), \quad
+    \dot I = e \ \text{(gated below)}
+
+No model: the law ignores the nominal model (no M, no :math:`\Psi`, no gravity feed-forward) and the
+observer's LUaF estimate; the integrator alone holds gravity and every other constant load (Spong, Hutchinson
+and Vidyasagar, "Robot Modeling and Control", Wiley 2006, section 6.3, set-point tracking by independent joint
+PD and PID compensators).
 
 Anti-windup by conditional integration, also called clamping (Astrom and Hagglund, "Advanced PID Control",
-ISA 2006, section 3.5 "Integrator windup"): the integrator holds while the command is saturated (v != tau) and
-integrating would drive it further into saturation (the increment -K_i dt e has the sign of v, i.e. v e < 0).
+ISA 2006, section 3.5 "Integrator windup"): the integrator holds while the command is saturated
+(:math:`v \ne \tau`) and integrating would drive it further into saturation (the increment
+:math:`-K_i T e` has the sign of v, i.e. :math:`v e < 0`):
+
+.. math::
+
+    I_{k+1} = \begin{cases} I_k, & v_k \ne \tau_k \text{ and } v_k e_k < 0 \\ I_k + T e_k, & \text{else}
+    \end{cases}
+
 It integrates again as soon as the error reverses or the command leaves the limit. ``anti_windup: none``
 integrates always (the windup the comparison shows). Without ``torque_limit`` the command is never clipped
 and the gate never closes.
@@ -30,8 +43,9 @@ from ftc_mj.methods.gains import GainConfig, NonNegativeJoints, PositiveJoints
 
 
 class PIDConfig(GainConfig):
-    """Per-joint gains K_p [N m/rad], K_i [N m/(rad s)], K_d [N m s/rad]; ``torque_limit`` tau_max [N m] per
-    joint (none: unlimited); ``anti_windup`` ``clamping`` (conditional integration) or ``none``."""
+    r"""Per-joint gains :math:`K_p` [N m/rad], :math:`K_i` [N m/(rad s)], :math:`K_d` [N m s/rad];
+    ``torque_limit`` :math:`\tau_{\mathrm{max}}` [N m] per joint (none: unlimited); ``anti_windup`` ``clamping``
+    (conditional integration) or ``none``."""
 
     kp: PositiveJoints
     ki: NonNegativeJoints
@@ -41,8 +55,8 @@ class PIDConfig(GainConfig):
 
 
 class PID(Controller):
-    """tau = sat(-K_p e - K_i integral(e) - K_d e_dot) with conditional integration (Astrom and Hagglund 2006,
-    section 3.5)."""
+    r""":math:`\tau = \operatorname{sat}(-K_p e - K_i \int e\, dt - K_d \dot e)` with conditional integration
+    (Astrom and Hagglund 2006, section 3.5)."""
 
     name: ClassVar[str] = "pid"
     signal_names: ClassVar[frozenset[str] | None] = frozenset({"integral"})

@@ -1,10 +1,16 @@
-"""Conventional sliding-mode control: Chapter 2's comparator (Table 2.2) and Chapter 3 Appendix A, (3.46)-(3.49).
+r"""Conventional sliding-mode control: Chapter 2's comparator (Table 2.2) and Chapter 3 Appendix A, (3.46)-(3.49).
 
-    s = e_dot + c e                                               (3.46)
-    u = -M(x1) (u_eq + u_c + u_sw),  u_eq = Psi(x_hat) + c e_dot - xdd_d,  u_sw = (bound + mu) sign(s)
+.. math::
 
-(3.48) compensates the TOSMO's LUaF estimate, integral gamma3 sign(x1~) (``compensation: estimate``);
-Chapter 2's SMC has no observer compensation and a switching gain delta = 16 (``compensation: none``).
+    \hat s = \hat e + c e
+
+    u = -M(x_1) \left(u_{eq} + u_c + u_{sw}\right), \quad u_{eq} = \Psi(\hat x) + c \hat e - \ddot x_d, \quad
+    u_{sw} = (\Delta_d + \mu) \operatorname{sign}(\hat s)
+
+with :math:`e = x_1 - x_d`, :math:`\hat e = \hat x_2 - \dot x_d`. (3.48) compensates the TOSMO's LUaF estimate,
+:math:`u_c = \int \gamma_3 \operatorname{sign}(\tilde x_1)\, dt` (``compensation: estimate``), and writes
+:math:`c \dot e` for :math:`c \hat e` (no tachometer: we use the observer's); Chapter 2's SMC has no observer
+compensation and a switching gain :math:`\delta = 16` (``compensation: none``).
 """
 
 from __future__ import annotations
@@ -18,14 +24,14 @@ from ftc_mj.methods.gains import PositiveJoints
 
 
 class SMCConfig(BoundedSwitchingConfig):
-    """Slope c of (3.46), the bound Delta_d (delta in Table 2.2) and mu of (3.49)."""
+    r"""Slope c of (3.46), the bound :math:`\Delta_d` (:math:`\delta` in Table 2.2) and :math:`\mu` of (3.49)."""
 
     c: PositiveJoints
     compensation: Compensation = "estimate"
 
 
 class SMC(SlidingModeController):
-    """Conventional SMC on the linear surface (3.46)."""
+    r"""Conventional SMC on the linear surface (3.46), :math:`\hat s = \hat e + c e`."""
 
     name: ClassVar[str] = "smc"
     signal_names: ClassVar[frozenset[str] | None] = frozenset()

@@ -1,26 +1,36 @@
-"""Super-twisting sliding-mode control on a linear surface: the field's second-order sliding-mode baseline.
+r"""Super-twisting sliding-mode control on a linear surface: the field's second-order sliding-mode baseline.
 
-Surface and control, in the frame of :mod:`.base` (e = x1 - x_d, e_dot the controller's velocity minus xd_d):
+Surface and control, in the frame of :mod:`.base` (:math:`e = x_1 - x_d`, :math:`\dot e` the controller's
+velocity minus :math:`\dot x_d`):
 
-    s = e_dot + c e
-    u = -M(x1) (u_eq + u_c + u_sw),   u_eq = Psi(x_hat) + c e_dot - xdd_d,
-    u_sw = k1 |s|^(1/2) sign(s) + z,   dz/dt = k2 sign(s),  z(0) = 0
+.. math::
 
-On the plant qdd = Psi + M^-1 tau + LUaF (5.2) this gives the super-twisting algorithm
+    s = \dot e + c e
 
-    ds/dt = -k1 |s|^(1/2) sign(s) + v,   dv/dt = -k2 sign(s) + d rho/dt,   v = rho - z,   rho = LUaF - u_c
+    u = -M(x_1) \left(u_{eq} + u_c + u_{sw}\right), \quad u_{eq} = \Psi(\hat x) + c \dot e - \ddot x_d
+
+    u_{sw} = k_1 |s|^{1/2} \operatorname{sign}(s) + z, \quad \dot z = k_2 \operatorname{sign}(s), \quad z(0) = 0
+
+On the plant (5.2), :math:`\ddot q = \Psi + M^{-1} \tau + \Delta`, this gives the super-twisting algorithm
+
+.. math::
+
+    \dot s = -k_1 |s|^{1/2} \operatorname{sign}(s) + v, \quad \dot v = -k_2 \operatorname{sign}(s) + \dot\rho,
+    \quad v = \rho - z, \quad \rho = \Delta - u_c
 
 (Levant, "Sliding order and sliding accuracy in sliding mode control", Int. J. Control 58(6), 1993; Moreno
-and Osorio, "Strict Lyapunov functions for the super-twisting algorithm", IEEE TAC 57(4), 2012), which
-reaches s = ds/dt = 0 in finite time for any |d rho/dt| <= L when k1, k2 are large enough: the control is
-continuous (z absorbs rho, no chattering gain above the perturbation), unlike u_sw = K sign(s). Sampled with
-period dt it keeps |s| = O(dt^2) and |ds/dt| = O(dt) (Levant 1993).
+and Osorio, "Strict Lyapunov functions for the super-twisting algorithm", IEEE TAC 57(4), 2012), which reaches
+:math:`s = \dot s = 0` in finite time for any :math:`|\dot\rho| \le L` when :math:`k_1`, :math:`k_2` are
+large enough: the control is continuous (z absorbs :math:`\rho`, no chattering gain above the perturbation),
+unlike :math:`u_{sw} = K \operatorname{sign}(s)`. Sampled with period T it keeps
+:math:`|s| = O(T^2)` and :math:`|\dot s| = O(T)` (Levant 1993). In discrete time :math:`u_{sw}` takes this
+period's :math:`z_k`, then :math:`z_{k+1} = z_k + T k_2 \operatorname{sign}(s_k)` (explicit Euler).
 
-Gains: ``c`` and either ``L`` (the bound on the perturbation's derivative, |d rho/dt| <= L) with Levant's rule
-k1 = 1.5 L^(1/2), k2 = 1.1 L (Levant, "Robust exact differentiation via sliding mode technique", Automatica
-34(3), 1998: lambda = 1.5 C^(1/2), alpha = 1.1 C for the same algorithm), or both ``k1`` and ``k2``. ``compensation`` as for the
-other laws, default ``none`` (z then estimates the whole LUaF). z is recorded as the signal
-``twisting_integral``.
+Gains: ``c`` and either ``L`` (the bound on the perturbation's derivative, :math:`|\dot\rho| \le L`) with
+Levant's rule :math:`k_1 = 1.5 L^{1/2}`, :math:`k_2 = 1.1 L` (Levant, "Robust exact differentiation via sliding
+mode technique", Automatica 34(3), 1998: :math:`\lambda = 1.5 C^{1/2}`, :math:`\alpha = 1.1 C` for the same
+algorithm), or both ``k1`` and ``k2``. ``compensation`` as for the other laws, default ``none`` (z then
+estimates the whole LUaF). z is recorded as the signal ``twisting_integral``.
 """
 
 from __future__ import annotations
@@ -35,13 +45,15 @@ from ftc_mj.methods.primitives import signed_power
 
 
 class SuperTwistingConfig(SuperTwistingGains):
-    """Slope ``c`` of s = e_dot + c e; either ``L`` (k1 = 1.5 L^(1/2), k2 = 1.1 L) or both ``k1``, ``k2``."""
+    r"""Slope ``c`` of :math:`s = \dot e + c e`; either ``L`` (:math:`k_1 = 1.5 L^{1/2}`, :math:`k_2 = 1.1 L`)
+    or both ``k1``, ``k2``."""
 
     c: PositiveJoints
     compensation: Compensation = "none"
 
 class SuperTwisting(SlidingModeController):
-    """Super-twisting control (Levant 1993; Moreno and Osorio 2012) on s = e_dot + c e."""
+    r"""Super-twisting control (Levant 1993; Moreno and Osorio 2012) on :math:`s = \dot e + c e`:
+    :math:`u_{sw} = k_1 |s|^{1/2} \operatorname{sign}(s) + \int k_2 \operatorname{sign}(s)\, dt`."""
 
     name: ClassVar[str] = "super_twisting"
     signal_names: ClassVar[frozenset[str] | None] = frozenset({"twisting_integral"})
@@ -69,7 +81,8 @@ class SuperTwisting(SlidingModeController):
         return np.multiply(c, e_dot, out=self._terms)
 
     def switching(self) -> np.ndarray:
-        """k1 |s|^(1/2) sign(s) + z with this period's z; then z += dt k2 sign(s) (explicit Euler)."""
+        r""":math:`k_1 |s|^{1/2} \operatorname{sign}(s) + z_k` with this period's z; then
+        :math:`z_{k+1} = z_k + T k_2 \operatorname{sign}(s_k)` (explicit Euler)."""
         s, u_sw = self.sliding, self._switching
         signed_power(s, 0.5, out=u_sw)
         u_sw *= self._k1

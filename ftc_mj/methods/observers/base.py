@@ -31,15 +31,15 @@ __all__ = ["Observer", "signed_power"]  # signed_power re-exported: plugins impo
 
 
 class Observer(Method):
-    """Estimates joint velocity and the lumped uncertainty and fault (LUaF) from positions.
+    r"""Estimates joint velocity and the lumped uncertainty and fault (LUaF) from positions.
 
     Attributes after :meth:`update`:
-        q_hat, qd_hat: state estimate x1_hat, x2_hat.
+        q_hat, qd_hat: state estimate :math:`\hat x_1`, :math:`\hat x_2`.
         luaf_hat: estimate of the lumped uncertainty and fault, in acceleration units.
         injection: the whole output injection into the observer's velocity equation (the estimate plus the
             correction terms); Chapter 3-5 controllers compensate this, Appendix-D-type ones ``luaf_hat``.
 
-    Class attribute ``needs``: the nominal quantities beyond M and Psi the observer reads from its
+    Class attribute ``needs``: the nominal quantities beyond M and :math:`\Psi` the observer reads from its
     :class:`StepModel` (names of :data:`ftc_mj.robot.nominal.NEEDS`, e.g. ``coriolis_transpose``); the engine
     evaluates them only for the observers that declare them. Empty by default.
     """
@@ -61,11 +61,11 @@ class Observer(Method):
         self.injection[:] = 0.0
 
     def measure(self, q_meas: np.ndarray, qd_meas: np.ndarray | None) -> None:
-        """Take this period's raw readings (``qd_meas`` is None without tachometers).
+        r"""Take this period's raw readings (``qd_meas`` is None without tachometers).
 
         Called before the nominal model is evaluated at ``(q_hat, qd_hat)``. Observers built on measured
-        states (the DO of Chapter 2) set ``q_hat`` and ``qd_hat`` to the readings here, so that Psi is the
-        measured-state H(x) of (2.6) and (2.25). The default does nothing.
+        states (the DO of Chapter 2) set ``q_hat`` and ``qd_hat`` to the readings here, so that :math:`\Psi` is
+        the measured-state :math:`H(x)` of (2.6) and (2.25). The default does nothing.
         """
 
     @abstractmethod

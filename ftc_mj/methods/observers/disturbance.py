@@ -11,13 +11,16 @@ With :math:`x_2` the measured velocity and :math:`\tilde x_2 = x_2 - \hat x_2`, 
     \dot z = k_2 \operatorname{sign}(\tilde x_2) + p_2 \tilde x_2
 
 a super-twisting observer on the velocity error with added linear terms (Remark 2.2: they speed up the
-convergence far from the origin). zeta_hat contains the integral z, so it needs no filter (Remark 2.3).
-H(x) is the nominal model's Psi, which holds its joint friction F where it has one
-(:mod:`ftc_mj.robot.friction`): H = -D^-1 (C x2 + G + F), so F is subtracted there.
+convergence far from the origin). :math:`\hat\zeta` contains the integral z, so it needs no filter (Remark
+2.3). :math:`H(x)` is the nominal model's :math:`\Psi`, which holds its joint friction F where it has one
+(:mod:`ftc_mj.robot.friction`): :math:`H = -D^{-1} (C x_2 + G + F)`, so F is subtracted there. (2.34), which
+restates (2.26) for the adaptive law, prints :math:`z = k_2 \operatorname{sign}(\tilde x_2) + p_2 \tilde x_2`
+without the dot; we use (2.6)'s :math:`\dot z`.
 
 Chapter 2's controllers use measured states: this observer passes the tachometer and encoder readings on as
-``q_hat`` and ``qd_hat`` (so Psi is H(x) of the measured state and e_dot the measured error), keeps its own
-x2_hat internally, and offers zeta_hat as both the LUaF estimate and the injection (u_c of (2.26)).
+``q_hat`` and ``qd_hat`` (so :math:`\Psi` is :math:`H(x)` of the measured state and :math:`\dot e` the measured
+error), keeps its own :math:`\hat x_2` internally, and offers :math:`\hat\zeta` as both the LUaF estimate and
+the injection (:math:`u_c` of (2.26)).
 """
 
 from __future__ import annotations
@@ -51,7 +54,7 @@ class DisturbanceObserver(Observer):
 
     def __init__(self, config: DisturbanceObserverConfig, n_joints: int, dt: float, members: int | None = None):
         super().__init__(config, n_joints, dt, members)
-        #: x2_hat of (2.6), the observer's own velocity state.
+        #: :math:`\hat x_2` of (2.6), the observer's own velocity state.
         self.velocity_state = np.zeros(self.shape)
         self._integral = np.zeros(self.shape)  # z
         self._error = np.zeros(self.shape)  # x2~ of this period

@@ -1,16 +1,23 @@
-"""Linear extended state observer (ESO), the linear comparator of Chapter 2 (Fig. 2.3, "ESO [7]").
+r"""Linear extended state observer (ESO), the linear comparator of Chapter 2 (Fig. 2.3, "ESO [7]").
 
 The dissertation does not print its ESO. We use the common third-order ESO on the measured position (so it
-needs no tachometer and runs in every chapter), with the nominal model as known dynamics and Gao's bandwidth
-parameterisation (all three observer poles at -omega_o):
+needs no tachometer and runs in every chapter), with the nominal model of (5.2) as known dynamics and Gao's
+bandwidth parameterisation (Gao, "Scaling and bandwidth-parameterization based controller tuning", ACC 2003:
+all three observer poles at :math:`-\omega_o`), with :math:`\tilde x_1 = x_1 - \hat x_1`:
 
-    dx1_hat/dt = x2_hat + 3 omega_o x1~
-    dx2_hat/dt = Psi(x_hat) + M(x1)^-1 u + z_hat + 3 omega_o^2 x1~           x1~ = x1 - x1_hat
-    dz_hat/dt  = omega_o^3 x1~
+.. math::
 
-z_hat is the LUaF estimate. The error dynamics are linear with characteristic polynomial (s + omega_o)^3, so
-the estimate converges exponentially and fast for large omega_o, and overshoots during the transient, which
-is the property Chapter 2 holds against it. Larger omega_o also passes more measurement noise.
+    \dot{\hat x}_1 = \hat x_2 + 3 \omega_o \tilde x_1
+
+    \dot{\hat x}_2 = \Psi(\hat x) + M(x_1)^{-1} u + \hat z + 3 \omega_o^2 \tilde x_1
+
+    \dot{\hat z} = \omega_o^3 \tilde x_1
+
+:math:`\hat z` is the LUaF estimate (``luaf_hat``), and :math:`\hat z + 3 \omega_o^2 \tilde x_1` the injection.
+The error dynamics are linear with characteristic polynomial :math:`(s + \omega_o)^3`, so the estimate
+converges exponentially and fast for large :math:`\omega_o`, and overshoots during the transient, which is the
+property Chapter 2 holds against it. Larger :math:`\omega_o` also passes more measurement noise. Explicit Euler
+at the period, with :math:`\tilde x_1` of the period's measurement.
 """
 
 from __future__ import annotations
@@ -25,13 +32,14 @@ from ftc_mj.robot.nominal import StepModel
 
 
 class ESOConfig(GainConfig):
-    """Observer bandwidth omega_o [rad/s]: the gains are 3 omega_o, 3 omega_o^2, omega_o^3."""
+    r"""Observer bandwidth :math:`\omega_o` [rad/s]: the gains are :math:`3 \omega_o`, :math:`3 \omega_o^2`,
+    :math:`\omega_o^3`."""
 
     bandwidth: PositiveJoints
 
 
 class ESO(Observer):
-    """Third-order linear ESO with bandwidth parameterisation."""
+    r"""Third-order linear ESO with bandwidth parameterisation: its three poles at :math:`-\omega_o`."""
 
     name: ClassVar[str] = "eso"
     signal_names: ClassVar[frozenset[str] | None] = frozenset()

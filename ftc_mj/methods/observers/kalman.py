@@ -1,77 +1,91 @@
-"""A Kalman filter with a disturbance state, per joint on (q, qd, d), position measurements only: the common
-"disturbance Kalman filter" (e.g. Hu and Xiong's and Wahrburg et al.'s collision estimators; Kalman 1960,
-Jazwinski 1970 for the filter itself).
+r"""A Kalman filter with a disturbance state, per joint on its position, velocity and disturbance
+:math:`(q, \dot q, d)`, position measurements only: the common "disturbance Kalman filter" (e.g. Hu and Xiong's
+and Wahrburg et al.'s collision estimators; Kalman 1960, Jazwinski 1970 for the filter itself).
 
-Model of each joint, with d the LUaF (acceleration units) as a random walk:
+Model of each joint, with d the LUaF (acceleration units, :math:`\Delta` of the plant (5.2)) as a random walk:
 
-    dq/dt = qd + w_q,   dqd/dt = u + d + w_qd,   dd/dt = w_d,   y = q + v
-    u = Psi(q_hat, qd_hat) + M(x1)^-1 tau
+.. math::
 
-w_q, w_qd, w_d white with spectral densities ``process_q``, ``process_qd``, ``process_d`` (per joint), v white
-with variance ``measurement`` (per sample, rad^2; an encoder of step s adds s^2 / 12).
+    \frac{d}{dt} q = \dot q + w_q, \quad \frac{d}{dt} \dot q = u + d + w_{\dot q}, \quad \frac{d}{dt} d = w_d,
+    \quad y = q + v, \qquad u = \Psi(\hat q, \hat{\dot q}) + M(x_1)^{-1} \tau
+
+:math:`w_q`, :math:`w_{\dot q}`, :math:`w_d` white with spectral densities :math:`S_q`, :math:`S_{\dot q}`,
+:math:`S_d` (``process_q``, ``process_qd``, ``process_d``, per joint), v white with variance R
+(``measurement``, per sample [rad^2]; an encoder of step s adds :math:`s^2 / 12`).
 
 **Tuning.** The filter is optimal for its model, so its covariances are its bandwidth: a ``process_d`` much
-larger than the LUaF's real motion makes a fast filter that passes the encoder's noise into qd_hat and d_hat
-(the noise's share of the error variance is the solution of a Lyapunov equation in the steady-state gain). A
-rule that needs no trial: ``measurement`` from the encoder (s^2 / 12 plus its noise's variance);
-``process_d`` = D^2 T from a bound D on |dd/dt| (the bound the TOSMOs are designed for), so that the random
-walk's step over a period, sqrt(process_d T), is the largest change of d in a period, D T (the Wiener-process
-models of Bar-Shalom, Li and Kirubarajan, "Estimation with Applications to Tracking and Navigation", Wiley
-2001, sec. 6.2-6.3: the noise's step over a period of the order of the state's largest change, 0.5 to 1 times
-it); ``process_qd`` = 0, since d already lumps every unknown acceleration.
+larger than the LUaF's real motion makes a fast filter that passes the encoder's noise into ``qd_hat`` and
+``luaf_hat`` (the noise's share of the error variance is the solution of a Lyapunov equation in the
+steady-state gain). A rule that needs no trial: ``measurement`` from the encoder (:math:`s^2 / 12` plus its
+noise's variance); ``process_d`` :math:`S_d = D^2 T` from a bound D on :math:`|\dot d|` (the bound the TOSMOs are
+designed for, Remark 5.3), so that the random walk's step over a period, :math:`\sqrt{S_d T}`,
+is the largest change of d in a period, D T (the Wiener-process models of Bar-Shalom, Li and Kirubarajan,
+"Estimation with Applications to Tracking and Navigation", Wiley 2001, section 6.2-6.3: the noise's step over a
+period of the order of the state's largest change, 0.5 to 1 times it); ``process_qd`` = 0, since d already
+lumps every unknown acceleration.
 
-**What is linearised.** The coupling of the joints through Psi(q, qd) and M^-1 is not modelled in the
-covariance: Psi + M^-1 tau enters as a known input, evaluated at the filter's estimate (the Jacobian of Psi is
-neglected). Each joint is then a linear chain of integrators with a model input, so the filter is a linear
-Kalman filter per joint (an EKF whose state Jacobian is the chain's), and its gains do not depend on the
-robot's state.
+**What is linearised.** The coupling of the joints through :math:`\Psi(q, \dot q)` and :math:`M^{-1}` is not
+modelled in the covariance: :math:`\Psi + M^{-1} \tau` enters as a known input, evaluated at the filter's
+estimate (the Jacobian of :math:`\Psi` is neglected). Each joint is then a linear chain of integrators with a
+model input, so the filter is a linear Kalman filter per joint (an EKF whose state Jacobian is the chain's),
+and its gains do not depend on the robot's state.
 
-**Discrete time.** The chain is discretised exactly at the period T with the input held (zero-order hold):
+**Discrete time.** The chain :math:`\dot x = A x + b u` is discretised exactly at the period T with the input
+held (zero-order hold), and its noise by Van Loan's integral, in closed form:
 
-    F = [[1, T, T^2/2], [0, 1, T], [0, 0, 1]],   B = [T^2/2, T, 0]
-    Q = integral_0^T e^(A s) diag(process_q, process_qd, process_d) e^(A^T s) ds     (Van Loan, closed form)
+.. math::
+
+    F = \begin{bmatrix} 1 & T & T^2/2 \\ 0 & 1 & T \\ 0 & 0 & 1 \end{bmatrix}, \quad
+    B = \begin{bmatrix} T^2/2 \\ T \\ 0 \end{bmatrix}, \quad
+    Q = \int_0^T e^{A s} \operatorname{diag}(S_q, S_{\dot q}, S_d)\, e^{A^T s}\, ds
 
 Each period:
 
-* :meth:`measure` (the measurement update, before the nominal model is evaluated): innovation
-  nu = y - q_prior, S = P00 + R, K = P[:, 0] / S, x += K nu, P -= K P[0, :]; so Psi is then taken at the
-  corrected estimate;
-* :meth:`update`: the injection is the LUaF estimate d_hat (the filter has no output injection into a velocity
-  equation a controller could cancel beyond its disturbance estimate);
-* :meth:`advance` (the time update): x = F x + B u, P = F P F^T + Q.
+* :meth:`measure` (the measurement update, before the nominal model is evaluated), with
+  :math:`H = [1, 0, 0]` and R the variance ``measurement``: the innovation :math:`\nu = y - q^-`,
+  :math:`S = P_{00} + R`, :math:`K = P_{:,0} / S`, :math:`x \leftarrow x + K \nu`,
+  :math:`P \leftarrow P - K P_{0,:}`; so :math:`\Psi` is then taken at the corrected estimate;
+* :meth:`update`: the injection is the LUaF estimate :math:`\hat d` (the filter has no output injection into a
+  velocity equation a controller could cancel beyond its disturbance estimate);
+* :meth:`advance` (the time update): :math:`x \leftarrow F x + B u`, :math:`P \leftarrow F P F^T + Q`.
 
-**Storage.** P is symmetric: its six entries (P00, P01, P02, P11, P12, P22) are one contiguous
-``(6, members, n)`` array per stage (the prediction and the corrected estimate), and (q, qd, d) one
-``(3, members, n)`` array whose rows are ``q_hat``, ``qd_hat``, ``luaf_hat``. Each step of the recursion is a
-NumPy call on whole rows or blocks of rows of the same shape (at these sizes NumPy's cost per call, and more
-for a broadcast operand, outweighs the arithmetic). Every operation is element-wise (products and sums in a
-fixed order, no reduction), so a member's bits do not depend on the batch. The updates per entry, H = [1, 0, 0]:
+**Storage.** P is symmetric: its six entries (:math:`P_{00}, P_{01}, P_{02}, P_{11}, P_{12}, P_{22}`) are one
+contiguous ``(6, members, n)`` array per stage (the prediction and the corrected estimate), and
+:math:`(q, \dot q, d)` one ``(3, members, n)`` array whose rows are ``q_hat``, ``qd_hat``, ``luaf_hat``. Each
+step of the recursion is a NumPy call on whole rows or blocks of rows of the same shape (at these sizes
+NumPy's cost per call, and more for a broadcast operand, outweighs the arithmetic). Every operation is
+element-wise (products and sums in a fixed order, no reduction), so a member's bits do not depend on the
+batch. The updates per entry:
 
-* measurement: row 0 becomes P0j R / S = K_j R (the standard form P0j - K_0 P0j without its cancellation when
-  R << P00), and P_ij -= K_i P_0j for i, j >= 1 (P11 -= K1 P01, P12 -= K1 P02, P22 -= K2 P02);
-* time: F P F^T of a symmetric P, per entry (h = T^2/2)::
+* measurement: row 0 becomes :math:`P_{0j} R / S = K_j R` (the standard form :math:`P_{0j} - K_0 P_{0j}`
+  without its cancellation when :math:`R \ll P_{00}`), and :math:`P_{ij} \leftarrow P_{ij} - K_i P_{0j}` for
+  :math:`i, j \ge 1` (:math:`P_{11}`, :math:`P_{12}` with :math:`K_1`, :math:`P_{22}` with :math:`K_2`);
+* time: :math:`F P F^T` of a symmetric P, per entry (:math:`h = T^2/2`), as below, summed by diagonal of this
+  table (the coefficients of entry i + o in entry i, o = 1..5: one product and one sum of blocks each) into
+  P + Q:
 
-      P00 += 2T P01 + 2h P02 + T^2 P11 + 2Th P12 + h^2 P22
-      P01 += T P02 + T P11 + (T^2 + h) P12 + hT P22
-      P02 += T P12 + h P22
-      P11 += 2T P12 + T^2 P22
-      P12 += T P22
+.. math::
 
-  summed by diagonal of this table (the coefficients of entry i + o in entry i, o = 1..5: one product and one
-  sum of blocks each) into P + Q.
+    \begin{aligned}
+    P_{00} &\leftarrow P_{00} + 2T P_{01} + 2h P_{02} + T^2 P_{11} + 2Th P_{12} + h^2 P_{22} \\
+    P_{01} &\leftarrow P_{01} + T P_{02} + T P_{11} + (T^2 + h) P_{12} + hT P_{22} \\
+    P_{02} &\leftarrow P_{02} + T P_{12} + h P_{22} \\
+    P_{11} &\leftarrow P_{11} + 2T P_{12} + T^2 P_{22} \\
+    P_{12} &\leftarrow P_{12} + T P_{22}
+    \end{aligned}
 
 P stays exactly symmetric (each entry is stored once); :attr:`KalmanObserver.covariance` assembles the
-``(members, n, 3, 3)`` matrices. The innovation nu is recorded as the signal ``innovation`` (for a whiteness
-test: white when the model and the covariances are right).
+``(members, n, 3, 3)`` matrices. The innovation :math:`\nu` is recorded as the signal ``innovation`` (for a
+whiteness test: white when the model and the covariances are right).
 
 **The steady state, exactly.** F, Q and R are constant, so the covariances and gains do not depend on the
-data (Kalman 1960): P(k+1) is a fixed function of P(k). In floating point the recursion reaches, after a few
-hundred periods, a fixed point or a cycle of a few periods in the last bits. Once the prediction's covariance
-of the whole batch repeats bit for bit a value it had p periods before (p <= :attr:`KalmanObserver.window`),
-every later gain is the one of p periods earlier: the filter stores the p gains and replays them, and stops
-the covariance recursion. The estimates are bit for bit those of the full recursion (a member's own sequence,
-whatever the batch); only the cost changes (the state update alone). A batch whose members' periods have no
-common multiple up to the window keeps the full recursion.
+data (Kalman 1960): :math:`P_{k+1}` is a fixed function of :math:`P_k`. In floating point the recursion
+reaches, after a few hundred periods, a fixed point or a cycle of a few periods in the last bits. Once the
+prediction's covariance of the whole batch repeats bit for bit a value it had p periods before
+(p at most :attr:`KalmanObserver.window`), every later gain is the one of p periods earlier: the filter stores
+the p gains and replays them, and stops the covariance recursion. The estimates are bit for bit those of the
+full recursion (a member's own sequence, whatever the batch); only the cost changes (the state update alone).
+A batch whose members' periods have no common multiple up to the window keeps the full recursion.
 """
 
 from __future__ import annotations
@@ -90,13 +104,13 @@ from ftc_mj.robot.nominal import StepModel
 class KalmanConfig(GainConfig):
     """Covariances of the disturbance Kalman filter, per joint."""
 
-    #: Spectral density of the white noise on dq/dt [rad^2/s].
+    #: Spectral density :math:`S_q` of the white noise on the position's rate [rad^2/s].
     process_q: NonNegativeJoints = Field(0.0, validate_default=True)
-    #: Spectral density of the white noise on dqd/dt [rad^2/s^3].
+    #: Spectral density :math:`S_{\dot q}` of the white noise on the velocity's rate [rad^2/s^3].
     process_qd: NonNegativeJoints = Field(0.0, validate_default=True)
-    #: Spectral density of the random walk of d [rad^2/s^5]: how fast the LUaF may move.
+    #: Spectral density :math:`S_d` of the random walk of d [rad^2/s^5]: how fast the LUaF may move.
     process_d: PositiveJoints
-    #: Variance of one position measurement [rad^2].
+    #: Variance R of one position measurement [rad^2].
     measurement: PositiveJoints
     #: Initial covariance of q, qd, d (diagonal).
     initial_q: PositiveJoints = Field(1e-6, validate_default=True)
@@ -122,9 +136,10 @@ def unpack(entries: np.ndarray) -> np.ndarray:
 
 
 def process_covariance(T: float, process_q, process_qd, process_d, shape: tuple[int, ...]) -> np.ndarray:
-    """Q of the chain of integrators over a period T for white noise of the given spectral densities on each
-    state's derivative, ``shape + (3, 3)``: the integral of Phi(s) diag(q, qd, d) Phi(s)^T over [0, T] with
-    Phi(s) = e^(A s), in closed form (Van Loan 1978)."""
+    r"""Q of the chain of integrators over a period T for white noise of the given spectral densities on each
+    state's derivative, ``shape + (3, 3)``:
+    :math:`\int_0^T \Phi(s) \operatorname{diag}(S_q, S_{\dot q}, S_d) \Phi(s)^T ds` with
+    :math:`\Phi(s) = e^{A s}`, in closed form (Van Loan 1978)."""
     q = np.broadcast_to(process_q, shape)
     qd = np.broadcast_to(process_qd, shape)
     d = np.broadcast_to(process_d, shape)
@@ -139,7 +154,7 @@ def process_covariance(T: float, process_q, process_qd, process_d, shape: tuple[
 
 
 def time_update_diagonals(T: float) -> tuple[np.ndarray, ...]:
-    """The coefficients of P -> F P F^T on the six entries (:data:`ENTRIES`) by offset: diagonal o holds the
+    r"""The coefficients of :math:`P \to F P F^T` on the six entries (:data:`ENTRIES`) by offset: diagonal o holds the
     coefficients of entry i + o in entry i, i = 0 .. 5 - o (the module docstring's table; the identity is
     offset 0). Returns the diagonals of offsets 1 to 5, of lengths 5 to 1."""
     h = T * T / 2
@@ -152,7 +167,8 @@ def time_update_diagonals(T: float) -> tuple[np.ndarray, ...]:
 
 
 class KalmanObserver(Observer):
-    """Per-joint Kalman filter on (q, qd, d) with the nominal model as known input (see the module docstring)."""
+    r"""Per-joint Kalman filter on :math:`(q, \dot q, d)` with the nominal model as known input,
+    :math:`u = \Psi + M(x_1)^{-1} \tau` of (5.2) (see the module docstring)."""
 
     name: ClassVar[str] = "kalman"
     signal_names: ClassVar[frozenset[str] | None] = frozenset({"innovation"})
@@ -165,7 +181,7 @@ class KalmanObserver(Observer):
         super().__init__(config, n_joints, dt, members)
         T = float(dt)
         shape = self.shape
-        #: (q_hat, qd_hat, luaf_hat) as one ``(3,) + shape`` array; the three estimates are its rows.
+        #: (``q_hat``, ``qd_hat``, ``luaf_hat``) as one ``(3,) + shape`` array; the three estimates are its rows.
         self.state = np.zeros((3,) + shape)
         self.q_hat, self.qd_hat, self.luaf_hat = self.state
         #: The entries P00, P01, P02, P11, P12, P22 (:data:`ENTRIES`), ``(6,) + shape``, of the covariance of
@@ -252,7 +268,7 @@ class KalmanObserver(Observer):
         self.injection[:] = self.luaf_hat
 
     def advance(self, tau: np.ndarray, model: StepModel) -> None:
-        """The time update x = F x + B u, P = F P F^T + Q."""
+        r"""The time update :math:`x \leftarrow F x + B u`, :math:`P \leftarrow F P F^T + Q`."""
         u = np.add(model.psi_hat, model.command_acceleration(tau), out=self._input)
         u += self.luaf_hat  # qdd_hat = u + d_hat
         # q += T qd + T^2/2 (u + d), then qd += T (u + d); d stays.

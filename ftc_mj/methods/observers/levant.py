@@ -1,37 +1,51 @@
-"""Levant's arbitrary-order robust exact differentiator (Levant, "Higher-order sliding modes, differentiation
+r"""Levant's arbitrary-order robust exact differentiator (Levant, "Higher-order sliding modes, differentiation
 and output-feedback control", Int. J. Control 76(9-10), 2003, eqs. (8)-(9)), per joint on the measured
-position f = x1, explicit Euler at the control period.
+position :math:`f = x_1`, explicit Euler at the control period.
 
-Order r estimates f, f', ..., f^(r) by z0, ..., zr, given the Lipschitz constant L of f^(r) (|f^(r+1)| <= L):
+Order r estimates :math:`f, \dot f, \ldots, f^{(r)}` by :math:`z_0, \ldots, z_r`, given the Lipschitz constant
+L of :math:`f^{(r)}` (:math:`|f^{(r+1)}| \le L`):
 
-    dz0/dt = v0,   v0 = -lambda_r L^(1/(r+1)) |z0 - f|^(r/(r+1)) sign(z0 - f) + z1
-    dzi/dt = vi,   vi = -lambda_(r-i) L^(1/(r-i+1)) |zi - v(i-1)|^((r-i)/(r-i+1)) sign(zi - v(i-1)) + z(i+1)
-    dzr/dt = -lambda_0 L sign(zr - v(r-1))                                                      0 < i < r
+.. math::
 
-with the coefficients lambda_0..lambda_5 = 1.1, 1.5, 2, 3, 5, 8 of Levant 2003 (Section 3; the same in
-Reichhalter, Koch and Jadlovska's tuning tables), each overridable. In exact arithmetic and without noise the
-estimates are exact after a finite transient; with the measurement sampled at the period tau they are exact to
-within mu_i L tau^(r+1-i) (Levant 2003, Theorem 3), and with measurement noise of size eps to within
-mu_i L^(i/(r+1)) eps^((r+1-i)/(r+1)).
+    \dot z_0 = v_0, \quad v_0 = -\lambda_r L^{1/(r+1)} |z_0 - f|^{r/(r+1)} \operatorname{sign}(z_0 - f) + z_1
 
-Discretisation (``discretisation``): ``euler`` (the default), z_i(k+1) = z_i(k) + tau v_i(k). Explicit Euler
-keeps the last estimate's accuracy, but on a polynomial z_i lags f^(i) by about tau f^(i+1) / 2 (the
-difference quotient of the previous line): for i < r an O(tau) error, not O(tau^(r+1-i)). ``taylor`` adds the
-Taylor terms of the higher states, z_i(k+1) = z_i(k) + tau v_i(k) + sum_(l=2..r-i) tau^l / l! z_(i+l)(k)
-(Livne and Levant, "Proper discretization of homogeneous differentiators", Automatica 50(8), 2014), which is
-exact on a polynomial of degree r and restores the tau^(r+1-i) accuracy.
+    \dot z_i = v_i, \quad v_i = -\lambda_{r-i} L^{1/(r-i+1)} |z_i - v_{i-1}|^{(r-i)/(r-i+1)}
+    \operatorname{sign}(z_i - v_{i-1}) + z_{i+1}, \qquad 0 < i < r
 
-The differentiator is model-free: ``q_hat`` is z0 and ``qd_hat`` is z1. With ``use_model: true`` (order >= 2)
-z2 is the acceleration estimate and the LUaF estimate is
+    \dot z_r = -\lambda_0 L \operatorname{sign}(z_r - v_{r-1})
 
-    luaf_hat = z2 - (Psi(z0, z1) + M(x1)^-1 u_prev)
+with the coefficients :math:`\lambda_0, \ldots, \lambda_5 = 1.1, 1.5, 2, 3, 5, 8` of Levant 2003 (Section 3; the
+same in Reichhalter, Koch and Jadlovska's tuning tables), each overridable. In exact arithmetic and without
+noise the estimates are exact after a finite transient; with the measurement sampled at the period
+:math:`T` they are exact to within :math:`\mu_i L T^{r+1-i}` (Levant 2003, Theorem 3), and with
+measurement noise of size :math:`\varepsilon` to within :math:`\mu_i L^{i/(r+1)} \varepsilon^{(r+1-i)/(r+1)}`.
 
-with Psi at the differentiator's own estimate (the engine evaluates the nominal model at ``q_hat``, ``qd_hat``)
-and u_prev the command of the previous period: the one held while the acceleration that z2 estimates acted
-(the command of this period is not known when the controller reads the estimate). Without the model the LUaF
-estimate is zero. ``injection`` is the LUaF estimate (zero without the model): the differentiator has no
-velocity equation driven by a model, so the only thing a controller may meaningfully compensate is the LUaF
-estimate itself.
+Discretisation (``discretisation``): ``euler`` (the default), :math:`z_i(k+1) = z_i(k) + T v_i(k)`. Explicit
+Euler keeps the last estimate's accuracy, but on a polynomial :math:`z_i` lags :math:`f^{(i)}` by about
+:math:`T f^{(i+1)} / 2` (the difference quotient of the previous line): for :math:`i < r` an
+:math:`O(T)` error, not :math:`O(T^{r+1-i})`. ``taylor`` adds the Taylor terms of the higher states
+(Livne and Levant, "Proper discretization of homogeneous differentiators", Automatica 50(8), 2014),
+
+.. math::
+
+    z_i(k+1) = z_i(k) + T v_i(k) + \sum_{l=2}^{r-i} \frac{T^l}{l!} z_{i+l}(k)
+
+which is exact on a polynomial of degree r and restores the :math:`T^{r+1-i}` accuracy.
+
+The differentiator is model-free: ``q_hat`` is :math:`z_0` and ``qd_hat`` is :math:`z_1`. With
+``use_model: true`` (order :math:`r \ge 2`) :math:`z_2` is the acceleration estimate and the LUaF estimate is,
+by the plant (5.2),
+
+.. math::
+
+    \hat\Delta_k = z_{2,k} - \left(\Psi(z_{0,k}, z_{1,k}) + M(x_1)^{-1} u_{k-1}\right)
+
+with :math:`\Psi` at the differentiator's own estimate (the engine evaluates the nominal model at ``q_hat``,
+``qd_hat``) and :math:`u_{k-1}` the command of the previous period: the one held while the acceleration that
+:math:`z_2` estimates acted (the command of this period is not known when the controller reads the estimate).
+Without the model the LUaF estimate is zero. ``injection`` is the LUaF estimate (zero without the model): the
+differentiator has no velocity equation driven by a model, so the only thing a controller may meaningfully
+compensate is the LUaF estimate itself.
 """
 
 from __future__ import annotations
@@ -48,7 +62,7 @@ from ftc_mj.methods.observers.base import Observer
 from ftc_mj.methods.primitives import power, signed_power
 from ftc_mj.robot.nominal import StepModel
 
-#: lambda_0..lambda_5 of Levant 2003 (recursive form), the default coefficients.
+#: :math:`\lambda_0, \ldots, \lambda_5` of Levant 2003 (recursive form), the default coefficients.
 LEVANT_LAMBDAS: tuple[float, ...] = (1.1, 1.5, 2.0, 3.0, 5.0, 8.0)
 #: The highest order the default coefficients cover.
 MAX_ORDER = len(LEVANT_LAMBDAS) - 1
@@ -70,7 +84,7 @@ class DifferentiatorGains(GainConfig):
 
     #: Order r (1: the super-twisting differentiator; 2 and 3 the common choices for a position).
     order: Order = "2"
-    #: Lipschitz constant of the r-th derivative of the position, per joint (|q^(r+1)| <= L).
+    #: Lipschitz constant of the r-th derivative of the position, per joint (:math:`|q^{(r+1)}| \le L`).
     L: PositiveJoints
     lambda0: PositiveJoints = Field(LEVANT_LAMBDAS[0], validate_default=True)
     lambda1: PositiveJoints = Field(LEVANT_LAMBDAS[1], validate_default=True)
@@ -78,11 +92,12 @@ class DifferentiatorGains(GainConfig):
     lambda3: PositiveJoints = Field(LEVANT_LAMBDAS[3], validate_default=True)
     lambda4: PositiveJoints = Field(LEVANT_LAMBDAS[4], validate_default=True)
     lambda5: PositiveJoints = Field(LEVANT_LAMBDAS[5], validate_default=True)
-    #: ``euler``: z_i += dt v_i; ``taylor``: plus the Taylor terms of the higher states (Livne and Levant 2014).
+    #: ``euler``: :math:`z_i \leftarrow z_i + T v_i`; ``taylor``: plus the Taylor terms of the higher states
+    #: (Livne and Levant 2014).
     discretisation: Literal["euler", "taylor"] = "euler"
 
     def lambdas(self) -> list:
-        """lambda_0..lambda_r of this order."""
+        r""":math:`\lambda_0, \ldots, \lambda_r` of this order."""
         return [getattr(self, f"lambda{i}") for i in range(int(self.order) + 1)]
 
 
@@ -99,7 +114,7 @@ class LevantConfig(DifferentiatorGains):
 
 
 class Differentiator:
-    """The law of Levant 2003, eqs. (8)-(9), on ``shape`` arrays: z0..zr, explicit Euler."""
+    r"""The law of Levant 2003, eqs. (8)-(9), on ``shape`` arrays: :math:`z_0, \ldots, z_r`, explicit Euler."""
 
     def __init__(self, gains: DifferentiatorGains, shape: tuple[int, ...], dt: np.ndarray):
         self.order = r = int(gains.order)
@@ -125,7 +140,7 @@ class Differentiator:
             z[:] = 0.0
 
     def update(self, f: np.ndarray) -> None:
-        """The rates v0..vr for the measurement ``f``."""
+        r"""The rates :math:`v_0, \ldots, v_r` for the measurement ``f``."""
         z, v, error, term = self.z, self.rates, self._error, self._term
         previous = f
         for i in range(self.order):
@@ -140,7 +155,8 @@ class Differentiator:
         np.negative(v[-1], out=v[-1])
 
     def advance(self) -> None:
-        """z_i += dt v_i (+ the Taylor terms: the higher states are read before they change)."""
+        r""":math:`z_i \leftarrow z_i + T v_i` (+ the Taylor terms: the higher states are read before they
+        change)."""
         z, term = self.z, self._term
         for i, coefficient, higher in self.taylor:
             np.multiply(coefficient, z[higher], out=term)
@@ -153,8 +169,9 @@ class Differentiator:
 class LevantVelocity:
     """An observer built on a measured velocity, run instead on the velocity estimate of Levant's differentiator
     (position-only): mixed in before the observer's class (``class LevantNDOB(LevantVelocity, NDOB)``), whose
-    ``Config`` must include :class:`DifferentiatorGains`. The differentiator's z0 and z1 are the observer's
-    ``q_hat`` and ``qd_hat``; it takes the reading in ``update`` before the observer and steps after it."""
+    ``Config`` must include :class:`DifferentiatorGains`. The differentiator's :math:`z_0` and :math:`z_1` are
+    the observer's ``q_hat`` and ``qd_hat``; it takes the reading in ``update`` before the observer and steps
+    after it."""
 
     requires: ClassVar[frozenset[str]] = frozenset({"position"})
 
@@ -182,8 +199,8 @@ class LevantVelocity:
 
 
 class Levant(Observer):
-    """Levant's robust exact differentiator, Levant 2003 eqs. (8)-(9); with the nominal model its acceleration
-    estimate gives the LUaF (see the module docstring)."""
+    r"""Levant's robust exact differentiator, Levant 2003 eqs. (8)-(9); with the nominal model its acceleration
+    estimate gives the LUaF, :math:`\hat\Delta = z_2 - \Psi - M(x_1)^{-1} u` (see the module docstring)."""
 
     name: ClassVar[str] = "levant"
     signal_names: ClassVar[frozenset[str] | None] = frozenset()

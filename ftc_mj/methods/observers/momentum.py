@@ -28,26 +28,27 @@ diagonal.
 the command by the rectangle rule (it is held over the period, so that is exact), the residual by explicit
 Euler (the filter's own discretisation), and the model terms, smooth functions of the sampled state, by the
 trapezoidal rule: their second half is added at the next sample, in :meth:`update`, before r is formed
-(explicit Euler on them would leave T/2 |d(G - C^T qd)/dt|, 0.06 N m on the PUMA560 at 3 rad/s). With the
+(explicit Euler on them would leave :math:`\tfrac{T}{2} |\tfrac{d}{dt}(G - C^T \dot q)|`, 0.06 N m on the
+PUMA560 at 3 rad/s). With the
 velocity measured exactly, r then follows a step of the fault torque as
 :math:`r_k = \tau_f \left(1 - (1 - K_I T)^k\right)`, within :math:`K_I T / (2e)` of the step of the continuous
 filter.
 
-**What the testbed hands it.** ``M`` at the measured position, and C^T qd and G at the observer's estimate
-(the nominal model's ``coriolis_transpose`` and ``gravity``, which the engine evaluates for an observer that
-declares them in :attr:`needs`; MuJoCo gives only C qd + G), and F at the same point (its ``friction``).
-The residual r, a torque, is the signal
-``residual``; the LUaF estimate is the residual in the testbed's acceleration units, ``luaf_hat`` = M(x1)^-1 r
-(qdd = Psi + M^-1 tau + LUaF: tau_f = M LUaF), and so is ``injection``: the observer has no velocity equation
-of its own a controller could cancel beyond its estimate.
+**What the testbed hands it.** ``M`` at the measured position, and :math:`C^T \dot q` and G at the
+observer's estimate (the nominal model's ``coriolis_transpose`` and ``gravity``, which the engine evaluates for
+an observer that declares them in :attr:`needs`; MuJoCo gives only :math:`C \dot q + G`), and F at the same
+point (its ``friction``). The residual r, a torque, is the signal ``residual``; the LUaF estimate is the
+residual in the testbed's acceleration units, ``luaf_hat`` :math:`= M(x_1)^{-1} r` (on the plant (5.2),
+:math:`\ddot q = \Psi + M^{-1} \tau + \Delta`, so :math:`\tau_f = M \Delta`), and so is ``injection``: the
+observer has no velocity equation of its own a controller could cancel beyond its estimate.
 
-The velocity in p and in C^T qd is a choice:
+The velocity in p and in :math:`C^T \dot q` is a choice:
 
 * ``momentum``: the tachometers (the observer's classic setting); ``q_hat``, ``qd_hat`` are the readings, so
-  C^T qd and G are taken at the measured state. Needs ``robot.sensors: [position, velocity]``.
+  :math:`C^T \dot q` and G are taken at the measured state. Needs ``robot.sensors: [position, velocity]``.
 * ``momentum_levant``: the estimate of Levant's differentiator (:mod:`ftc_mj.methods.observers.levant`) on the
-  encoders, whose gains it takes flat (``order``, ``L``, ``lambda0``..); ``q_hat``, ``qd_hat`` are its z0, z1:
-  position-only.
+  encoders, whose gains it takes flat (``order``, ``L``, ``lambda0``..); ``q_hat``, ``qd_hat`` are its
+  :math:`z_0`, :math:`z_1`: position-only.
 """
 
 from __future__ import annotations
@@ -64,17 +65,20 @@ from ftc_mj.robot.nominal import StepModel
 
 
 class MomentumConfig(GainConfig):
-    """K_I of the momentum observer, per joint [1/s]: the residual's bandwidth (its time constant 1 / K)."""
+    r""":math:`K_I` of the momentum observer, per joint [1/s]: the residual's bandwidth (its time constant
+    :math:`1 / K_I`)."""
 
     K: PositiveJoints
 
 
 class LevantMomentumConfig(MomentumConfig, DifferentiatorGains):
-    """K_I of the momentum observer and the gains of the Levant differentiator that gives it the velocity."""
+    r""":math:`K_I` of the momentum observer and the gains of the Levant differentiator that gives it the
+    velocity."""
 
 
 class MomentumObserver(Observer):
-    """De Luca and Mattone's generalized momentum observer on the measured velocity; LUaF estimate M^-1 r."""
+    r"""De Luca and Mattone's generalized momentum observer on the measured velocity; LUaF estimate
+    :math:`M(x_1)^{-1} r`."""
 
     name: ClassVar[str] = "momentum"
     signal_names: ClassVar[frozenset[str] | None] = frozenset({"residual"})
@@ -109,7 +113,8 @@ class MomentumObserver(Observer):
         self.qd_hat[:] = qd_meas
 
     def update(self, t: float, q_meas: np.ndarray, model: StepModel) -> None:
-        """r_k = K_I (p_k - z_k), z_k completed with the second half of the previous period's trapezoid."""
+        r""":math:`r_k = K_I (p_k - z_k)`, :math:`z_k` completed with the second half of the previous period's
+        trapezoid."""
         if not self._started and (getattr(model, "coriolis_transpose", None) is None
                                   or getattr(model, "gravity", None) is None):
             raise ValueError(f"{self.name} needs the nominal model's C^T qd and G: a StepModel with "
@@ -131,7 +136,8 @@ class MomentumObserver(Observer):
         self.injection[:] = self.luaf_hat
 
     def advance(self, tau: np.ndarray, model: StepModel) -> None:
-        """z += T (tau + r) + T/2 (C^T qd - G) of this end of the period (formed in :meth:`update`)."""
+        r""":math:`z \leftarrow z + T (\tau + r) + \tfrac{T}{2} (C^T \dot q - G - F)` of this end of the period
+        (formed in :meth:`update`)."""
         rate = np.add(tau, self.residual, out=self._rate)
         rate *= self.dt
         self._integral += rate

@@ -1,28 +1,36 @@
-"""The nonlinear disturbance observer (NDOB) of Chen, Ballance, Gawthrop and O'Reilly, "A nonlinear disturbance
+r"""The nonlinear disturbance observer (NDOB) of Chen, Ballance, Gawthrop and O'Reilly, "A nonlinear disturbance
 observer for robotic manipulators", IEEE Trans. Industrial Electronics 47(4), 2000, eqs. (8)-(12).
 
-For M(q) qdd + C(q, qd) qd + g(q) = tau + d (d a torque disturbance), the NDOB is
+For :math:`M(q)\ddot q + C(q, \dot q)\dot q + g(q) = \tau + d` (d a torque disturbance), the NDOB is
 
-    d_hat = z + p(qd),   dz/dt = -L z + L (C qd + g - tau - p(qd)),   dp/dt = L M(q) qdd        (Chen 2000)
+.. math::
 
-with the paper's choice L = X^-1 M(q)^-1, p = X^-1 qd, X constant and invertible (here diagonal, one entry per
-joint: the gain ``X``). Then d(d_hat)/dt = X^-1 M^-1 (d - d_hat): the estimate follows the disturbance as a
-first-order filter, in one joint of inertia m with the time constant X m; explicit Euler at the period keeps
-that exactly in discrete time for a velocity measured exactly: d_hat(k+1) = d_hat(k) + dt/(X m) (d - d_hat(k)).
-Chen et al.'s stability condition (Theorem 1) is X + X^T - X^T Mdot X > 0.
+    \hat d = z + p(\dot q), \quad \dot z = -L z + L \left(C \dot q + g - \tau - p(\dot q)\right), \quad
+    \frac{d}{dt} p(\dot q) = L M(q) \ddot q
 
-In the testbed's terms, C qd + g = -M Psi (eq. (5.2)), so with luaf_hat = M^-1 d_hat (the LUaF in acceleration
-units, qdd = Psi + M^-1 tau + LUaF: d = M LUaF)
+with the paper's choice :math:`L = X^{-1} M(q)^{-1}`, :math:`p = X^{-1} \dot q`, X constant and invertible
+(here diagonal, one entry per joint: the gain ``X``). Then
+:math:`\dot{\hat d} = X^{-1} M^{-1} (d - \hat d)`: the estimate follows the disturbance as a first-order filter,
+in one joint of inertia m with the time constant X m; explicit Euler at the period T keeps that exactly in
+discrete time for a velocity measured exactly: :math:`\hat d_{k+1} = \hat d_k + \tfrac{T}{X m} (d - \hat d_k)`.
+Chen et al.'s stability condition (Theorem 1) is :math:`X + X^T - X^T \dot M X > 0`.
 
-    luaf_hat = M(x1)^-1 (z + X^-1 qd),   dz/dt = -X^-1 (luaf_hat + Psi + M(x1)^-1 tau)
+In the testbed's terms, :math:`C \dot q + g = -M \Psi` (eq. (5.2)), so with :math:`\hat\Delta = M^{-1} \hat d`
+(``luaf_hat``, the LUaF in acceleration units: :math:`\ddot q = \Psi + M^{-1} \tau + \Delta`, so
+:math:`d = M \Delta`)
 
-M at the measured position. The observer needs a velocity:
+.. math::
 
-* ``ndob``: the tachometers. It passes the measured state on as ``q_hat``, ``qd_hat`` (so Psi is taken at the
-  readings, as C qd + g is in the paper); needs ``robot.sensors: [position, velocity]``.
+    \hat\Delta = M(x_1)^{-1} \left(z + X^{-1} \dot q\right), \quad
+    \dot z = -X^{-1} \left(\hat\Delta + \Psi + M(x_1)^{-1} \tau\right), \quad z(0) = -X^{-1} \dot q(0)
+
+M at the measured position, :math:`z(0)` so that :math:`\hat d(0) = 0`. The observer needs a velocity:
+
+* ``ndob``: the tachometers. It passes the measured state on as ``q_hat``, ``qd_hat`` (so :math:`\Psi` is taken
+  at the readings, as :math:`C \dot q + g` is in the paper); needs ``robot.sensors: [position, velocity]``.
 * ``ndob_levant``: the estimate of Levant's differentiator (:mod:`ftc_mj.methods.observers.levant`) on the
   encoders, whose gains it takes flat (``order``, ``L``, ``lambda0``..); ``q_hat``, ``qd_hat`` are the
-  differentiator's z0, z1 and Psi is taken there.
+  differentiator's :math:`z_0`, :math:`z_1` and :math:`\Psi` is taken there.
 
 ``injection`` is the LUaF estimate: the NDOB has no velocity equation of its own, so what a controller may
 compensate is the disturbance it estimates.
@@ -41,8 +49,8 @@ from ftc_mj.robot.nominal import StepModel
 
 
 class NDOBConfig(GainConfig):
-    """X of Chen et al. 2000 (L = X^-1 M^-1, p = X^-1 qd), its diagonal per joint [s / (kg m^2)]: one joint of
-    inertia m follows a disturbance with the time constant X m."""
+    r"""X of Chen et al. 2000 (:math:`L = X^{-1} M^{-1}`, :math:`p = X^{-1} \dot q`), its diagonal per joint
+    [s / (kg m^2)]: one joint of inertia m follows a disturbance with the time constant X m."""
 
     X: PositiveJoints
 
@@ -52,7 +60,8 @@ class LevantNDOBConfig(NDOBConfig, DifferentiatorGains):
 
 
 class NDOB(Observer):
-    """Chen et al. 2000's NDOB on the measured velocity; LUaF estimate M^-1 d_hat."""
+    r"""Chen et al. 2000's NDOB, eqs. (8)-(12), on the measured velocity; LUaF estimate
+    :math:`M(x_1)^{-1} \hat d`."""
 
     name: ClassVar[str] = "ndob"
     signal_names: ClassVar[frozenset[str] | None] = frozenset()
@@ -68,7 +77,7 @@ class NDOB(Observer):
         self._rate = np.zeros(self.shape)
 
     def reset(self, q_hat: np.ndarray, qd_hat: np.ndarray) -> None:
-        """z(0) = -X^-1 qd(0): d_hat(0) = 0."""
+        r""":math:`z(0) = -X^{-1} \dot q(0)`: :math:`\hat d(0) = 0`."""
         super().reset(q_hat, qd_hat)
         np.multiply(self.inverse_x, qd_hat, out=self._integral)
         np.negative(self._integral, out=self._integral)

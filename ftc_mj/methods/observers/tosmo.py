@@ -34,7 +34,7 @@ from ftc_mj.robot.nominal import StepModel
 
 
 class TOSMOConfig(GainConfig):
-    """Gains of (3.11): either ``D`` (Remark 5.3) or all of ``k1, k2, k3``."""
+    r"""Gains of (3.11): either ``D`` (:math:`\bar\Delta` of Remark 5.3) or all of ``k1, k2, k3``."""
 
     D: PositiveJoints | None = None
     k1: PositiveJoints | None = None
@@ -51,20 +51,22 @@ class TOSMOConfig(GainConfig):
         return self
 
     def gains(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        """(k1, k2, k3), from Remark 5.3 when only D is given."""
+        r"""(``k1``, ``k2``, ``k3``), from Remark 5.3 when only ``D`` is given: :math:`k_1 = 2 D^{1/3}`,
+        :math:`k_2 = 2.12 D^{2/3}`, :math:`k_3 = 1.1 D`."""
         if self.D is not None:
             return 2.0 * self.D ** (1 / 3), 2.12 * self.D ** (2 / 3), 1.1 * self.D
         return self.k1, self.k2, self.k3
 
 
 class HighSpeedTOSMOConfig(TOSMOConfig):
-    """Gains of (5.6): those of the TOSMO plus the linear gain Gamma."""
+    r"""Gains of (5.6): those of the TOSMO plus the linear gain :math:`\Gamma` (``gamma``)."""
 
     gamma: NonNegativeFloat
 
 
 class TOSMO(Observer):
-    """Third-order sliding-mode observer, eq. (3.11); LUaF estimate eq. (3.15)."""
+    r"""Third-order sliding-mode observer, eq. (3.11): (5.6) with :math:`\Gamma = 0`; LUaF estimate eq. (3.15),
+    :math:`\hat\Delta = \int k_3 \operatorname{sign}(\tilde x_1)\, dt`."""
 
     name: ClassVar[str] = "tosmo"
     signal_names: ClassVar[frozenset[str] | None] = frozenset()
@@ -112,7 +114,8 @@ class TOSMO(Observer):
 
 
 class HighSpeedTOSMO(TOSMO):
-    """High-speed TOSMO, eq. (5.6): the TOSMO plus linear terms Gamma x1_tilde; LUaF estimate eq. (5.13)."""
+    r"""High-speed TOSMO, eq. (5.6): the TOSMO plus the linear terms :math:`\Gamma \tilde x_1` and
+    :math:`\Gamma (\dot{\hat x}_1 - \hat x_2)`; LUaF estimate eq. (5.13)."""
 
     name: ClassVar[str] = "hs_tosmo"
     Config: ClassVar[type[HighSpeedTOSMOConfig]] = HighSpeedTOSMOConfig
@@ -122,8 +125,8 @@ class HighSpeedTOSMO(TOSMO):
         self.linear_gain = config.gamma  # Gamma of (5.6), (members, n)
 
     def _linear(self, correction: np.ndarray, signal: np.ndarray) -> np.ndarray:
-        """The correction plus Gamma times ``signal``: Gamma x1~ in the first line of (5.6), Gamma (dx1_hat/dt -
-        x2_hat) in the second."""
+        r"""The correction plus :math:`\Gamma` times ``signal``: :math:`\Gamma \tilde x_1` in the first line of
+        (5.6), :math:`\Gamma (\dot{\hat x}_1 - \hat x_2)` in the second."""
         return correction + self.linear_gain * signal
 
 
