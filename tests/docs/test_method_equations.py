@@ -3,9 +3,9 @@
 Every docstring and ``#:`` comment of :mod:`ftc_mj.methods` (what the methods reference and the API reference
 show) writes its symbols and laws as ``:math:`` or ``.. math::``: outside mathematics, code and literal
 blocks no plain-text equation is left (``x1_hat``, ``e_dot``, ``x1~``, ``M^-1``, ``sign(s)``, ``dz/dt``,
-``|e|``, ``Psi``, ``<=``, ...). Every built-in method's page section shows at least one equation and cites
-where it comes from (an equation number or a book's section), and every piece of mathematics converts to
-MathML with no command left as text.
+``|e|``, ``Psi``, ``<=``, ...), and neither in the tutorials' prose (``$...$`` there). Every built-in method's
+page section shows at least one equation and cites where it comes from (an equation number or a book's
+section), and every piece of mathematics converts to MathML with no command left as text.
 """
 
 from __future__ import annotations
@@ -157,3 +157,21 @@ def test_every_method_shows_an_equation_and_cites_its_source(kind):
         shown = (inspect.getdoc(cls) or "") + "\n\n" + (inspect.getdoc(sys.modules[cls.__module__]) or "")
         assert _math(shown), f"{name}: no equation on its section of the methods page"
         assert CITATION.search(shown), f"{name}: no equation number or section cited"
+
+
+def _markdown_prose(text: str) -> str:
+    """A page's prose: without its code blocks, mathematics, links' targets and units (``kg m^2``)."""
+    text = re.sub(r"```.*?```", " ", text, flags=re.DOTALL)
+    text = re.sub(r"\$\$.*?\$\$", " ", text, flags=re.DOTALL)
+    text = re.sub(r"\$[^$\n]+\$", " ", text)
+    text = re.sub(r"\]\([^)]*\)", "]", text)
+    return re.sub(r"\b(?:kg m|rad/s|m/s|rad|1/s)\^\d", " ", text)
+
+
+def test_the_tutorials_write_their_equations_as_mathematics():
+    pages = sorted((ROOT / "docs" / "tutorials").glob("*.md"))
+    assert len(pages) >= 5
+    left = [f"{page.name}: {hit}" for page in pages for hit in plain_equations(_markdown_prose(page.read_text()))]
+    assert not left, "\n".join(left)
+    assert plain_equations(_markdown_prose("a law u = -M(x1) (u_eq + u_sw) in [kg m^2]"))
+    assert not plain_equations(_markdown_prose("a law $u = -M(x_1) u_{sw}$ in kg m^2\n```\nqd_hat = x^2\n```"))
