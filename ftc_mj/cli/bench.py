@@ -1,10 +1,13 @@
-"""The benchmark: ``ftc-mj bench [BENCH.yaml] [--tier quick|full] [--out DIR]`` (also ``python -m ftc_mj.ranking``).
+"""The benchmark: ``ftc-mj bench [BENCH.yaml] [--tier quick|full] [--out DIR] [--with-builtins]`` (also
+``python -m ftc_mj.ranking``).
 
 Scores every entry of the bench file (default: every built-in observer and pair,
 ``ftc_mj/ranking/suites/v2-entries.yaml``) on its suite, simulating only what ``DIR`` does not hold yet (an
 entry already scored under the same protocol is not simulated again), and writes the leaderboard into
 ``DIR`` (default ``results/bench/<suite>-<tier>/``): ``leaderboard.md``, ``.csv``, ``.parquet``, figures and
-``bench.json``.
+``bench.json``. With ``--with-builtins`` the file's entries are scored beside every built-in entry of its suite
+(on the tasks the file scores): the built-in bench's runs in ``DIR`` (its default is the built-in bench's) are
+reused, so that only the file's entries are simulated.
 
 Exit status: 0 on success, 2 on bad input (one line naming the file, the field and the problem; nothing is
 written), 1 when a worker process died, 130 when interrupted (what finished is kept).
@@ -34,6 +37,10 @@ def build_parser(prog: str = PROG) -> argparse.ArgumentParser:
     parser.add_argument("--out", type=Path, metavar="DIR", help="output directory (default: results/bench/"
                         "<suite>-<tier>/)")
     parser.add_argument("--workers", type=int, metavar="N", help="worker processes (default: all cores)")
+    parser.add_argument("--with-builtins", action="store_true",
+                        help="score the file's entries beside every built-in entry of its suite (ftc_mj/ranking/"
+                        "suites/v2-entries.yaml for suite v2) on the tasks the file scores; built-in runs already "
+                        "in DIR are reused")
     parser.add_argument("--quiet", action="store_true", help="no progress and no tables")
     return parser
 
@@ -57,7 +64,10 @@ def main(argv: Sequence[str] | None = None, prog: str = PROG) -> int:
 
     if args.workers is not None and args.workers < 1:
         raise InputError("command line", "--workers", f"must be at least 1, not {args.workers}")
-    bench = load_bench(args.bench)
+    if args.with_builtins and args.bench is None:
+        raise InputError("command line", "--with-builtins", "needs a bench file (without one, every built-in "
+                         "entry is scored already)")
+    bench = load_bench(args.bench, with_builtins=args.with_builtins)
     bench.suite.tier(args.tier)
     if bench.suite.calibrated and bench.of("diagnosis"):
         from ftc_mj.ranking.sizing import check_faults_act

@@ -121,10 +121,121 @@ def peaks(envelope: np.ndarray, stratum: Stratum, block_seconds: float) -> np.nd
 
 
 def quantile_threshold(values: np.ndarray, alpha: float) -> np.ndarray:
-    """The population quantile at 1 - alpha along axis 0 (NumPy's ``higher``: an observed peak)."""
+    """The population quantile at 1 - alpha along axis 0 (NumPy's ``higher``: an observed peak, the
+    :func:`threshold_rank`-th smallest of the n values).
+
+    A fresh healthy peak exceeds the k-th smallest of n exchangeable continuous peaks with probability
+    (n + 1 - k) / (n + 1) on average over the calibration draws (:func:`expected_false_alarm`), whatever their
+    law. At the suite's alpha = 0.05 that is 2/33 = 0.061 for n = 32 (the quick tier) and 13/257 = 0.051 for
+    n = 256 (the full tier); the distribution-free conformal rank k = ceil((n + 1)(1 - alpha)), which keeps the
+    rate at or below alpha, gives 1/33 = 0.030 and 12/257 = 0.047: further from the nominal at both, so the
+    rule stays NumPy's ``higher``."""
     if values.shape[0] == 0:
         return np.full(values.shape[1:], np.inf)
     return np.quantile(values, 1.0 - alpha, axis=0, method="higher")
+
+
+def threshold_rank(n: int, alpha: float) -> int:
+    """The rank k (1-based, of n ascending values) that :func:`quantile_threshold` returns."""
+    return int(np.quantile(np.arange(n), 1.0 - alpha, method="higher")) + 1
+
+
+def expected_false_alarm(n: int, alpha: float) -> float:
+    """The false-alarm probability a threshold calibrated on n peaks gives on average: (n + 1 - k) / (n + 1),
+    k = :func:`threshold_rank` (exact for exchangeable continuous peaks)."""
+    return (n + 1 - threshold_rank(n, alpha)) / (n + 1)
+
+
+def false_alarm_law(windows_per_stratum: list[int], n: int, alpha: float) -> np.ndarray:
+    """The law of an entry's count of false alarms on its scored healthy windows, its thresholds calibrated on
+    n peaks per stratum: per stratum the count over m windows beyond the k-th smallest of n is beta-binomial
+    (m, n + 1 - k, k) (the threshold's own spread on top of the binomial's; exact for independent exchangeable
+    peaks), the strata independent. Its pmf over 0 .. sum(m)."""
+    from scipy.stats import betabinom
+
+    k = threshold_rank(n, alpha)
+    pmf = np.ones(1)
+    for m in windows_per_stratum:
+        pmf = np.convolve(pmf, betabinom.pmf(np.arange(m + 1), m, n + 1 - k, k))
+    return pmf
+
+
+def _two_sided(pmf: np.ndarray, observed: int) -> float:
+    """The probability of a count no more likely than the observed one (as SciPy's exact binomial test)."""
+    return float(min(1.0, pmf[pmf <= pmf[observed] * (1 + 1e-7)].sum()))
+
+
+def _off(m: int, alpha: float) -> np.ndarray:
+    """Per count 0 .. m of m windows, whether its rate lies beyond two binomial standard errors of alpha."""
+    return np.abs(np.arange(m + 1) / m - alpha) > 2 * np.sqrt(alpha * (1 - alpha) / m)
+
+
+@dataclass(frozen=True)
+class FalseAlarmCheck:
+    """The realised false-alarm rates of several rows against what calibrated thresholds give by chance."""
+
+    rows: int
+    #: Rows whose realised rate lies beyond two binomial standard errors of the nominal one.
+    off: int
+    #: The off rows chance predicts: with an exact threshold (the binomial alone), and with thresholds estimated
+    #: from the calibration's n peaks (:func:`false_alarm_law`).
+    expected_exact: float
+    expected_calibrated: float
+    #: P(at least ``off`` off rows) under the calibrated law, the rows independent (they are not quite: every
+    #: entry reads the same runs).
+    p_value: float
+    #: Rows whose count differs from the calibrated law at 5% family-wise (Holm's step-down).
+    holm_rejected: tuple[str, ...]
+
+
+def false_alarm_check(rows: dict[str, tuple[int, list[int], int]], alpha: float) -> FalseAlarmCheck:
+    """``rows``: name -> (its false alarms, its scored healthy windows per stratum, the calibration peaks per
+    stratum n); alpha the nominal rate."""
+    from scipy.stats import binom
+
+    off, p_exact, p_calibrated, p_rows = 0, [], [], {}
+    for name, (count, per_stratum, n) in rows.items():
+        m = int(sum(per_stratum))
+        if m == 0:
+            continue
+        flags = _off(m, alpha)
+        law = false_alarm_law(per_stratum, n, alpha)
+        off += int(flags[count])
+        p_exact.append(float(binom.pmf(np.arange(m + 1), m, alpha)[flags].sum()))
+        p_calibrated.append(float(law[flags].sum()))
+        p_rows[name] = _two_sided(law, count)
+    count_law = np.ones(1)  # the number of off rows: a Poisson-binomial
+    for p in p_calibrated:
+        count_law = np.convolve(count_law, [1 - p, p])
+    ordered = sorted(p_rows.items(), key=lambda item: item[1])
+    rejected = []
+    for i, (name, p) in enumerate(ordered):
+        if p > 0.05 / (len(ordered) - i):
+            break
+        rejected.append(name)
+    return FalseAlarmCheck(len(p_rows), off, float(sum(p_exact)), float(sum(p_calibrated)),
+                           float(count_law[off:].sum()), tuple(rejected))
+
+
+def pooled_false_alarm(windows: list[Windows], clusters: list[str], resamples: int = RESAMPLES
+                       ) -> Score:
+    """The realised false-alarm rate over every row's scored healthy windows, with its 95% interval resampling
+    the healthy runs (each ``clusters[i]``'s runs shared by its rows: one robot's entries read the same runs)."""
+    sums: dict[tuple[str, int], list[float]] = {}
+    for w, cluster in zip(windows, clusters):
+        for run in np.unique(w.healthy_cluster):
+            mine = w.healthy_cluster == run
+            total = sums.setdefault((cluster, int(run)), [0.0, 0.0])
+            total[0] += float((w.healthy_z[mine] > 1.0).sum())
+            total[1] += float(mine.sum())
+    if not sums:
+        return Score.missing()
+    table = np.array(list(sums.values()))
+    rng = np.random.default_rng(BOOTSTRAP_SEED)
+    picks = rng.integers(0, len(table), (resamples, len(table)))
+    rates = table[picks, 0].sum(axis=1) / table[picks, 1].sum(axis=1)
+    return Score(float(table[:, 0].sum() / table[:, 1].sum()), float(np.percentile(rates, 2.5)),
+                 float(np.percentile(rates, 97.5)), int(table[:, 1].sum()))
 
 
 @dataclass

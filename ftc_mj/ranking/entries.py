@@ -29,7 +29,7 @@ from typing import Annotated, Any, Literal
 
 from pydantic import Field, StrictStr
 
-from ftc_mj.ranking.suite import Name, Suite, load_suite
+from ftc_mj.ranking.suite import SUITES, Name, Suite, load_suite
 from ftc_mj.campaign.population import digest
 from ftc_mj.config.errors import InputError, validate
 from ftc_mj.config.types import Strict
@@ -191,8 +191,45 @@ def _reads(kind: str) -> tuple[str, ...]:
     return ("encoders", "tachometers", "torque") if takes_readings else ("encoders", "torque")
 
 
-def load_bench(path: str | Path | None = None) -> Bench:
-    """Read and check a bench file (default: :data:`DEFAULT_ENTRIES`) and its suite.
+def builtin_entries(suite: Suite) -> Path:
+    """The bench file of the built-in entries of ``suite``: its shipped ``<version>-entries.yaml``, else
+    :data:`DEFAULT_ENTRIES` (a suite of one's own on suite v2's robots)."""
+    shipped = SUITES / f"{suite.version}-entries.yaml"
+    return shipped if shipped.is_file() else DEFAULT_ENTRIES
+
+
+def _with_builtins(raw: dict[str, Any], spec: BenchSpec, suite: Suite, file: str) -> dict[str, Any]:
+    """The bench file's entries and, for each task it scores, every built-in entry of its suite
+    (:func:`builtin_entries`), their gains on the suite's robots; a built-in entry's name that the file uses too
+    is refused."""
+    builtins_path = builtin_entries(suite)
+    builtins = read_yaml_mapping(builtins_path, "a bench file")
+    merged = dict(raw)
+    for task, named in (("diagnosis", spec.diagnosis), ("tracking", spec.tracking)):
+        if not named:
+            continue
+        combined = dict(raw[task])
+        for name, entry in (builtins.get(task) or {}).items():
+            if name in named:
+                raise InputError(file, f"{task}.{name}", f"is also a built-in entry's name ({builtins_path.name}, "
+                                 "which --with-builtins adds): rename yours")
+            gains = entry["gains"]
+            missing = [robot for robot in suite.spec.robots if robot not in gains]
+            if missing:
+                raise InputError(file, "suite", f"the built-in entries have no gains for robot {missing[0]!r} "
+                                 f"(--with-builtins scores {builtins_path.name}'s entries, on the robots "
+                                 f"{', '.join(gains)})")
+            entry = {**entry, "gains": {robot: gains[robot] for robot in suite.spec.robots}}
+            if entry.get("tuned_with"):  # relative to the built-in file, not to this one
+                entry["tuned_with"] = str((builtins_path.parent / entry["tuned_with"]).resolve())
+            combined[name] = entry
+        merged[task] = combined
+    return merged
+
+
+def load_bench(path: str | Path | None = None, with_builtins: bool = False) -> Bench:
+    """Read and check a bench file (default: :data:`DEFAULT_ENTRIES`) and its suite; ``with_builtins``: its
+    entries and, for each task it scores, every built-in entry of its suite beside them (:func:`_with_builtins`).
 
     Raises:
         InputError: naming the file and the field.
@@ -207,6 +244,9 @@ def load_bench(path: str | Path | None = None) -> Bench:
     if suite_ref.endswith((".yaml", ".yml")):
         suite_ref = str((path.parent / suite_ref).resolve())
     suite = load_suite(suite_ref, file)
+    if with_builtins:
+        raw = _with_builtins(raw, spec, suite, file)
+        spec = validate(BenchSpec, raw, file)
     entries = []
     for task, named in (("diagnosis", spec.diagnosis), ("tracking", spec.tracking)):
         for name in named:

@@ -46,6 +46,8 @@ class RobotBoard:
     diverged: dict[str, int] = field(default_factory=dict)
     diverged_cases: dict[str, int] = field(default_factory=dict)
     rate: float = 1000.0
+    #: Calibration runs whose peaks set the thresholds (the diverged ones left out).
+    calibration_runs: int = 0
 
 
 def robot_board(bench: Bench, robot: str, done: dict[tuple[str, str, str, str], Found],
@@ -67,6 +69,7 @@ def robot_board(bench: Bench, robot: str, done: dict[tuple[str, str, str, str], 
             board.diverged = {population: pop.diverged for population, pop in
                               zip(("calibrate", "healthy", "faults"), populations)}
             board.diverged_cases = populations[2].diverged_cases
+            board.calibration_runs = int(populations[0].draw.size)
     board.gate = cal.gate(board.scores, board.windows)
     return board
 
@@ -154,15 +157,44 @@ def markdown(bench: Bench, boards: dict[str, RobotBoard]) -> list[str]:
         for name in order:
             by_kind = cal.per_kind(board.windows[name])
             lines.append(f"| `{name}` | " + " | ".join(f"{by_kind.get(k, np.nan):.3g}" for k in kinds) + " |")
+        lines += ["", _fa_summary(f"On {robot}", {robot: board}, alpha)]
         apart = ", ".join(f"{case}: {count}" for case, count in sorted(board.diverged_cases.items())) or "none"
         lines += ["", f"Runs whose reference loop diverged (apart, not scored): calibration "
                   f"{board.diverged.get('calibrate', 0)}, healthy {board.diverged.get('healthy', 0)}, faulty "
                   f"{board.diverged.get('faults', 0)} ({apart}).", ""]
+    if len(boards) > 1:
+        lines += ["## Diagnosis: realised false alarms, every robot", "",
+                  _fa_summary("Over every robot", boards, alpha), ""]
     lines += ["![ROC per robot, pooled windows](figures/roc.png)", "",
               "![Detectability: P_d at the common false-alarm probability against the bias size](figures/"
               "detectability.png)", "",
               "![Median delay against the false-alarm probability](figures/front.png)", ""]
     return lines
+
+
+def _fa_summary(where: str, boards: dict[str, RobotBoard], alpha: float) -> str:
+    """How many rows' realised false-alarm rates lie beyond two binomial standard errors of the nominal, against
+    how many chance predicts, the rows' counts tested against the law calibrated thresholds give (Holm), and the
+    rate pooled over every row (:func:`~ftc_mj.ranking.calibrated.false_alarm_check`)."""
+    rows, windows, clusters = {}, [], []
+    for robot, board in boards.items():
+        for name, w in board.windows.items():
+            per_stratum = [int((w.healthy_stratum == s).sum()) for s in range(len(board.layers))]
+            rows[f"{robot}/{name}"] = (int((w.healthy_z > 1.0).sum()), per_stratum, board.calibration_runs)
+            windows.append(w)
+            clusters.append(robot)
+    check = cal.false_alarm_check(rows, alpha)
+    pooled = cal.pooled_false_alarm(windows, clusters)
+    peaks = sorted({board.calibration_runs for board in boards.values()})
+    expected = ", ".join(f"{cal.expected_false_alarm(n, alpha):.3g}" for n in peaks)
+    differ = ", ".join(f"`{name}`" for name in check.holm_rejected) or "none"
+    return (f"{where}: {check.off} of {check.rows} rows (sanity rows included) are \"(off)\", beyond two binomial "
+            f"standard errors of {alpha:g}; chance predicts {check.expected_exact:.1f} with exact thresholds, "
+            f"{check.expected_calibrated:.1f} with thresholds from {'/'.join(map(str, peaks))} calibration peaks "
+            f"({expected} false alarms on average; each row's count beta-binomial), P({check.off} or more) = "
+            f"{check.p_value:.2g} (rows taken as independent; they share runs). Rows off that law at 5% "
+            f"family-wise (Holm): {differ}. Pooled over the rows: {pooled.value:.3g} [{pooled.low:.3g}, "
+            f"{pooled.high:.3g}] ({pooled.count} windows; interval resampling the healthy runs).")
 
 
 def _styles(names: list[str]) -> dict[str, tuple[str, str, str | None]]:

@@ -126,3 +126,45 @@ def test_detectability_counts_windows_per_size():
     curve = cal.detectability(w)
     assert [point[0] for point in curve] == [0.3, 10.0] and curve[1][1] == 1.0 and curve[0][1] < 0.5
     assert all(point[4] == 10 for point in curve)
+
+
+@pytest.mark.parametrize("n, rank, expected", [(32, 31, 2 / 33), (256, 244, 13 / 257)])
+def test_a_threshold_from_n_peaks_gives_n_plus_1_minus_k_over_n_plus_1(n, rank, expected):
+    """NumPy's ``higher`` quantile at 0.95 is the k-th smallest peak (k = 31 of 32, 244 of 256); fresh peaks
+    exceed it at (n + 1 - k) / (n + 1) on average over 20,000 calibrations (standard error about 3e-4 at n = 32,
+    1e-4 at 256), whatever the peaks' law; the ranks next to it give 1/(n + 1) more or less, 0.03 and 0.004 away.
+    The conformal rank ceil((n + 1) 0.95), distribution-free and never above 0.05, lies further from 0.05 at
+    both sizes, so the rule stays."""
+    assert cal.threshold_rank(n, 0.05) == rank and cal.expected_false_alarm(n, 0.05) == pytest.approx(expected)
+    rng = np.random.default_rng(n)
+    draws, fresh = 20_000, 16
+    peaks = rng.gamma(2.0, size=(draws, n))  # a skewed law, as a window's largest residual
+    threshold = cal.quantile_threshold(peaks.T, 0.05)
+    realised = np.mean(rng.gamma(2.0, size=(draws, fresh)) > threshold[:, None])
+    tolerance = 0.3 / (n + 1)  # a rank one off moves the rate by 1 / (n + 1)
+    assert abs(realised - expected) < tolerance
+    conformal = int(np.ceil((n + 1) * 0.95))
+    assert abs((n + 1 - conformal) / (n + 1) - 0.05) > abs(expected - 0.05)
+
+
+def test_the_false_alarm_check_counts_off_rows_against_chance_and_holm_finds_a_broken_row():
+    """Sixty rows whose healthy windows are exchangeable with their calibration (thresholds from 32 peaks, 64
+    windows on two strata): the off rows are about as many as the calibrated law predicts, more than the binomial
+    alone does, and Holm rejects none; a row whose threshold ignores its calibration (half its windows alarm) is
+    found by Holm and makes the count's p-value small."""
+    rng = np.random.default_rng(7)
+    rows = {}
+    for r in range(60):
+        count = 0
+        for _ in range(2):
+            calibration, scored = rng.standard_normal(32), rng.standard_normal(32)
+            count += int((scored > cal.quantile_threshold(calibration[:, None], 0.05)[0]).sum())
+        rows[f"row{r}"] = (count, [32, 32], 32)
+    check = cal.false_alarm_check(rows, 0.05)
+    assert check.rows == 60 and check.expected_calibrated > 1.5 * check.expected_exact
+    assert abs(check.off - check.expected_calibrated) < 3 * np.sqrt(check.expected_calibrated) + 1
+    assert check.holm_rejected == () and check.p_value > 0.01
+    broken = cal.false_alarm_check({**rows, "broken": (32, [32, 32], 32)}, 0.05)
+    assert broken.holm_rejected == ("broken",)
+    law = cal.false_alarm_law([32, 32], 32, 0.05)
+    assert law.sum() == pytest.approx(1.0) and np.dot(np.arange(65), law) == pytest.approx(64 * 2 / 33)
