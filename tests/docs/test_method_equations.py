@@ -3,9 +3,10 @@
 Every docstring and ``#:`` comment of :mod:`ftc_mj.methods` (what the methods reference and the API reference
 show) writes its symbols and laws as ``:math:`` or ``.. math::``: outside mathematics, code and literal
 blocks no plain-text equation is left (``x1_hat``, ``e_dot``, ``x1~``, ``M^-1``, ``sign(s)``, ``dz/dt``,
-``|e|``, ``Psi``, ``<=``, ...), and neither in the tutorials' prose (``$...$`` there). Every built-in method's
-page section shows at least one equation and cites where it comes from (an equation number or a book's
-section), and every piece of mathematics converts to MathML with no command left as text.
+``|e|``, ``Psi``, ``<=``, ...), and neither in the tutorials' prose nor on the methods-at-a-glance page
+(``$...$`` there). Every built-in method's page section shows at least one equation and cites where it comes
+from (an equation number or a book's section), and every piece of mathematics converts to MathML with no
+command left as text.
 """
 
 from __future__ import annotations
@@ -168,9 +169,9 @@ def _markdown_prose(text: str) -> str:
     return re.sub(r"\b(?:kg m|rad/s|m/s|rad|1/s)\^\d", " ", text)
 
 
-def test_the_tutorials_write_their_equations_as_mathematics():
-    pages = sorted((ROOT / "docs" / "tutorials").glob("*.md"))
-    assert len(pages) >= 5
+def test_the_tutorials_and_the_methods_at_a_glance_write_their_equations_as_mathematics():
+    pages = [*sorted((ROOT / "docs" / "tutorials").glob("*.md")), ROOT / "docs" / "explanation" / "methods.md"]
+    assert len(pages) >= 6
     left = [f"{page.name}: {hit}" for page in pages for hit in plain_equations(_markdown_prose(page.read_text()))]
     assert not left, "\n".join(left)
     assert plain_equations(_markdown_prose("a law u = -M(x1) (u_eq + u_sw) in [kg m^2]"))
