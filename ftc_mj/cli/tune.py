@@ -8,6 +8,12 @@ conditions. Writes into DIR (default ``results/tuning/<name>/``): ``best.yaml``,
 scenario field in every run) shrink a tuning to a smoke test of the same file; the command line is recorded
 in ``best.yaml`` (a comment), ``report.json`` and ``report.md``.
 
+A bench tuning file (one that names a bench's ``entries``, :mod:`ftc_mj.ranking.tune`) tunes diagnosis entries
+on their suite's tune population instead: P_d at the common false-alarm probability, every candidate a monitor
+of the same reference-loop runs; it writes ``tuned.yaml`` (the gains and the seeds used, for a bench entry's
+``tuned_with``) and ``history.yaml`` into DIR, and takes ``--out``, ``--generations``, ``--population``,
+``--workers`` and ``--quiet``.
+
 Exit status: 0 on success, 2 on bad input (one line naming the file, the field and the problem), 130 when
 interrupted (finished generations are kept).
 """
@@ -55,6 +61,11 @@ def main(argv: Sequence[str] | None = None, prog: str = PROG) -> int:
     file = str(args.tuning)
     if args.workers is not None and args.workers < 1:
         raise InputError(file, "--workers", f"must be at least 1, not {args.workers}")
+    from ftc_mj.config.yaml import read_yaml_mapping
+    from ftc_mj.ranking.tune import is_bench_tuning
+
+    if args.tuning.is_file() and is_bench_tuning(read_yaml_mapping(args.tuning, "a tuning")):
+        return _bench_tuning(args, argv, prog)
     outputs = Outputs(file)
     outputs.add("--out", args.out, directory=True)
     outputs.check([args.tuning])
@@ -95,6 +106,52 @@ def main(argv: Sequence[str] | None = None, prog: str = PROG) -> int:
         print(f"tuned gains in {out}/best.yaml; held-out cost {held['baseline']['cost']:.4g} -> "
               f"{held['tuned']['cost']:.4g} (paired difference {diff['mean']:.3g} [{diff['ci95'][0]:.3g}, "
               f"{diff['ci95'][1]:.3g}]); report: {out}/report.md")
+    return 0
+
+
+def _bench_tuning(args: argparse.Namespace, argv: list[str], prog: str) -> int:
+    """A bench tuning file: a bench's diagnosis entries tuned on its suite's tune population
+    (:mod:`ftc_mj.ranking.tune`)."""
+    from ftc_mj.campaign import execute
+    from ftc_mj.cli.campaign import command_line
+    from ftc_mj.config.errors import InputError
+    from ftc_mj.ranking import tune
+
+    file = str(args.tuning)
+    for option, value in (("--conditions", args.conditions), ("--held-out", args.held_out),
+                          ("--duration", args.duration), ("--set", args.overrides or None),
+                          ("--scheduler", args.scheduler)):
+        if value is not None:
+            raise InputError(file, option, "not an option of a bench tuning (its runs are the suite's tune "
+                             "population; it takes --out, --generations, --population, --workers, --quiet)")
+    tuning = tune.load(args.tuning, args.generations, args.population)
+    out = args.out or Path("results") / "tuning" / tuning.spec.name
+    outputs = Outputs(file)
+    outputs.add("--out", out, directory=True)
+    outputs.check([args.tuning, tuning.bench.path])
+    if out.is_dir() and any(entry.name != execute.LOCK for entry in out.iterdir()) \
+            and not (out / "history.yaml").is_file():
+        raise InputError(file, "--out", f"{out} is not empty and holds no bench tuning's results")
+    workers = args.workers or execute.default_workers()
+
+    def progress(generation: int, total: int, seconds: float) -> None:
+        if not args.quiet:
+            print(f"generation {generation}/{total} ({seconds:.0f} s)", file=sys.stderr, flush=True)
+
+    if not args.quiet:
+        print(f"{tune.budget_text(tuning)}; entries {', '.join(tuning.spec.entries)} on "
+              f"{', '.join(tuning.robots)}", file=sys.stderr, flush=True)
+    with execute.directory_lock(out, file, holder="tuning"):
+        document = tune.optimise(tuning, out, workers, progress)
+        document["command"] = command_line(prog, argv)
+        tune.write_record(out, document)
+    if not args.quiet:
+        for name, entry in document["entries"].items():
+            for robot, value in entry["objective"].items():
+                print(f"{name} on {robot}: P_d {value['design']['pd']:.3f} -> {value['tuned']['pd']:.3f}, AUC "
+                      f"{value['design']['auc']:.3f} -> {value['tuned']['auc']:.3f} (tune population); gains "
+                      f"{entry['design'][robot]} -> {entry['tuned'][robot]}")
+        print(f"tuned gains in {out}/tuned.yaml")
     return 0
 
 

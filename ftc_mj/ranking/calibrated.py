@@ -428,6 +428,32 @@ def per_kind(w: Windows) -> dict[str, float]:
     return {str(kind): float(np.mean(w.fault_z[w.fault_kind == kind] > 1)) for kind in np.unique(w.fault_kind)}
 
 
+#: A tuned entry's name: its design-rule entry's and this suffix (the leaderboard pairs them).
+TUNED_SUFFIX = "_tuned"
+
+
+def apart(tuned: Score, design: Score) -> str:
+    """A tuned row against its design-rule row on one score (higher is better): ``better`` only when the tuned
+    row's interval lies wholly above the design row's (its low end above the other's high end, strictly),
+    ``worse`` when wholly below, ``not apart`` otherwise (overlapping or touching intervals, or a missing one)."""
+    if not all(np.isfinite(v) for v in (tuned.low, tuned.high, design.low, design.high)):
+        return "not apart"
+    if tuned.low > design.high:
+        return "better"
+    if tuned.high < design.low:
+        return "worse"
+    return "not apart"
+
+
+def tuned_verdict(verdicts: list[str]) -> str:
+    """One verdict from each score's (:func:`apart`): better when some interval is apart above and none below."""
+    if "better" in verdicts and "worse" not in verdicts:
+        return "better"
+    if "worse" in verdicts and "better" not in verdicts:
+        return "worse"
+    return "mixed" if "better" in verdicts else "not apart"
+
+
 def chance_interval(healthy: int, faulty: int) -> tuple[float, float]:
     """The 95% range of a useless detector's AUC: 1/2 +- 1.96 sd, sd = sqrt((n_h + n_f + 1) / (12 n_h n_f)) the
     Mann-Whitney statistic's under no difference between the healthy and the faulty windows. An AUC outside it

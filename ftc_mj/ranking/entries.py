@@ -27,6 +27,7 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Annotated, Any, Literal
 
+import yaml
 from pydantic import Field, StrictStr
 
 from ftc_mj.ranking.suite import SUITES, Name, Suite, load_suite
@@ -52,9 +53,10 @@ class ObserverEntrySpec(Strict):
     #: What it reads (the leaderboard's "reads" column); default: encoders and torque, and tachometers for an
     #: observer that takes the raw readings (overrides ``measure``).
     reads: list[Reading] | None = None
-    #: The tuning file its gains come from, relative to this file: its runs' seeds may not be ones the suite
-    #: scores or calibrates on (suite v2: they are the ``tune`` population's).
-    tuned_with: StrictStr | None = None
+    #: The tuning its gains come from, relative to this file: a tuning file (``ftc-mj tune``'s) or a bench tuning's
+    #: record (its ``tuned.yaml``), or a list of them; their runs' seeds may not be ones the suite scores or
+    #: calibrates on (suite v2: they are the ``tune`` population's).
+    tuned_with: StrictStr | list[StrictStr] | None = None
     #: Where the gains come from: the source's design rule, a shipped scenario, or a tuning.
     gains_from: Text
     #: Robot of the suite -> the observer's gains on it; every robot needs its gains.
@@ -69,8 +71,8 @@ class PairGains(Strict):
 
 
 class PairEntrySpec(Strict):
-    #: As an observer entry's: the tuning its gains come from (its seeds are checked).
-    tuned_with: StrictStr | None = None
+    #: As an observer entry's: the tuning (or tunings) its gains come from (their seeds are checked).
+    tuned_with: StrictStr | list[StrictStr] | None = None
     #: The observer's registered name (built-in or ``ftc_mj.observers`` entry point).
     observer: StrictStr
     #: The controller's registered name (built-in or ``ftc_mj.controllers`` entry point).
@@ -135,7 +137,7 @@ def _robots_covered(file: str, field: str, gains: dict[str, Any], suite: Suite) 
                              f"{', '.join(robots)})")
 
 
-def _method(file: str, type_field: str, gains_field: str, kind: str, name: str, gains: dict[str, Any],
+def method_section(file: str, type_field: str, gains_field: str, kind: str, name: str, gains: dict[str, Any],
             n: int) -> dict[str, Any]:
     """A scenario's method section, its plugin found and its gains validated for ``n`` joints."""
     known = observer_types() if kind == "observer" else controller_types()
@@ -149,12 +151,39 @@ def _method(file: str, type_field: str, gains_field: str, kind: str, name: str, 
     return {"type": name, "gains": gains}
 
 
-def tuning_seeds(tuning_file: Path) -> set[int]:
-    """Every seed a tuning's runs use (its training conditions and its held-out check)."""
+#: What a bench tuning's record (``tuned.yaml`` of :mod:`ftc_mj.ranking.tune`) says it is, in its ``kind``.
+TUNING_RECORD = "bench tuning"
+
+
+def recorded_seeds(path: Path, file: str, field: str) -> set[int] | None:
+    """The seeds a bench tuning's record lists; None when ``path`` is no such record.
+
+    Raises:
+        InputError: a record without its list of seeds (naming the bench file and ``field``).
+    """
+    try:
+        raw = yaml.safe_load(path.read_text(encoding="utf-8"))
+    except (OSError, UnicodeDecodeError, yaml.YAMLError):
+        return None
+    if not isinstance(raw, dict) or raw.get("kind") != TUNING_RECORD:
+        return None
+    seeds = raw.get("seeds")
+    if not isinstance(seeds, list) or not seeds or not all(type(seed) is int for seed in seeds):
+        raise InputError(file, field, f"the tuning record {path.name} lists no seeds (seeds: a list of the "
+                         "integers its runs used)")
+    return set(seeds)
+
+
+def tuning_seeds(tuning_file: Path, file: str = "", field: str = "") -> set[int]:
+    """Every seed a tuning's runs use: a bench tuning's record lists them (:func:`recorded_seeds`); a campaign
+    tuning's are its training conditions' and its held-out check's."""
     from ftc_mj.campaign.population import population
     from ftc_mj.campaign.schema import load_campaign
     from ftc_mj.tuning.schema import load_tuning
 
+    recorded = recorded_seeds(tuning_file, file or str(tuning_file), field or "seeds")
+    if recorded is not None:
+        return recorded
     tuning = load_tuning(tuning_file)
     campaign = load_campaign(tuning_file.parent / tuning.campaign, tuning.conditions + tuning.held_out)
     seed = campaign.seed if campaign.seed is not None else 0
@@ -172,7 +201,7 @@ def check_tuning_seeds(tuning_file: Path, suite: Suite, file: str, field: str) -
     if not tuning_file.is_file():
         raise InputError(file, field, f"no such file: {tuning_file}")
     scored = {name: span for name, span in seed_ranges(suite.spec).items() if name != "tune"}
-    used = tuning_seeds(tuning_file)
+    used = tuning_seeds(tuning_file, file, field)
     for name, span in scored.items():
         shared = sorted(seed for seed in used if seed in span)
         if shared:
@@ -255,13 +284,15 @@ def load_bench(path: str | Path | None = None, with_builtins: bool = False) -> B
                                  "read the engine's truth): choose another name")
     for task, named in (("diagnosis", spec.diagnosis), ("tracking", spec.tracking)):
         for name, entry in named.items():
-            if entry.tuned_with is not None:
-                check_tuning_seeds(path.parent / entry.tuned_with, suite, file, f"{task}.{name}.tuned_with")
+            tunings = [entry.tuned_with] if isinstance(entry.tuned_with, str) else entry.tuned_with or []
+            for index, tuned_with in enumerate(tunings):
+                field = f"{task}.{name}.tuned_with" + (f".{index}" if isinstance(entry.tuned_with, list) else "")
+                check_tuning_seeds(path.parent / tuned_with, suite, file, field)
     for name, entry in spec.diagnosis.items():
         field = f"diagnosis.{name}"
         _robots_covered(file, f"{field}.gains", entry.gains, suite)
         kind = entry.type or name
-        sections = {robot: _method(file, f"{field}.type", f"{field}.gains.{robot}", "observer", kind,
+        sections = {robot: method_section(file, f"{field}.type", f"{field}.gains.{robot}", "observer", kind,
                                    entry.gains[robot], suite.joints(robot))
                     for robot in suite.spec.robots}
         entries.append(Entry("diagnosis", name, kind, entry.gains_from, sections,
@@ -272,7 +303,7 @@ def load_bench(path: str | Path | None = None, with_builtins: bool = False) -> B
         sections = {}
         for robot in suite.spec.robots:
             gains, n = entry.gains[robot], suite.joints(robot)
-            section = {role: _method(file, f"{field}.{role}", f"{field}.gains.{robot}.{role}", role, method,
+            section = {role: method_section(file, f"{field}.{role}", f"{field}.gains.{robot}.{role}", role, method,
                                      getattr(gains, role), n)
                        for role, method in (("observer", entry.observer), ("controller", entry.controller))}
             if entry.controller_velocity is not None:

@@ -302,6 +302,13 @@ def _windows_done(results: Path) -> set[str]:
 def _collect_windows(chunk: Chunk, campaign: campaign_execute.Campaign) -> None:
     """Every part of a windows chunk, in run order, with each run's case values, as ``windows.npz``."""
     parts = [windows.load(part) for part in sorted((chunk.results / "parts").glob("*.npz"))]
+    write_atomic(chunk.results / WINDOWS, windows.save(merged_windows(parts, campaign)))
+
+
+def merged_windows(parts: list[dict[str, Any]], campaign: campaign_execute.Campaign) -> dict[str, np.ndarray]:
+    """Reductions of a campaign's batches (:func:`ftc_mj.ranking.windows.run_windows`) as one, in run order,
+    with each run's draw, case values and mass scale, and the time grid (what
+    :class:`~ftc_mj.ranking.calibrated.Population` reads)."""
     merged = {name: np.concatenate([part[name] for part in parts]) for name in parts[0]}
     order = np.argsort(merged["run"], kind="stable")
     merged = {name: values[order] for name, values in merged.items()}
@@ -317,4 +324,4 @@ def _collect_windows(chunk: Chunk, campaign: campaign_execute.Campaign) -> None:
             merged[f"case/{field}"] = np.array(values)
     merged["mass_scale"] = np.array([run.values.get("nominal.mass_scale", 1.0) for run in runs])
     merged["times"] = np.array([campaign.scenario.spec.control_dt, float(len(campaign.scenario.times))])
-    write_atomic(chunk.results / WINDOWS, windows.save(merged))
+    return merged

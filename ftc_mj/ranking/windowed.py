@@ -151,6 +151,7 @@ def markdown(bench: Bench, boards: dict[str, RobotBoard]) -> list[str]:
             cells = [f"{p['auc']:.3g} / {p['pd']:.3g} / {p['false_alarm']:.3g}"
                      for p in cal.per_stratum(board.windows[name], len(board.layers))]
             lines.append(f"| `{name}` | " + " | ".join(cells) + " |")
+        lines += tuned_pairs(board)
         kinds = sorted(np.unique(board.windows[SANITY[0]].fault_kind).tolist())
         lines += ["", "P_d at the common false-alarm probability per fault kind (every size):", "",
                   "| entry | " + " | ".join(kinds) + " |", "|" + "---|" * (len(kinds) + 1)]
@@ -195,6 +196,29 @@ def _fa_summary(where: str, boards: dict[str, RobotBoard], alpha: float) -> str:
             f"{check.p_value:.2g} (rows taken as independent; they share runs). Rows off that law at 5% "
             f"family-wise (Holm): {differ}. Pooled over the rows: {pooled.value:.3g} [{pooled.low:.3g}, "
             f"{pooled.high:.3g}] ({pooled.count} windows; interval resampling the healthy runs).")
+
+
+def tuned_pairs(board: RobotBoard) -> list[str]:
+    """The tuned rows against their design-rule rows (``<name>_tuned`` beside ``<name>``): the AUC's and P_d's
+    intervals and whether they are apart (:func:`~ftc_mj.ranking.calibrated.apart`); a tuned row is called better
+    only when one is apart above and none below."""
+    pairs = [(name, name[:-len(cal.TUNED_SUFFIX)]) for name in board.scores
+             if name.endswith(cal.TUNED_SUFFIX) and name[:-len(cal.TUNED_SUFFIX)] in board.scores]
+    if not pairs:
+        return []
+    lines = ["", "Tuned rows against their design-rule rows: better only where an interval (AUC or P_d) lies "
+             "wholly above the design row's, worse where wholly below.", "",
+             "| tuned | design | AUC tuned | AUC design | AUC | P_d tuned | P_d design | P_d | verdict |",
+             "|---|---|---|---|---|---|---|---|---|"]
+    for tuned, design in sorted(pairs):
+        cells, verdicts = [f"`{tuned}`", f"`{design}`"], []
+        for score in ("auc", "pd"):
+            a, b = board.scores[tuned][score], board.scores[design][score]
+            verdicts.append(cal.apart(a, b))
+            cells += [_text(a), _text(b), verdicts[-1]]
+        cells.append(f"**{cal.tuned_verdict(verdicts)}**")
+        lines.append("| " + " | ".join(cells) + " |")
+    return lines
 
 
 def _styles(names: list[str]) -> dict[str, tuple[str, str, str | None]]:
