@@ -48,7 +48,7 @@ from ftc_mj.effects.sensors import Measurement
 from ftc_mj.effects.terms import PlantTerms
 from ftc_mj.fast.copies import SampleCopies
 from ftc_mj.engine.rows import RowLayout
-from ftc_mj.engine.mass import MassAtReadings, mass_at_readings
+from ftc_mj.engine.mass import mass_at_readings, true_mass
 from ftc_mj.engine.members import Members
 from ftc_mj.engine.plant import LogPlant, Plant, plant_for
 from ftc_mj.engine.series import BatchRun, BlockSeries, Series
@@ -56,7 +56,7 @@ from ftc_mj.engine.truths import Truths
 from ftc_mj.methods.controllers.base import Controller
 from ftc_mj.methods.observers.base import Observer
 from ftc_mj.robot.friction import NominalFriction, nominal_friction
-from ftc_mj.robot.nominal import NEEDS, NominalBatch, SparseSolver, StepModel, at_rest, nominal_batch
+from ftc_mj.robot.nominal import NEEDS, MassAtReadings, NominalBatch, SparseSolver, StepModel, at_rest, nominal_batch
 from ftc_mj.scenario.definition import Scenario
 
 ProgressCallback = Callable[[int], None]
@@ -291,8 +291,8 @@ class _Run:
         nominal = nominal_batch(scenario.model, layout.per_point(members.nominal_mass_scale), threads,
                                 momentum_points=layout.estimator_points([[bool(s) for s in v] for v in needs]),
                                 mass_points=per_row(members.nominal_mass_scale))
-        mass = mass_at_readings(plant, nominal, scenario.model, per_row(members.nominal_mass_scale),
-                                per_row(members.plant_mass_scale), scenario.position_sensor is not None, threads)
+        mass = mass_at_readings(plant, nominal, per_row(members.nominal_mass_scale),
+                                per_row(members.plant_mass_scale), scenario.position_sensor is not None)
         solver = SparseSolver(scenario.model)
         readings = _readings(scenario, members, layout)
         friction = nominal_friction(scenario.model, spec.nominal.friction, nominal, layout.points,
@@ -445,8 +445,8 @@ class _Run:
         plant, inputs, series, tau = self.plant, self.inputs, self.series.rows, self.tau
         terms = inputs.terms
         # The dense M(q) only in the periods whose terms map accelerations (e.g. from a fault's onset on).
-        true_mass = self.mass.true_mass() if terms.maps_acceleration(k) else None
-        terms.apply(k, t, plant.qpos, plant.qvel, true_mass, plant.applied)
+        mass = true_mass(self.mass, plant) if terms.maps_acceleration(k) else None
+        terms.apply(k, t, plant.qpos, plant.qvel, mass, plant.applied)
         fault_terms_on = inputs.fault_terms_on[k]
         if fault_terms_on:
             series["fault"][k] = terms.fault

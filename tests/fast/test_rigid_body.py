@@ -1,15 +1,19 @@
-"""The compiled rigid-body algorithms against MuJoCo's forward pass (ftc_mj/fast/rigid.py)."""
+"""The compiled rigid-body algorithms (ftc_mj/fast/rigid.py) against their NumPy definition
+(ftc_mj/robot/nominal/algorithms.py), bit for bit, and both against MuJoCo's forward pass, to rounding."""
 
 from __future__ import annotations
 
+import math
 from pathlib import Path
 
 import mujoco
 import numpy as np
 import pytest
 
-from ftc_mj.robot.nominal import MuJoCoNominal, nominal_batch, rigid_body_model, scale_masses
+from ftc_mj import fast
 from ftc_mj.fast.rigid import RigidTree
+from ftc_mj.robot.nominal import MuJoCoNominal, TreeNominal, nominal_batch, rigid_body_model, scale_masses
+from ftc_mj.robot.nominal.algorithms import evaluate_tree
 
 MODELS = Path(__file__).resolve().parents[2] / "models"
 
@@ -96,6 +100,73 @@ def test_the_compiled_algorithms_give_mujocos_forward_pass_to_rounding(name):
         assert np.abs(data.qfrc_bias).max() > 0.1 and np.abs(data.qvel).max() > 0.1  # the terms really act
 
 
+def test_numpys_sine_and_cosine_are_the_c_librarys():
+    """The one condition of the bit-for-bit agreement below: NumPy's float64 sin and cos give the C library's
+    bits (what Python's ``math`` and the compiled kernel, Numba's SVML off, call), over the angles a joint
+    takes and small ones; where a NumPy build uses SIMD versions of its own, this fails first and says why."""
+    rng = np.random.default_rng(3)
+    angles = np.concatenate([rng.uniform(-7.0, 7.0, 20000), rng.normal(scale=1e-4, size=2000), [0.0, -0.0, np.pi]])
+    np.testing.assert_array_equal(np.sin(angles), [math.sin(a) for a in angles])
+    np.testing.assert_array_equal(np.cos(angles), [math.cos(a) for a in angles])
+
+
+@pytest.mark.parametrize("name", ["puma560.xml", "two_link.xml", "ur5e.xml", "tree"])
+def test_the_kernel_gives_its_numpy_definitions_bits(name):
+    """The compiled kernel equals ``evaluate_tree`` bit for bit in every output: random states and mass
+    scales, points at rest and at -0.0, large angles and speeds, a NaN point (its own row NaN, no other),
+    points past ``velocity_points`` (M alone), C^T qd and G at a random subset of points (the others' rows
+    left as they were)."""
+    model = rigid_body_model(_models()[name])
+    tree = RigidTree.from_model(model)
+    rng = np.random.default_rng(11)
+    points, n, nM = 40, model.nv, model.nM
+    q, qd = rng.uniform(-4.0, 4.0, (points, n)), rng.normal(size=(points, n)) * 3
+    q[:3], qd[:3], q[3] = 0.0, 0.0, -0.0
+    q[4], qd[4] = 1e3, -50.0
+    q[5, 0] = np.nan
+    applied, scale = rng.normal(size=(points, n)) * 10, rng.uniform(0.5, 2.0, points)
+    wanted = rng.uniform(size=points) < 0.5
+    wanted[5] = True
+    outputs = []
+    for run in (lambda arguments: tree.evaluate(*arguments[0], **arguments[1]),
+                lambda arguments: evaluate_tree(*tree.arguments(*arguments[0], **arguments[1]))):
+        out = [np.zeros((points, nM)), np.zeros((points, nM)), np.zeros((points, n)), np.zeros((points, n)),
+               np.zeros((points, n))]
+        terms = [np.full((points, n), 7.0), np.full((points, n), 7.0)]
+        run(((*tree.scaled(scale), q, qd, applied, *out, True, wanted, *terms), {"velocity_points": points - 6}))
+        outputs.append(out + terms)
+    for field, compiled, numpy in zip(("M", "qLD", "qLDiagInv", "qacc", "bias", "C^T qd", "G"), *outputs):
+        np.testing.assert_array_equal(numpy, compiled, err_msg=f"{name} {field}")
+        finite = np.isfinite(compiled).all(axis=1)
+        assert not finite[5] and finite[np.arange(points) != 5].all(), field
+    computed = wanted & (np.arange(points) < points - 6)
+    assert (outputs[0][5][~computed] == 7.0).all() and (outputs[0][5][computed] != 7.0).all()
+
+
+def test_the_nominal_batch_runs_the_definition_with_the_fast_paths_off():
+    """The switch chooses the algorithms' implementation, not another model: with the fast paths off the
+    nominal batch is still the rigid-body algorithms (NumPy's), with the same bits as the compiled one, its
+    M at the readings too."""
+    model = mujoco.MjModel.from_xml_path(str(MODELS / "ur5e.xml"))
+    rng = np.random.default_rng(12)
+    scale, rows = rng.uniform(0.8, 1.2, 5), rng.uniform(0.8, 1.2, 3)
+    q, qd = rng.uniform(-3.0, 3.0, (5, 6)), rng.normal(size=(5, 6))
+    results = []
+    for enabled in (True, False):
+        with fast.switched(enabled):
+            batch = nominal_batch(model, scale, 2, momentum_points=np.ones(5, bool), mass_points=rows)
+        assert isinstance(batch, TreeNominal)
+        mass = batch.mass_at_readings(None)
+        batch.qpos[:5], batch.qvel[:5] = q, qd  # the Psi points (the rows' M-only points after them)
+        mass.prepare(q[:3] * 0.5, None)
+        batch.evaluate()
+        mass.evaluate()
+        results.append((batch.qacc, batch.mass_matrices(), batch.coriolis_transpose, batch.gravity, mass.M,
+                        mass.factor))
+    for compiled, numpy in zip(*results):
+        np.testing.assert_array_equal(numpy, compiled)
+
+
 def test_the_welded_bodies_count_a_jointless_body_inside_the_tree_counts_in_its_carrier():
     """The synthetic tree has four joints over eight bodies: the jointless base is welded to the world (no
     node), the jointless bodies inside the tree to their carriers, whose masses they add to (``a_tip`` comes
@@ -163,7 +234,7 @@ def test_what_the_kernels_do_not_cover_is_declined_and_the_nominal_batch_uses_mu
     model = mujoco.MjModel.from_xml_string(f"<mujoco><worldbody>{xml}</worldbody></mujoco>")
     assert RigidTree.from_model(rigid_body_model(model)) is None
     batch = nominal_batch(model, np.ones(2), nthread=1)
-    assert isinstance(batch, MuJoCoNominal) and batch.mass_from_plant
+    assert isinstance(batch, MuJoCoNominal)
     batch.qvel[:] = 0.5
     batch.evaluate()
     assert np.isfinite(batch.qacc).all()

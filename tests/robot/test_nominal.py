@@ -15,7 +15,7 @@ import numpy as np
 import pytest
 from nominal_oracle import NominalModel, step_model
 
-from ftc_mj.robot.nominal import CompiledNominal, MuJoCoNominal, StepModel, nominal_batch, rigid_body_model
+from ftc_mj.robot.nominal import TreeNominal, MuJoCoNominal, StepModel, nominal_batch, rigid_body_model
 
 PUMA = Path(__file__).resolve().parents[2] / "models" / "puma560.xml"
 CHECK_QD = np.array([0.4, -0.3, 0.9])
@@ -165,7 +165,7 @@ def test_nominal_batch_is_the_single_state_model_at_every_point(model):
     applied force f, M^-1 (f - bias); a point's mass scale is its own. Five points, three joints."""
     scales = np.array([1.0, 1.0, 2.0, 0.5, 1.0])
     batch = nominal_batch(model, scales, nthread=2)
-    assert isinstance(batch, CompiledNominal) and not batch.mass_from_plant  # not MuJoCo's batch
+    assert isinstance(batch, TreeNominal)  # not MuJoCo's batch
     rng = np.random.default_rng(9)
     q, qd, applied = rng.uniform(-np.pi, np.pi, (5, 3)), rng.uniform(-2.0, 2.0, (5, 3)), rng.normal(size=(5, 3))
     applied[:2] = 0.0
@@ -267,7 +267,7 @@ def test_rigid_body_model_keeps_the_tree_and_drops_what_the_nominal_model_never_
     """The nominal batch's model is rebuilt from bodies, joints and inertias alone (no geoms, sites, sensors,
     actuators) and gives the full model's M, factorisation and Psi (constraints, passive forces and actuators
     off) bit for bit at states other than those it was checked at when it was built."""
-    from ftc_mj.robot.nominal import _RIGID_BODY_ONLY, rigid_body_model
+    from ftc_mj.robot.nominal.rigid_copy import _RIGID_BODY_ONLY, rigid_body_model
 
     full = mujoco.MjModel.from_xml_path(str(PUMA.parent / name))
     rigid = rigid_body_model(full)
@@ -292,7 +292,7 @@ def test_rigid_body_model_keeps_the_tree_and_drops_what_the_nominal_model_never_
 def test_rigid_body_model_of_a_model_it_does_not_rebuild_is_a_plain_copy():
     """A ball joint, or Menagerie's panda as it comes (its fingers coupled by a tendon and an equality), is not
     rebuilt: the plain copy (geoms kept), with the rigid-body flags."""
-    from ftc_mj.robot.nominal import _RIGID_BODY_ONLY, rigid_body_model
+    from ftc_mj.robot.nominal.rigid_copy import _RIGID_BODY_ONLY, rigid_body_model
 
     xml = """<mujoco><worldbody><body><joint type="ball"/><geom size="0.1" mass="1"/>
              <body pos="0 0 -0.5"><joint type="hinge"/><geom size="0.1" mass="1"/></body></body></worldbody></mujoco>"""
@@ -374,7 +374,7 @@ def test_coriolis_transpose_is_the_derivative_of_M_along_a_trajectory_less_C_qd(
     points = steps - 4  # samples 2 .. steps - 3: two neighbours on each side for the third difference
     if backend == "compiled":
         batch = nominal_batch(model, np.ones(points), 1, momentum_points=np.ones(points, bool))
-        assert isinstance(batch, CompiledNominal)
+        assert isinstance(batch, TreeNominal)
     else:
         batch = MuJoCoNominal(rigid_body_model(model), np.ones(points), 1, momentum_points=np.ones(points, bool))
     inner = slice(2, steps - 2)
@@ -469,7 +469,7 @@ def test_compiled_points_cut_over_threads_keep_their_bits(model, kind):
     mask = None if mass_only else rng.uniform(size=psi_points) < 0.5
     one, three = (nominal_batch(model, scale, threads, mass_only=mass_only, momentum_points=mask, mass_points=extra)
                   for threads in (1, 3))
-    assert isinstance(three, CompiledNominal) and len(three._tasks) == 3 and len(one._tasks) == 1
+    assert isinstance(three, TreeNominal) and len(three._tasks) == 3 and len(one._tasks) == 1
     assert [len(task) for task in three._tasks] == [1 if extra is None else 2] * 3 and len(one._tasks[0]) == 1
     for batch in (one, three):  # the first call on the calling thread (it may compile), the second on threads
         batch.qpos[:], batch.qvel[:], batch.applied[:] = -q, qd, applied
