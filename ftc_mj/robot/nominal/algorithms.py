@@ -68,10 +68,10 @@ def evaluate_tree(parent, offset_position, offset_rotation, hinge, axis, anchor,
     inertias, C^T qd and G where ``momentum_points`` asks, M, L'DL and the solve, into the output arrays."""
     points, n = qpos.shape
     displacement = qpos - reference
-    sine, versine = np.sin(displacement), 1.0 - np.cos(displacement)
+    turn = _turns(axis, np.sin(displacement), 1.0 - np.cos(displacement))
     rotation, position = np.empty((points, n, 3, 3)), np.empty((points, n, 3))
-    subspace = np.zeros((points, n, 6))
-    for i in range(n):
+    world_axis, world_anchor = np.empty((points, n, 3)), np.empty((points, n, 3))
+    for i in range(n):  # the kinematic chain, parents first
         up = parent[i]
         if up < 0:
             before = np.broadcast_to(offset_rotation[i], (points, 3, 3))
@@ -81,18 +81,20 @@ def evaluate_tree(parent, offset_position, offset_rotation, hinge, axis, anchor,
             rotation_up, offset = rotation[:, up], offset_position[i]
             place = (position[:, up] + rotation_up[..., 0] * offset[0] + rotation_up[..., 1] * offset[1]
                      + rotation_up[..., 2] * offset[2])
-        world_axis = _matvec(before, axis[i])
-        if hinge[i]:  # Rodrigues, as the kernel writes it
-            world_anchor = place + _matvec(before, anchor[i])
-            s, c1 = sine[:, i, None, None], versine[:, i, None, None]
-            rotation[:, i] = _matmul(before, _turn(axis[i], s, c1))
-            position[:, i] = world_anchor - _matvec(rotation[:, i], anchor[i])
-            subspace[:, i, :3] = world_axis
-            subspace[:, i, 3:] = _cross(world_anchor, world_axis)
-        else:
+        world_axis[:, i] = _matvec(before, axis[i])
+        if hinge[i]:  # the body turns by the angle about its axis, through the anchor
+            world_anchor[:, i] = place + _matvec(before, anchor[i])
+            rotation[:, i] = _matmul(before, turn[:, i])
+            position[:, i] = world_anchor[:, i] - _matvec(rotation[:, i], anchor[i])
+        else:  # it moves along its axis
             rotation[:, i] = before
-            position[:, i] = place + world_axis * displacement[:, i, None]
-            subspace[:, i, 3:] = world_axis
+            position[:, i] = place + world_axis[:, i] * displacement[:, i, None]
+    # Each joint's motion subspace S in world coordinates [w; v at the origin].
+    subspace = np.zeros((points, n, 6))
+    hinges, slides = np.flatnonzero(hinge), np.flatnonzero(~hinge)
+    subspace[:, hinges, :3] = world_axis[:, hinges]
+    subspace[:, hinges, 3:] = _cross(world_anchor[:, hinges], world_axis[:, hinges])
+    subspace[:, slides, 3:] = world_axis[:, slides]
     # Each node's inertia in world coordinates about the world origin (the kernel's comments), every node at once.
     d = position
     h = _matvec(rotation, first_moment)
@@ -109,22 +111,27 @@ def evaluate_tree(parent, offset_position, offset_rotation, hinge, axis, anchor,
     if velocity_points:
         # Newton-Euler, forward: velocities, and accelerations with qdd = 0 and the base at -gravity.
         column = subspace[moving] * qvel[moving, :, None]
-        velocity, acceleration = np.empty((velocity_points, n, 6)), np.empty((velocity_points, n, 6))
+        velocity = np.empty((velocity_points, n, 6))
         for i in range(n):
             up = parent[i]
             velocity[:, i] = (0.0 if up < 0 else velocity[:, up]) + column[:, i]
+        # + V x S qd (motion cross product: [w x a_w; w x a_v + v x a_w]), each node's share at once, then added
+        # down the tree in the kernel's order.
+        w, v = velocity[..., :3], velocity[..., 3:]
+        turning, carried, swept = _cross(w, column[..., :3]), _cross(w, column[..., 3:]), _cross(v, column[..., :3])
+        acceleration = np.empty((velocity_points, n, 6))
+        for i in range(n):
+            up = parent[i]
             if up < 0:
                 acceleration[:, i, :3] = 0.0
                 acceleration[:, i, 3:] = -gravity
             else:
                 acceleration[:, i] = acceleration[:, up]
-            w, v = velocity[:, i, :3], velocity[:, i, 3:]
-            acceleration[:, i, :3] += _cross(w, column[:, i, :3])
-            acceleration[:, i, 3:] += _cross(w, column[:, i, 3:])
-            acceleration[:, i, 3:] += _cross(v, column[:, i, :3])
+            acceleration[:, i, :3] += turning[:, i]
+            acceleration[:, i, 3:] += carried[:, i]
+            acceleration[:, i, 3:] += swept[:, i]
         own = (c_mass[moving], c_first[moving], c_inertia[moving])
         force, momentum = _apply_inertia(*own, acceleration), _apply_inertia(*own, velocity)
-        w, v = velocity[..., :3], velocity[..., 3:]
         force[..., :3] += _cross(w, momentum[..., :3])
         force[..., :3] += _cross(v, momentum[..., 3:])
         force[..., 3:] += _cross(w, momentum[..., 3:])
@@ -191,21 +198,21 @@ def evaluate_tree(parent, offset_position, offset_rotation, hinge, axis, anchor,
         qacc[moving] = rhs
 
 
-def _turn(axis: np.ndarray, s: np.ndarray, c1: np.ndarray) -> np.ndarray:
-    """Rodrigues' rotation by the angles whose sine is ``s`` and versine ``c1`` (``(points, 1, 1)``) about the unit
-    ``axis``, entry by entry as the kernel writes it."""
-    x, y, z = axis
-    turn = np.empty(s.shape[:1] + (3, 3))
-    s, c1 = s[:, 0, 0], c1[:, 0, 0]
-    turn[:, 0, 0] = 1.0 - c1 * (y * y + z * z)
-    turn[:, 1, 1] = 1.0 - c1 * (x * x + z * z)
-    turn[:, 2, 2] = 1.0 - c1 * (x * x + y * y)
-    turn[:, 0, 1] = c1 * x * y - s * z
-    turn[:, 1, 0] = c1 * x * y + s * z
-    turn[:, 0, 2] = c1 * x * z + s * y
-    turn[:, 2, 0] = c1 * x * z - s * y
-    turn[:, 1, 2] = c1 * y * z - s * x
-    turn[:, 2, 1] = c1 * y * z + s * x
+def _turns(axis: np.ndarray, s: np.ndarray, c1: np.ndarray) -> np.ndarray:
+    """Rodrigues' rotation of every joint at every point, ``(points, n, 3, 3)``, by the angles whose sine is ``s``
+    and versine ``c1`` (``(points, n)``) about the unit axes ``axis`` ``(n, 3)``, entry by entry as the kernel
+    writes it (a slide joint's is unused)."""
+    x, y, z = axis[:, 0], axis[:, 1], axis[:, 2]
+    turn = np.empty(s.shape + (3, 3))
+    turn[..., 0, 0] = 1.0 - c1 * (y * y + z * z)
+    turn[..., 1, 1] = 1.0 - c1 * (x * x + z * z)
+    turn[..., 2, 2] = 1.0 - c1 * (x * x + y * y)
+    turn[..., 0, 1] = c1 * x * y - s * z
+    turn[..., 1, 0] = c1 * x * y + s * z
+    turn[..., 0, 2] = c1 * x * z + s * y
+    turn[..., 2, 0] = c1 * x * z - s * y
+    turn[..., 1, 2] = c1 * y * z - s * x
+    turn[..., 2, 1] = c1 * y * z + s * x
     return turn
 
 
