@@ -146,6 +146,13 @@ def expected_false_alarm(n: int, alpha: float) -> float:
     return (n + 1 - threshold_rank(n, alpha)) / (n + 1)
 
 
+def threshold_spread(n: int, alpha: float) -> float:
+    """The standard deviation, from one calibration to another, of the false-alarm probability a threshold from
+    n peaks gives: that of Beta(n + 1 - k, k), k = :func:`threshold_rank` (the spread no scored run removes)."""
+    a, b = n + 1 - threshold_rank(n, alpha), threshold_rank(n, alpha)
+    return float(np.sqrt(a * b / ((a + b) ** 2 * (a + b + 1))))
+
+
 def false_alarm_law(windows_per_stratum: list[int], n: int, alpha: float) -> np.ndarray:
     """The law of an entry's count of false alarms on its scored healthy windows, its thresholds calibrated on
     n peaks per stratum: per stratum the count over m windows beyond the k-th smallest of n is beta-binomial

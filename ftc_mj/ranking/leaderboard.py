@@ -331,6 +331,9 @@ def write(bench: Bench, tier: str, out: Path, done: dict[tuple[str, str, str, st
         written.append(_save(windowed.front_figure(boards), out / "figures" / "front.png"))
     if boards is not None:
         meta["gate"] = {robot: {"passed": b.gate.passed, "conditions": b.gate.conditions()} for robot, b in boards.items()}
+        alpha = bench.suite.spec.calibration.false_alarm
+        meta["false_alarms"] = {**{robot: windowed.false_alarms({robot: b}, alpha) for robot, b in boards.items()},
+                                "every robot": windowed.false_alarms(boards, alpha)}
         write_atomic(written[3], (json.dumps(meta, indent=2) + "\n").encode())
     written.append(_save(ranked_figure(bench, rows), out / "figures" / "ranked.png"))
     return written

@@ -173,10 +173,9 @@ def markdown(bench: Bench, boards: dict[str, RobotBoard]) -> list[str]:
     return lines
 
 
-def _fa_summary(where: str, boards: dict[str, RobotBoard], alpha: float) -> str:
-    """How many rows' realised false-alarm rates lie beyond two binomial standard errors of the nominal, against
-    how many chance predicts, the rows' counts tested against the law calibrated thresholds give (Holm), and the
-    rate pooled over every row (:func:`~ftc_mj.ranking.calibrated.false_alarm_check`)."""
+def false_alarms(boards: dict[str, RobotBoard], alpha: float) -> dict[str, Any]:
+    """The realised false-alarm rates of every row of ``boards`` against chance
+    (:func:`~ftc_mj.ranking.calibrated.false_alarm_check`) and pooled over the rows, as plain data (bench.json)."""
     rows, windows, clusters = {}, [], []
     for robot, board in boards.items():
         for name, w in board.windows.items():
@@ -187,15 +186,32 @@ def _fa_summary(where: str, boards: dict[str, RobotBoard], alpha: float) -> str:
     check = cal.false_alarm_check(rows, alpha)
     pooled = cal.pooled_false_alarm(windows, clusters)
     peaks = sorted({board.calibration_runs for board in boards.values()})
-    expected = ", ".join(f"{cal.expected_false_alarm(n, alpha):.3g}" for n in peaks)
-    differ = ", ".join(f"`{name}`" for name in check.holm_rejected) or "none"
-    return (f"{where}: {check.off} of {check.rows} rows (sanity rows included) are \"(off)\", beyond two binomial "
-            f"standard errors of {alpha:g}; chance predicts {check.expected_exact:.1f} with exact thresholds, "
-            f"{check.expected_calibrated:.1f} with thresholds from {'/'.join(map(str, peaks))} calibration peaks "
-            f"({expected} false alarms on average; each row's count beta-binomial), P({check.off} or more) = "
-            f"{check.p_value:.2g} (rows taken as independent; they share runs). Rows off that law at 5% "
-            f"family-wise (Holm): {differ}. Pooled over the rows: {pooled.value:.3g} [{pooled.low:.3g}, "
-            f"{pooled.high:.3g}] ({pooled.count} windows; interval resampling the healthy runs).")
+    return {"nominal": alpha, "rows": check.rows, "off": check.off, "expected_off_exact": check.expected_exact,
+            "expected_off_calibrated": check.expected_calibrated, "p_value": check.p_value,
+            "holm_rejected": list(check.holm_rejected), "calibration_peaks": peaks,
+            "expected_rate": [cal.expected_false_alarm(n, alpha) for n in peaks],
+            "threshold_spread": [cal.threshold_spread(n, alpha) for n in peaks],
+            "pooled": {"value": pooled.value, "low": pooled.low, "high": pooled.high, "windows": pooled.count}}
+
+
+def _fa_summary(where: str, boards: dict[str, RobotBoard], alpha: float) -> str:
+    """How many rows' realised false-alarm rates lie beyond two binomial standard errors of the nominal, against
+    how many chance predicts, the rows' counts tested against the law calibrated thresholds give (Holm), and the
+    rate pooled over every row (:func:`false_alarms`)."""
+    f = false_alarms(boards, alpha)
+    expected = ", ".join(f"{rate:.3g} (sd {spread:.2g})" for rate, spread in zip(f["expected_rate"],
+                                                                                f["threshold_spread"]))
+    differ = ", ".join(f"`{name}`" for name in f["holm_rejected"]) or "none"
+    pooled = f["pooled"]
+    return (f"{where}: {f['off']} of {f['rows']} rows (sanity rows included) are \"(off)\", beyond two binomial "
+            f"standard errors of {alpha:g}; chance predicts {f['expected_off_exact']:.1f} with exact thresholds, "
+            f"{f['expected_off_calibrated']:.1f} with thresholds from {'/'.join(map(str, f['calibration_peaks']))} "
+            f"calibration peaks ({expected} false alarms on average, the sd from one calibration to another; "
+            "each row's count beta-binomial), "
+            f"P({f['off']} or more) = {f['p_value']:.2g} (rows taken as independent; they share runs). Rows off that "
+            f"law at 5% family-wise (Holm): {differ}. Pooled over the rows: {pooled['value']:.3g} "
+            f"[{pooled['low']:.3g}, {pooled['high']:.3g}] ({pooled['windows']} windows; interval resampling the "
+            "scored healthy runs, the thresholds held).")
 
 
 def tuned_pairs(board: RobotBoard) -> list[str]:

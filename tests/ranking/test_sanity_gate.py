@@ -82,3 +82,18 @@ def test_the_leaderboard_shows_the_gate_and_what_each_entry_reads(board):
     assert "specificity" in text and "1 - false-alarm rate" not in text
     for name in ("roc", "detectability", "front"):
         assert (out / "figures" / f"{name}.png").is_file()
+
+
+def test_the_false_alarms_are_said_against_chance(board):
+    """Per robot and over every robot: the off rows beside the count chance predicts, Holm finding no row whose
+    count the calibrated thresholds' law refuses, the pooled rate within three of a threshold's own standard
+    deviations (0.055, its rows sharing their calibration runs) of the rate a threshold from 16 peaks gives on
+    average (1/17 at 0.05: the higher quantile of 16 is their largest)."""
+    _, info, out = board
+    text = (out / "leaderboard.md").read_text()
+    assert text.count("rows (sanity rows included) are \"(off)\"") == len(ROBOTS) + 1
+    every = info["false_alarms"]["every robot"]
+    assert every["rows"] == len(ROBOTS) * 4 and every["holm_rejected"] == []
+    assert every["expected_rate"] == [pytest.approx(1 / 17)]
+    assert abs(every["pooled"]["value"] - 1 / 17) < 3 * every["threshold_spread"][0], every
+    assert every["expected_off_calibrated"] > every["expected_off_exact"]
