@@ -32,6 +32,7 @@ from __future__ import annotations
 
 import argparse
 import time
+from collections.abc import Callable
 from pathlib import Path
 
 import numpy as np
@@ -50,10 +51,11 @@ ROOT = Path(__file__).resolve().parents[1]
 PHASES = ("physics", "nominal model", "methods", "plant terms", "readings", "set-up and truths", "metrics")
 
 
-def timed_periods(run: loop._Run, seconds: dict[str, float]) -> BatchRun:
-    """Every control period of ``run`` as the loop steps it, each phase's seconds added to ``seconds`` (the
-    keys of :data:`PHASES` but the metrics); the truths after the run under "set-up and truths". The run."""
-    clock = time.perf_counter
+def timed_periods(run: loop._Run, seconds: dict[str, float], clock: Callable[[], float] = time.perf_counter
+                  ) -> BatchRun:
+    """Every control period of ``run`` as the loop steps it, each phase's seconds by ``clock`` added to
+    ``seconds`` (the keys of :data:`PHASES` but the metrics); the truths after the run under "set-up and
+    truths". The run."""
     with np.errstate(all="ignore"):
         for k in range(run.steps):
             t = run.times[k]

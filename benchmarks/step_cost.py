@@ -10,6 +10,11 @@ loop measured just before it, and their median: the machine's speed drifts from 
 two measurements, a second apart, drift least. Last, the cost of the causal diagnoser stepped inside the loop
 (``simulate(..., diagnose_in_loop=True)``, as for a controller that reads the diagnosis) against the same run
 diagnosed after it (its accelerator), alternated rounds, the fastest of each: microseconds per control step.
+
+The same rounds are also timed in the process's CPU time (``time.process_time``: every thread's, the Rerun
+writer's too): on a shared machine the wall ratio moves with what else runs, while CPU time does not count
+the time the process waits for a core, so its ratio is the steadier comparison of two versions there. It adds
+the recording's background threads to the loop's, where a quiet machine's wall clock runs them beside it.
 """
 
 from __future__ import annotations
@@ -18,6 +23,7 @@ import argparse
 import statistics
 import tempfile
 import time
+from collections.abc import Callable
 from pathlib import Path
 
 import mujoco
@@ -33,18 +39,32 @@ from ftc_mj.scenario.definition import Scenario
 ROOT = Path(__file__).resolve().parents[1]
 
 
-def bare_loop_seconds(model: mujoco.MjModel, steps: int) -> float:
+def bare_loop_seconds(model: mujoco.MjModel, steps: int, clock: Callable[[], float] = time.perf_counter) -> float:
+    """Seconds by ``clock`` of ``steps`` bare ``mj_step`` calls."""
     data = mujoco.MjData(model)
-    start = time.perf_counter()
+    start = clock()
     for _ in range(steps):
         mujoco.mj_step(model, data)
-    return time.perf_counter() - start
+    return clock() - start
 
 
-def single_run(description: str, rounds_help: str) -> tuple[argparse.Namespace, Scenario]:
-    """The command line of a single-run benchmark (scenario, variant, duration, rounds) and its scenario of
-    that one variant."""
+def bare_loop_times(model: mujoco.MjModel, steps: int) -> tuple[float, float]:
+    """Wall and CPU seconds of ``steps`` bare ``mj_step`` calls."""
+    data = mujoco.MjData(model)
+    start, cpu = time.perf_counter(), time.process_time()
+    for _ in range(steps):
+        mujoco.mj_step(model, data)
+    return time.perf_counter() - start, time.process_time() - cpu
+
+
+def single_run(description: str, rounds_help: str, clock: bool = False) -> tuple[argparse.Namespace, Scenario]:
+    """The command line of a single-run benchmark (scenario, variant, duration, rounds; with ``clock`` the
+    choice of clock) and its scenario of that one variant."""
     parser = argparse.ArgumentParser(description=description)
+    if clock:
+        parser.add_argument("--clock", choices=["wall", "cpu"], default="wall",
+                            help="wall time, or this thread's CPU time (steadier on a shared machine; each "
+                                 "reading costs about a microsecond more, added to the phases)")
     parser.add_argument("--scenario", type=Path, default=ROOT / "scenarios" / "puma_fault.yaml")
     parser.add_argument("--variant", default="proposed")
     parser.add_argument("--duration", type=float, default=10.0)
@@ -60,22 +80,24 @@ def main() -> None:
 
     run_scenario(scenario, record_poses=True)  # the first run in a process loads the kernels: not a round
     # Alternated rounds, the fastest of each: this machine's speed drifts by a fifth from minute to minute.
-    bare = simulated = recorded = float("inf")
-    paired = []
+    bare = simulated = recorded = bare_cpu = simulated_cpu = recorded_cpu = float("inf")
+    paired, paired_cpu = [], []
     for _ in range(args.rounds):
-        round_bare = bare_loop_seconds(scenario.model, physics_steps)
-        bare = min(bare, round_bare)
-        start = time.perf_counter()
+        round_bare, round_bare_cpu = bare_loop_times(scenario.model, physics_steps)
+        bare, bare_cpu = min(bare, round_bare), min(bare_cpu, round_bare_cpu)
+        start, cpu = time.perf_counter(), time.process_time()
         results = run_scenario(scenario, record_poses=True)
-        loop_done = time.perf_counter()
+        loop_done, loop_done_cpu = time.perf_counter(), time.process_time()
         for result in results:
             compute_metrics(result, scenario.spec.metrics, scenario.fault_onsets, scenario.joint_fault_onsets)
         with tempfile.TemporaryDirectory() as folder:
             write_recording(Path(folder) / "bench.rrd", scenario=scenario.name, model=scenario.model,
                             results=results, fault_onsets=scenario.fault_onsets, seed=scenario.spec.seed)
-        end = time.perf_counter()
+        end, end_cpu = time.perf_counter(), time.process_time()
         simulated, recorded = min(simulated, loop_done - start), min(recorded, end - start)
+        simulated_cpu, recorded_cpu = min(simulated_cpu, loop_done_cpu - cpu), min(recorded_cpu, end_cpu - cpu)
         paired.append((end - start) / round_bare)
+        paired_cpu.append((end_cpu - cpu) / round_bare_cpu)
 
     per_step = lambda seconds: seconds / steps * 1e6  # noqa: E731
     print(f"scenario {scenario.name}, variant {args.variant}, {steps} control steps "
@@ -86,6 +108,11 @@ def main() -> None:
     print(f"ratio closed loop / bare:    {recorded / bare:8.1f}")
     print("each round against its own bare loop: " + ", ".join(f"{ratio:.2f}" for ratio in paired)
           + f"; median {statistics.median(paired):.2f}")
+    print(f"CPU time: bare {per_step(bare_cpu):.2f}, closed loop (sim only) {per_step(simulated_cpu):.2f}, with "
+          f"record {per_step(recorded_cpu):.2f} us per control step; ratios sim only {simulated_cpu / bare_cpu:.2f}, "
+          f"with record {recorded_cpu / bare_cpu:.2f}")
+    print("CPU time, each round against its own bare loop: " + ", ".join(f"{ratio:.2f}" for ratio in paired_cpu)
+          + f"; median {statistics.median(paired_cpu):.2f}")
     if scenario.diagnoser is not None:
         after, inside = diagnosis_in_loop_seconds(scenario, args.rounds)
         print(f"diagnosis after the run:     {per_step(after):8.2f} us per control step (simulate + diagnose)")

@@ -258,6 +258,11 @@ class _Run:
     inputs: PlantInputs
     #: q_d and its derivatives: ``(steps, n)``, or ``(steps, members, n)`` where the reference uses parameters.
     reference: tuple[np.ndarray, np.ndarray, np.ndarray]
+    #: The period's rows of the reference, ``(n,)`` or ``(members, n)`` each: buffers the controllers are handed
+    #: every period (the same objects, as the readings: a fused law binds them once), filled by
+    #: :attr:`reference_copies` at the start of :meth:`control`.
+    reference_rows: tuple[np.ndarray, np.ndarray, np.ndarray]
+    reference_copies: SampleCopies
     series: Series
     #: The plant's live body poses to record, or None.
     poses: tuple[np.ndarray, np.ndarray] | None
@@ -359,8 +364,12 @@ class _Run:
                                      rows_series["fault_acceleration"],
                                      bias=None if friction is None else np.zeros((rows, n)))
         solve_commands = solver.bound(mass.factor, mass.diagonal_inverse, tau, command_acceleration)
+        reference_rows = tuple(np.zeros(values.shape[1:]) for values in reference)
+        reference_copies = SampleCopies()
+        for values, row in zip(reference, reference_rows):
+            reference_copies.row(values, row)
         return cls(times, layout, plant, readings, nominal, mass, solver, tau, command_acceleration, solve_commands,
-                   blocks, copies, inputs, reference, series, poses, truths,
+                   blocks, copies, inputs, reference, reference_rows, reference_copies, series, poses, truths,
                    Stops(np.full(rows, steps), np.full(rows, np.nan)), friction)
 
     def stop(self, stopped: np.ndarray | None, k: int) -> None:
@@ -406,7 +415,8 @@ class _Run:
         """3. Each observer's injection, each controller's torque; the commands go to ``ctrl``."""
         recorded = self.series
         luaf_torque = recorded.luaf_torque
-        q_ref, qd_ref, qdd_ref = self.reference[0][k], self.reference[1][k], self.reference[2][k]
+        self.reference_copies(k)
+        q_ref, qd_ref, qdd_ref = self.reference_rows
         for block in self.blocks:
             rows_b, q_b = block.rows, block.q_meas
             block.observer.update(t, q_b, block.model)

@@ -1,4 +1,5 @@
-"""A period's copies of live buffers into the series' samples (and into ``ctrl``), in one compiled call.
+"""A period's copies of live buffers into the series' samples (and into ``ctrl``), or of a sample into a live
+buffer (the reference's rows), in one compiled call.
 
 Each control period the loop writes some ten small arrays into the series: the readings, the true state, the
 torque, each variant's estimates and sliding variable, the bodies' poses; and the command into the plant's
@@ -9,8 +10,9 @@ them (``benchmarks/step_phases.py`` measures the period's copies).
 the destination's bytes per sample, elements), built once, and one call of a kernel copies every entry for
 sample k.
 
-**The same bytes.** An entry is a float64 source and a float64 destination sample of the same shape, both
-contiguous: the copy is ``destination[k] = source`` element for element, and any other pair (another dtype,
+**The same bytes.** An entry is a float64 source (or source sample) and a float64 destination sample (or
+destination) of the same shape, both contiguous: the copy is ``destination[k] = source`` (or
+``destination[...] = source[k]``) element for element, and any other pair (another dtype,
 strides, a shape NumPy would broadcast) is copied by that NumPy assignment instead, after the kernel.
 
 **The same arrays.** The table holds addresses; the entries hold the arrays they were made of (so the memory
@@ -35,20 +37,21 @@ from numba.extending import intrinsic
 from ftc_mj import fast
 from ftc_mj.fast.kernels import bound
 
-#: Columns of the table: source address, destination address at sample 0, destination bytes per sample (0:
-#: the same buffer every sample), elements.
-_SOURCE, _DESTINATION, _STRIDE, _COUNT = range(4)
+#: Columns of the table: source address at sample 0, source bytes per sample, destination address at sample 0,
+#: destination bytes per sample (0: the same buffer every sample), elements.
+_SOURCE, _SOURCE_STRIDE, _DESTINATION, _STRIDE, _COUNT = range(5)
 
 
 class SampleCopies:
-    """``destination[k] = source`` (or ``buffer[...] = source``) for every entry, each period, in one call.
+    """``destination[k] = source`` (or ``buffer[...] = source``, ``buffer[...] = series[k]``) for every entry,
+    each period, in one call.
 
-    Entries are added before the first call (:meth:`sample`, :meth:`into`), each with a group: the key of the
+    Entries are added before the first call (:meth:`sample`, :meth:`into`, :meth:`row`), each with a group: the key of the
     owner that may rebind its arrays (:meth:`rebind`). Then ``copies(k)`` copies them all for sample k."""
 
     def __init__(self) -> None:
-        #: Per entry: (group, source, destination as NumPy writes it for sample k, per sample?).
-        self._entries: list[tuple[object, np.ndarray, np.ndarray, bool]] = []
+        #: Per entry: (group, source, destination, which of them is per sample: "destination", "source" or "").
+        self._entries: list[tuple[object, np.ndarray, np.ndarray, str]] = []
         #: The groups whose entries NumPy copies (their ``id``: a group is any object, hashable or not).
         self._assigned: set[int] = set()
         self._call: Callable[[int], None] | None = None
@@ -57,13 +60,17 @@ class SampleCopies:
 
     def sample(self, source: np.ndarray, series: np.ndarray, group: object = None) -> None:
         """``series[k] = source`` at every call's k (``series`` is ``(steps, ...)``)."""
-        self._add(group, source, series, True)
+        self._add(group, source, series, "destination")
 
     def into(self, source: np.ndarray, buffer: np.ndarray, group: object = None) -> None:
         """``buffer[...] = source`` at every call."""
-        self._add(group, source, buffer, False)
+        self._add(group, source, buffer, "")
 
-    def _add(self, group: object, source: np.ndarray, destination: np.ndarray, per_sample: bool) -> None:
+    def row(self, series: np.ndarray, buffer: np.ndarray, group: object = None) -> None:
+        """``buffer[...] = series[k]`` at every call's k."""
+        self._add(group, series, buffer, "source")
+
+    def _add(self, group: object, source: np.ndarray, destination: np.ndarray, per_sample: str) -> None:
         self._entries.append((group, source, destination, per_sample))
         self._call = None
 
@@ -91,13 +98,15 @@ class SampleCopies:
         rows, numpy = [], []
         entries, compiled = self._entries, fast.enabled()
         for index, (group, source, destination, per_sample) in enumerate(entries):
-            target = destination[0] if per_sample else destination
-            if compiled and id(group) not in self._assigned and _copyable(source, target):
-                rows.append((source.ctypes.data, target.ctypes.data, destination.strides[0] if per_sample else 0,
-                             source.size))
+            origin = source[0] if per_sample == "source" else source
+            target = destination[0] if per_sample == "destination" else destination
+            if compiled and id(group) not in self._assigned and _copyable(origin, target):
+                rows.append((origin.ctypes.data, source.strides[0] if per_sample == "source" else 0,
+                             target.ctypes.data, destination.strides[0] if per_sample == "destination" else 0,
+                             origin.size))
             else:
                 numpy.append(index)
-        table = np.array(rows, dtype=np.int64).reshape(len(rows), 4)
+        table = np.array(rows, dtype=np.int64).reshape(len(rows), 5)
         self.kernel_entries = len(rows)
         copy = bound(_copy, table, free=(0,)) if rows else _nothing
 
@@ -105,8 +114,10 @@ class SampleCopies:
             copy(k)
             for index in numpy:
                 _, source, destination, per_sample = entries[index]
-                if per_sample:
+                if per_sample == "destination":
                     destination[k] = source
+                elif per_sample == "source":
+                    destination[...] = source[k]
                 else:
                     destination[...] = source
 
@@ -138,11 +149,11 @@ def _nothing(k: int) -> None:
 
 @numba.njit(cache=True)
 def _copy(table, k):  # noqa: ANN001, ANN202
-    """Every entry of ``table`` for sample ``k``: its elements from the source's address to the destination's
-    address plus k times its stride."""
+    """Every entry of ``table`` for sample ``k``: its elements from the source's address plus k times its stride
+    to the destination's address plus k times its stride."""
     for entry in range(table.shape[0]):
         count = table[entry, _COUNT]
-        source = numba.carray(_pointer(table[entry, _SOURCE]), count)
+        source = numba.carray(_pointer(table[entry, _SOURCE] + k * table[entry, _SOURCE_STRIDE]), count)
         destination = numba.carray(_pointer(table[entry, _DESTINATION] + k * table[entry, _STRIDE]), count)
         for i in range(count):
             destination[i] = source[i]

@@ -7,12 +7,13 @@ more than the kernel's own work. The compiled function itself
 resolves nothing: handed an array of another dtype, dimension or layout than it was compiled for, it reads
 that array's memory as if it were of the compiled one, silently. So it is never handed out on its own here:
 
-* :func:`bound` takes the buffers a call site uses every period, checks them at its boundary (each an exact,
-  aligned ``numpy.ndarray``), compiles for exactly their types and returns a call of those objects, the
-  period's own arguments (a sample index, a time, an array from outside) the only ones left. The buffers
-  cannot change type later (an array's dtype, dimensions and strides are fixed for its life), so that check
-  holds for every call; an array left to the call is read in any layout and its dtype and dimensions are
-  checked at every call.
+* :func:`bound` takes every array a call site uses (buffers read and written in place, and the arrays from
+  outside that the site is handed), checks them at its boundary (each an exact, aligned ``numpy.ndarray``),
+  compiles for exactly their types and returns a call of those objects, the period's own numbers (a sample
+  index, a time, a flag) the only arguments left. An array cannot change type later (its dtype, dimensions
+  and strides are fixed for its life), so that check holds for every call. A caller handed an array from
+  outside binds it too and binds again when it is handed another object: an identity check (``is``) per
+  array and call, as the fused laws (:mod:`ftc_mj.fast.laws`) do.
 * :func:`for_any_layout` compiles for the arguments' dtypes and dimensions in layout ``A`` (any strides) and
   finds that function again by exactly what decides its types, so any layout of those dtypes is read right.
 * Any other call goes through the dispatcher, which checks every argument.
@@ -38,54 +39,32 @@ from numba.core.types import Array, Type as NumbaType
 #: allocates an array or copies one array into a slice of another).
 WITHOUT_RUNTIME = {"_nrt": False}
 
-#: The numbers and flags :func:`bound` accepts as a call's free (per-call) argument, beside arrays.
+#: The numbers and flags :func:`bound` accepts as a call's free (per-call) argument.
 _SCALARS = (bool, int, float, np.bool_, np.integer, np.floating)
 
 
 def bound(dispatcher: Dispatcher | Callable, *arguments: object, free: tuple = ()) -> Callable[..., object]:
-    """``dispatcher`` on ``arguments`` (the same objects at every call: buffers read and written in place) and
-    then the call's own ``free`` arguments (given here by an example of each), as a call of those alone, past
-    the dispatcher: ``call(*free)`` runs ``dispatcher(*arguments, *free)``.
+    """``dispatcher`` on ``arguments`` (the same objects at every call) and then the call's own ``free``
+    arguments (given here by an example of each: numbers or flags), as a call of those alone, past the
+    dispatcher: ``call(*free)`` runs ``dispatcher(*arguments, *free)``.
 
     Checked here, once: every array among ``arguments`` is an exact, aligned ``numpy.ndarray`` (the function is
-    compiled for its dtype, dimensions and layout, which it keeps for life). A free argument is a number, a flag
-    or an array; a free array may change from call to call, so the function reads it in any layout (strides
-    honoured) and every call checks its type, dtype and dimensions against the example's, raising TypeError
-    where they differ (instead of reading its memory as another type). A plain function (Numba's JIT disabled)
-    is bound as it is."""
+    compiled for its dtype, dimensions and layout, which it keeps for life), and every free argument is a number
+    or a flag (an array is bound instead: a caller given another array binds again, the module docstring). A
+    plain function (Numba's JIT disabled) is bound as it is."""
     for position, argument in enumerate(arguments):
         if isinstance(argument, np.ndarray) and (type(argument) is not np.ndarray or not argument.flags.aligned):
             raise TypeError(f"bound: argument {position} is a {type(argument).__name__} that is not an aligned "
                             "numpy.ndarray")
     for position, example in enumerate(free):
-        if not isinstance(example, _SCALARS) and type(example) is not np.ndarray:
-            raise TypeError(f"bound: free argument {position} must be a number, a flag or a numpy.ndarray, not "
-                            f"{type(example).__name__}")
+        if not isinstance(example, _SCALARS):
+            raise TypeError(f"bound: free argument {position} must be a number or a flag, not "
+                            f"{type(example).__name__} (bind an array)")
     if not isinstance(dispatcher, Dispatcher):
         return partial(dispatcher, *arguments)
     types = [dispatcher.typeof_pyval(argument) for argument in arguments]
-    types += [_any_layout(dispatcher.typeof_pyval(example)) for example in free]
-    compiled = dispatcher.compile(tuple(types))
-    checks = tuple((position, example.dtype, example.ndim) for position, example in enumerate(free)
-                   if type(example) is np.ndarray)
-    run = partial(compiled, *arguments)
-    if not checks:
-        return run
-    #: The array each checked position held at the last call: the same object needs no check again (an
-    #: array's dtype and dimensions are fixed for its life).
-    seen: list[object] = [None] * len(free)
-
-    def call(*values: object) -> object:
-        for position, dtype, ndim in checks:
-            value = values[position]
-            if value is not seen[position]:
-                if (value.__class__ is not np.ndarray or value.ndim != ndim
-                        or (value.dtype is not dtype and value.dtype != dtype)):
-                    raise TypeError(f"bound: free argument {position} is not a {ndim}-d {dtype} numpy.ndarray")
-                seen[position] = value
-        return run(*values)
-
-    return call
+    types += [dispatcher.typeof_pyval(example) for example in free]
+    return partial(dispatcher.compile(tuple(types)), *arguments)
 
 
 def for_any_layout(dispatcher: Dispatcher | Callable, *arguments: object) -> Callable:

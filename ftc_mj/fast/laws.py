@@ -19,8 +19,11 @@ one ulp of the larger magnitude).
 that class exactly: a subclass runs the NumPy law, so that its overrides are honoured, unless it registers an
 accelerator itself. A method asks for its accelerator once, when it is built (:func:`accelerator`); it gets
 none with the fast paths off, for standalone ``(n,)`` states, or where a gain is not a ``(members, n)`` array.
-Each kernel is bound to the accelerator's and the method's own buffers (:func:`~ftc_mj.fast.kernels.bound`);
-the arrays from outside (readings, reference rows, the nominal model's) are checked at every call.
+Each kernel is bound (:func:`~ftc_mj.fast.kernels.bound`: checked once, called past Numba's dispatcher) to the
+accelerator's and the method's own buffers and to the arrays from outside it was last handed (readings,
+reference rows, the nominal model's): each call compares those with the ones bound (``is``) and binds the
+kernel again where one is another object, so that an array is read as the type it was compiled for. The
+engine hands the same objects every period (its buffers), so it binds once per run.
 """
 
 from __future__ import annotations
@@ -96,17 +99,39 @@ def kernel(function: Callable) -> numba.core.registry.CPUDispatcher:
     return numba.njit(cache=True, nogil=True, fastmath=False, error_model="numpy", **WITHOUT_RUNTIME)(function)
 
 
-def _site(owner: object, name: str, kernel: numba.core.registry.CPUDispatcher, *fixed: object) -> Callable:
-    """What ``owner.<name>`` calls ``kernel`` through: ``kernel`` bound to the accelerator's and the method's own
-    buffers ``fixed`` (:func:`~ftc_mj.fast.kernels.bound`) at its first call, with that call's arrays from
-    outside (the readings, the reference, the nominal model's) left free: checked at every call (another dtype or
-    number of dimensions raises TypeError), read in any layout."""
-    def first(*free: object) -> None:
-        call = bound(kernel, *fixed, free=free)
-        setattr(owner, name, call)
-        call(*free)
+class _Site:
+    """A kernel bound to the accelerator's and the method's own buffers ``fixed`` and to the arrays from outside
+    of its last call (:func:`~ftc_mj.fast.kernels.bound`); :meth:`bind` binds it to others. Its caller compares
+    the arrays it is handed with :attr:`outside` (``is``, one per array) and calls :meth:`bind` where one
+    differs, then :attr:`call`."""
 
-    return first
+    def __init__(self, kernel: numba.core.registry.CPUDispatcher, *fixed: object, outside: int):
+        self.kernel, self.fixed = kernel, fixed
+        #: The ``outside`` arrays from outside the kernel is bound to (None before the first call, which binds).
+        self.outside: tuple = (None,) * outside
+        self.call: Callable[[], None] = self._unbound
+
+    def bind(self, *outside: np.ndarray | bool) -> None:
+        """Bind the kernel to ``outside`` (after the own buffers): arrays, checked once
+        (:func:`~ftc_mj.fast.kernels.bound`), or flags."""
+        for position, value in enumerate(outside):
+            if type(value) is not np.ndarray and type(value) is not bool:
+                raise TypeError(f"{self.kernel.__name__}: argument {len(self.fixed) + position} must be a "
+                                f"numpy.ndarray, not {type(value).__name__}")
+        self.call = bound(self.kernel, *self.fixed, *outside)
+        self.outside = outside
+
+    @staticmethod
+    def _unbound() -> None:
+        raise RuntimeError("a fused kernel called before it was bound")
+
+
+def _euler_period(site: _Site, psi_hat: np.ndarray, command: np.ndarray) -> None:
+    """An observer's Euler period through ``site``, bound to the model's Psi and M^-1 u of this call."""
+    outside = site.outside
+    if psi_hat is not outside[0] or command is not outside[1]:
+        site.bind(psi_hat, command)
+    site.call()
 
 
 def entry(values: np.ndarray, member: int, joint: int) -> float:
@@ -164,20 +189,23 @@ class TOSMOLaw:
         gamma = method.config.gamma if linear else method.k1  # unread without the linear terms
         magnitude, magnitude_third = self.powers
         m = method
-        self.errors = _site(self, "errors", _tosmo_errors, m.q_hat, self.error, self.sign, magnitude,
-                            magnitude_third)
-        self.corrections = _site(self, "corrections", _tosmo_injection, self.error, magnitude, magnitude_third,
-                                 m.k1, m.k2, gamma, linear, m.qd_hat, m.luaf_hat, self.q_hat_rate, m.injection)
-        self.advance_state = _site(self, "advance_state", _tosmo_advance, m.injection, self.q_hat_rate, float(m.dt),
-                                   self.luaf_step, self.sign, m.q_hat, m.qd_hat, m.luaf_hat)
+        self.errors = _Site(_tosmo_errors, m.q_hat, self.error, self.sign, magnitude, magnitude_third, outside=1)
+        self.corrections = _Site(_tosmo_injection, self.error, magnitude, magnitude_third, m.k1, m.k2, gamma, linear,
+                                 m.qd_hat, m.luaf_hat, self.q_hat_rate, m.injection, outside=0)
+        self.advance_state = _Site(_tosmo_advance, m.injection, self.q_hat_rate, float(m.dt), self.luaf_step,
+                                   self.sign, m.q_hat, m.qd_hat, m.luaf_hat, outside=2)
 
     def update(self, q_meas: np.ndarray, model: object) -> None:
-        self.errors(q_meas)
+        errors = self.errors
+        if q_meas is not errors.outside[0]:
+            errors.bind(q_meas)
+            self.corrections.bind()  # bound with the first (its arrays are all the law's own)
+        errors.call()
         np.power(self.powers, self.exponents, self.powers)  # as signed_power raises them
-        self.corrections()
+        self.corrections.call()
 
     def advance(self, tau: np.ndarray, model: object) -> None:
-        self.advance_state(model.psi_hat, model.command_acceleration(tau))
+        _euler_period(self.advance_state, model.psi_hat, model.command_acceleration(tau))
 
 
 @kernel
@@ -232,16 +260,19 @@ class SOSMOLaw:
     def __init__(self, method: object):
         m = self.method = method
         self.q_hat_rate = np.zeros(method.shape)
-        self.update_state = _site(self, "update_state", _sosmo_update, m.q_hat, m.qd_hat, m.k1, m.k2,
-                                  self.q_hat_rate, m.injection)
-        self.advance_state = _site(self, "advance_state", _sosmo_advance, m.injection, self.q_hat_rate, float(m.dt),
-                                   m.filter_weight, m.q_hat, m.qd_hat, m.luaf_hat)
+        self.update_state = _Site(_sosmo_update, m.q_hat, m.qd_hat, m.k1, m.k2, self.q_hat_rate, m.injection,
+                                  outside=1)
+        self.advance_state = _Site(_sosmo_advance, m.injection, self.q_hat_rate, float(m.dt), m.filter_weight,
+                                   m.q_hat, m.qd_hat, m.luaf_hat, outside=2)
 
     def update(self, q_meas: np.ndarray, model: object) -> None:
-        self.update_state(q_meas)
+        update_state = self.update_state
+        if q_meas is not update_state.outside[0]:
+            update_state.bind(q_meas)
+        update_state.call()
 
     def advance(self, tau: np.ndarray, model: object) -> None:
-        self.advance_state(model.psi_hat, model.command_acceleration(tau))
+        _euler_period(self.advance_state, model.psi_hat, model.command_acceleration(tau))
 
 
 @kernel
@@ -283,19 +314,31 @@ class NFTSMCLaw:
         self.exponents = np.stack([np.broadcast_to(g, shape) for g in (c.gamma1, c.gamma2, 3.0)])
         m, (magnitude, magnitude_rate, e), (power, power_rate, cube) = method, self.bases, self.powers
         self.error = e
-        self.errors = _site(self, "errors", _nftsmc_errors, e, self.error_rate, magnitude, magnitude_rate)
-        self.negative_control = _site(self, "negative_control", _nftsmc_negative_control, e, self.error_rate, power,
-                                      power_rate, cube, c.beta1, c.beta2, c.beta3, c.beta4, float(m.dt), m.integral,
-                                      m.sliding, self.negative_u)
+        self.errors = _Site(_nftsmc_errors, e, self.error_rate, magnitude, magnitude_rate, outside=4)
+        self.negative_control = _Site(_nftsmc_negative_control, e, self.error_rate, power, power_rate, cube, c.beta1,
+                                      c.beta2, c.beta3, c.beta4, float(m.dt), m.integral, m.sliding, self.negative_u,
+                                      outside=5)
 
     def compute(self, q_ref: np.ndarray, qd_ref: np.ndarray, qdd_ref: np.ndarray, q_meas: np.ndarray,
                 observer: object, model: object) -> np.ndarray:
-        m = self.method
-        self.errors(q_meas, q_ref, model.control_velocity(observer.qd_hat), qd_ref)
+        m, errors, negative_control = self.method, self.errors, self.negative_control
+        velocity = model.control_velocity(observer.qd_hat)
+        bound_to = errors.outside
+        if (q_meas is not bound_to[0] or q_ref is not bound_to[1] or velocity is not bound_to[2]
+                or qd_ref is not bound_to[3]):
+            errors.bind(q_meas, q_ref, velocity, qd_ref)
+        errors.call()
         np.power(self.bases, self.exponents, self.powers)  # as signed_power and e**3 raise them
         compensation = m.observer_compensation(observer)
-        self.negative_control(qdd_ref, model.psi_control, self.error if compensation is None else compensation,
-                              compensation is not None, m.switching_gain())
+        compensate = compensation is not None
+        if not compensate:
+            compensation = self.error  # read by no period: any array of the law's shape
+        psi_control, gain = model.psi_control, m.switching_gain()
+        bound_to = negative_control.outside
+        if (qdd_ref is not bound_to[0] or psi_control is not bound_to[1] or compensation is not bound_to[2]
+                or compensate is not bound_to[3] or gain is not bound_to[4]):
+            negative_control.bind(qdd_ref, psi_control, compensation, compensate, gain)
+        negative_control.call()
         return model.apply_M(self.negative_u, out=m.tau)
 
 

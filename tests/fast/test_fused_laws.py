@@ -87,8 +87,10 @@ def test_fused_observer_equals_its_reference(cls, option):
         # M^-1 tau of this period's command: a function of tau, as a model without the engine's solve has it.
         model.command_acceleration = lambda tau, model=model: model.command + 0.5 * tau
         tau = rng.normal(size=(MEMBERS, N))
+        # Another object every third period, of another layout: the accelerator binds it and reads it right.
+        reading = np.asfortranarray(q) if k % 3 == 1 else np.repeat(q, 2, axis=1)[:, ::2] if k % 3 == 2 else q
         for observer in (fused, reference):
-            observer.update(k * DT, q, model)
+            observer.update(k * DT, reading, model)
         assert_same(fused, reference, ["injection", "qd_hat", "luaf_hat"], k)
         for observer in (fused, reference):
             observer.advance(tau, model)

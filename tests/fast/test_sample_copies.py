@@ -49,6 +49,22 @@ def test_every_kind_of_entry_is_numpys_assignment() -> None:
     assert copies.kernel_entries == 4  # whole, block, poses, ctrl; the other three by NumPy
 
 
+def test_a_row_entry_copies_sample_k_into_its_buffer() -> None:
+    """``buffer[...] = series[k]``: a whole series' sample, a per-member reference's, and a strided series' (by
+    NumPy), each the bytes NumPy's assignment leaves."""
+    series = {"row": _random((STEPS, N), 7), "members": _random((STEPS, ROWS, N), 8),
+              "strided": _random((STEPS, 2 * N), 9)[:, ::2]}
+    buffers = {name: np.zeros(values.shape[1:]) for name, values in series.items()}
+    copies = SampleCopies()
+    for name, values in series.items():
+        copies.row(values, buffers[name])
+    for k in (0, 4, STEPS - 1):
+        copies(k)
+        for name, values in series.items():
+            assert buffers[name].tobytes() == np.ascontiguousarray(values[k]).tobytes(), (name, k)
+    assert copies.kernel_entries == 2
+
+
 def test_only_contiguous_float64_pairs_of_one_shape_go_to_the_kernel() -> None:
     a = np.zeros((ROWS, N))
     assert _copyable(a, np.zeros((ROWS, N)))

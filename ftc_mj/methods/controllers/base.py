@@ -88,7 +88,11 @@ class Controller(Method):
         observer: Observer,
         model: StepModel,
     ) -> np.ndarray:
-        """Return the torque command (the controller's own ``tau`` array, valid until the next call)."""
+        """Return the torque command (the controller's own ``tau`` array, valid until the next call).
+
+        The reference rows ``q_ref``, ``qd_ref``, ``qdd_ref`` (``(n,)``, or ``(members, n)`` where the reference
+        has parameters) and ``q_meas`` are the engine's buffers, the same objects every period and written anew
+        each period: read them in the call, copy what must outlive it."""
 
 
 class SlidingModeController(Controller):
