@@ -90,10 +90,11 @@ class VariantBlock:
     reading_points: tuple[np.ndarray, np.ndarray] | None
     #: The plugins' signals recorded each period: name -> ``(members, n)``.
     signals: dict[str, np.ndarray]
-    #: The arrays the run's :class:`SampleCopies` copies into the block's rows of the series ``qd_hat``,
-    #: ``luaf_hat`` and ``sliding`` each period: the observer's ``qd_hat``, ``luaf_hat`` and the controller's
-    #: ``sliding`` as they were when the copies were set up (compared each period: a plugin may rebind them).
-    copied: tuple[np.ndarray, np.ndarray, np.ndarray] = ()
+    #: The arrays the run's :class:`SampleCopies` copies each period into the block's rows of ``tau`` and of the
+    #: series ``qd_hat``, ``luaf_hat`` and ``sliding``: the command the controller returned, the observer's
+    #: ``qd_hat``, ``luaf_hat`` and the controller's ``sliding`` as they were when the copies were set up
+    #: (compared each period: a plugin may return or rebind other arrays).
+    copied: tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray] = ()
     #: The scenario's diagnosis stepped on the observer's estimate each period before the controller commands
     #: (a controller that declares ``reads_diagnosis`` gets its component as ``controller.diagnosis``), or None.
     diagnoser: RecordedDiagnoser | None = None
@@ -437,17 +438,18 @@ class _Run:
             if block.diagnoser is not None:
                 estimate = observer.luaf_hat if luaf_torque is None else luaf_torque[k, rows_b]
                 block.diagnoser.step(k, t, estimate, q_b, observer.qd_hat)
-            block.tau[...] = controller.compute(t, q_ref, qd_ref, qdd_ref, q_b, observer, block.model)
-            qd_hat, luaf_hat, sliding = block.copied
-            if observer.qd_hat is not qd_hat or observer.luaf_hat is not luaf_hat or controller.sliding is not sliding:
-                block.copied = (observer.qd_hat, observer.luaf_hat, controller.sliding)
+            command = controller.compute(t, q_ref, qd_ref, qdd_ref, q_b, observer, block.model)
+            copied_command, qd_hat, luaf_hat, sliding = block.copied
+            if (command is not copied_command or observer.qd_hat is not qd_hat or observer.luaf_hat is not luaf_hat
+                    or controller.sliding is not sliding):
+                block.copied = (command, observer.qd_hat, observer.luaf_hat, controller.sliding)
                 self.copies.rebind(block, block.copied)
             if block.signals:
                 extras = recorded.extras[block.name]
                 for name, signal in block.signals.items():
                     extras[name][k] = signal
-        # ctrl = tau; q_meas, q_true, qd_true, tau, the measured velocity and the poses into sample k; each block's
-        # qd_hat, luaf_hat and sliding variable into its rows of sample k.
+        # Each block's command into its rows of tau; ctrl = tau; q_meas, q_true, qd_true, tau, the measured velocity
+        # and the poses into sample k; each block's qd_hat, luaf_hat and sliding variable into its rows of sample k.
         self.copies(k)
 
     def actuate(self, k: int, t: float) -> None:
@@ -520,10 +522,14 @@ class _Run:
 
 def _sample_copies(plant: Plant, readings: Readings, tau: np.ndarray, poses: tuple[np.ndarray, np.ndarray] | None,
                    series: Series, blocks: list[VariantBlock]) -> SampleCopies:
-    """What :meth:`_Run.control` copies each period, after the controllers: the command into ``ctrl``, the
-    readings, the true state, the torque (and the tachometers' readings, the poses) into the series' sample, each
-    block's estimates and sliding variable into its rows of it."""
+    """What :meth:`_Run.control` copies each period, after the controllers, in this order: each block's command
+    (the controller's ``tau``) into its rows of ``tau``, ``tau`` into ``ctrl``, the readings, the true state, the
+    torque (and the tachometers' readings, the poses) into the series' sample, each block's estimates and sliding
+    variable into its rows of it."""
     copies = SampleCopies()
+    for block in blocks:
+        block.copied = (block.controller.tau, block.observer.qd_hat, block.observer.luaf_hat, block.controller.sliding)
+        copies.into(block.copied[0], block.tau, group=block)
     copies.into(tau, plant.ctrl)
     rows = series.rows
     for name, source in (("q_meas", readings.q_meas), ("q_true", plant.qpos), ("qd_true", plant.qvel), ("tau", tau)):
@@ -534,8 +540,7 @@ def _sample_copies(plant: Plant, readings: Readings, tau: np.ndarray, poses: tup
         copies.sample(poses[0], series.body_xpos)
         copies.sample(poses[1], series.body_xquat)
     for block in blocks:
-        block.copied = (block.observer.qd_hat, block.observer.luaf_hat, block.controller.sliding)
-        for source, name in zip(block.copied, ("qd_hat", "luaf_hat", "sliding")):
+        for source, name in zip(block.copied[1:], ("qd_hat", "luaf_hat", "sliding")):
             copies.sample(source, rows[name][:, block.rows], group=block)
     return copies
 

@@ -13,7 +13,9 @@ sample k.
 **The same bytes.** An entry is a float64 source (or source sample) and a float64 destination sample (or
 destination) of the same shape, both contiguous: the copy is ``destination[k] = source`` (or
 ``destination[...] = source[k]``) element for element, and any other pair (another dtype,
-strides, a shape NumPy would broadcast) is copied by that NumPy assignment instead, after the kernel.
+strides, a shape NumPy would broadcast) is copied by that NumPy assignment instead. The entries are copied in
+the order they were added (consecutive entries of the kernel in one call), so an entry may read what an
+earlier one wrote: the loop copies each controller's command into ``tau`` and then ``tau`` into ``ctrl``.
 
 **The same arrays.** The table holds addresses; the entries hold the arrays they were made of (so the memory
 stays alive as long as the table) and it copies what those array objects hold, as NumPy would. What it cannot
@@ -28,6 +30,7 @@ rest of the run (the table is rebuilt once, not at every later rebinding).
 from __future__ import annotations
 
 from collections.abc import Callable, Sequence
+from functools import partial
 
 import numba
 import numpy as np
@@ -94,34 +97,48 @@ class SampleCopies:
         call(k)
 
     def _build(self) -> Callable[[int], None]:
-        """The table of the entries the kernel copies and the list NumPy copies; the call of both."""
-        rows, numpy = [], []
+        """The entries in the order they were added, cut into runs that the kernel copies (a table each) and runs
+        that NumPy copies: an entry may read what an earlier one wrote (a block's command, then ``ctrl``)."""
+        runs: list[tuple[bool, list]] = []  # (by the kernel?, table rows or entry indices)
         entries, compiled = self._entries, fast.enabled()
         for index, (group, source, destination, per_sample) in enumerate(entries):
             origin = source[0] if per_sample == "source" else source
             target = destination[0] if per_sample == "destination" else destination
-            if compiled and id(group) not in self._assigned and _copyable(origin, target):
-                rows.append((origin.ctypes.data, source.strides[0] if per_sample == "source" else 0,
-                             target.ctypes.data, destination.strides[0] if per_sample == "destination" else 0,
-                             origin.size))
+            by_kernel = compiled and id(group) not in self._assigned and _copyable(origin, target)
+            if not runs or runs[-1][0] != by_kernel:
+                runs.append((by_kernel, []))
+            if by_kernel:
+                runs[-1][1].append((origin.ctypes.data, source.strides[0] if per_sample == "source" else 0,
+                                    target.ctypes.data, destination.strides[0] if per_sample == "destination" else 0,
+                                    origin.size))
             else:
-                numpy.append(index)
-        table = np.array(rows, dtype=np.int64).reshape(len(rows), 5)
-        self.kernel_entries = len(rows)
-        copy = bound(_copy, table, free=(0,)) if rows else _nothing
+                runs[-1][1].append(index)
+        self.kernel_entries = sum(len(items) for by_kernel, items in runs if by_kernel)
+        steps = [bound(_copy, np.array(items, dtype=np.int64), free=(0,)) if by_kernel
+                 else partial(_assign, entries, items)
+                 for by_kernel, items in runs]
+        if len(steps) == 1:
+            return steps[0]
+        if not steps:
+            return _nothing
 
         def call(k: int) -> None:
-            copy(k)
-            for index in numpy:
-                _, source, destination, per_sample = entries[index]
-                if per_sample == "destination":
-                    destination[k] = source
-                elif per_sample == "source":
-                    destination[...] = source[k]
-                else:
-                    destination[...] = source
+            for step in steps:
+                step(k)
 
         return call
+
+
+def _assign(entries: list[tuple[object, np.ndarray, np.ndarray, str]], indices: list[int], k: int) -> None:
+    """NumPy's assignment of each of ``entries[indices]`` for sample ``k``."""
+    for index in indices:
+        _, source, destination, per_sample = entries[index]
+        if per_sample == "destination":
+            destination[k] = source
+        elif per_sample == "source":
+            destination[...] = source[k]
+        else:
+            destination[...] = source
 
 
 def _copyable(source: np.ndarray, target: np.ndarray) -> bool:

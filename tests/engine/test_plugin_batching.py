@@ -16,7 +16,8 @@ import yaml
 from ftc_mj.engine.loop import simulate
 from ftc_mj.engine.members import members_from_overrides
 from ftc_mj.engine.runner import variant_result
-from ftc_mj.methods import observers, registry
+from ftc_mj.methods import controllers, observers, registry
+from ftc_mj.methods.controllers import NFTSMC
 from ftc_mj.methods.gains import Exponent, GainConfig, PositiveFloat, PositiveJoints
 from ftc_mj.methods.observers.base import Observer
 from ftc_mj.methods.primitives import exp, signed_power
@@ -182,3 +183,36 @@ def test_estimates_rebound_every_period_are_recorded_as_written_in_place(scenari
         assert np.abs(np.diff(rebound.qd_hat, axis=0)).max() > 0  # the estimate moves
         for name in SERIES:
             np.testing.assert_array_equal(getattr(rebound, name), getattr(in_place, name), err_msg=name)
+
+
+class NewCommandNFTSMC(NFTSMC):
+    """The NFTSMC's law, its command a new array every period: the engine must command and record what it
+    returns, not what the controller's ``tau`` held when the copies were set up."""
+
+    name: ClassVar[str] = "test_new_command"
+
+    def compute(self, t, q_ref, qd_ref, qdd_ref, q_meas, observer, model):
+        command = super().compute(t, q_ref, qd_ref, qdd_ref, q_meas, observer, model).copy()
+        self.tau[...] = np.nan  # what a copy of the old array would command
+        return command
+
+
+@pytest.mark.parametrize("members", [1, 4])
+def test_a_command_returned_as_a_new_array_every_period_is_the_one_applied(scenario, tmp_path, members):
+    with pytest.MonkeyPatch.context() as patch:
+        registry._discover.cache_clear()
+        patch.setitem(observers.BUILTIN, FractionalObserver.name, FractionalObserver)
+        patch.setitem(controllers.BUILTIN, NewCommandNFTSMC.name, NewCommandNFTSMC)
+        spec = scenario_dict()
+        spec["variants"]["fractional"]["controller"]["type"] = NewCommandNFTSMC.name
+        path = tmp_path / "new_command.yaml"
+        path.write_text(yaml.safe_dump(spec, sort_keys=False), encoding="utf-8")
+        new_command = load_scenario(path)
+        runs = [simulate(each, members_from_overrides(each, MEMBERS[:members]), nthread=1)
+                for each in (scenario, new_command)]
+    registry._discover.cache_clear()
+    for member in range(members):
+        in_place, returned = (variant_result(each, run, 0, member) for each, run in zip((scenario, new_command), runs))
+        assert np.abs(returned.tau).max() > 0
+        for name in SERIES:
+            np.testing.assert_array_equal(getattr(returned, name), getattr(in_place, name), err_msg=name)

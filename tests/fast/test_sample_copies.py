@@ -65,6 +65,26 @@ def test_a_row_entry_copies_sample_k_into_its_buffer() -> None:
     assert copies.kernel_entries == 2
 
 
+def test_entries_are_copied_in_the_order_they_were_added() -> None:
+    """An entry reads what an earlier one wrote, whichever copies each: a command into a block of ``tau``, by the
+    kernel or (a broadcast row) by NumPy, then ``tau`` into ``ctrl`` and into the series."""
+    tau, ctrl, series = np.zeros((ROWS, N)), np.zeros((ROWS, N)), np.zeros((STEPS, ROWS, N))
+    command, row = _random((2, N), 10), _random((N,), 11)
+    copies = SampleCopies()
+    copies.into(command, tau[:2])
+    copies.into(row, tau[2:])  # NumPy broadcasts it: not the kernel's
+    copies.into(tau, ctrl)
+    copies.sample(tau, series)
+    for k in (1, 5):
+        command += 1.0
+        row -= 1.0
+        copies(k)
+        expected = np.vstack([command, np.broadcast_to(row, (ROWS - 2, N))])
+        for values in (tau, ctrl, series[k]):
+            assert values.tobytes() == expected.tobytes()
+    assert copies.kernel_entries == 3
+
+
 def test_only_contiguous_float64_pairs_of_one_shape_go_to_the_kernel() -> None:
     a = np.zeros((ROWS, N))
     assert _copyable(a, np.zeros((ROWS, N)))
