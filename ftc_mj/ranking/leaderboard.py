@@ -169,8 +169,13 @@ def markdown(bench: Bench, tier: str, rows: list[dict[str, Any]], info: dict[str
         header = ["entry", "method"] + [SCORES[task][n][0] + (f" [{SCORES[task][n][1]}]" if SCORES[task][n][1] else "")
                                         for n in names]
         for robot in suite.spec.robots:
-            lines += [f"## {task.capitalize()}: {robot}", "", "| " + " | ".join(header) + " |",
-                      "|" + "---|" * len(header)]
+            lines += [f"## {task.capitalize()}: {robot}", ""]
+            limit = suite.spec.robots[robot].torque_limit
+            if task == "tracking" and limit:
+                lines += [f"Every pair's command is clipped by the plant at {' / '.join(f'{v:g}' for v in limit)} "
+                          "N m (the robot's torque limits; an actuator fault acts on what the limited motor "
+                          "gives).", ""]
+            lines += ["| " + " | ".join(header) + " |", "|" + "---|" * len(header)]
             for name in ranked(rows, task, robot):
                 by_score = {r["score"]: r for r in rows if r["task"] == task and r["robot"] == robot
                             and r["entry"] == name}
