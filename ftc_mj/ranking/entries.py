@@ -249,8 +249,11 @@ def _with_builtins(raw: dict[str, Any], spec: BenchSpec, suite: Suite, file: str
                                  f"(--with-builtins scores {builtins_path.name}'s entries, on the robots "
                                  f"{', '.join(gains)})")
             entry = {**entry, "gains": {robot: gains[robot] for robot in suite.spec.robots}}
-            if entry.get("tuned_with"):  # relative to the built-in file, not to this one
-                entry["tuned_with"] = str((builtins_path.parent / entry["tuned_with"]).resolve())
+            tunings = entry.get("tuned_with")
+            if tunings:  # relative to the built-in file, not to this one
+                absolute = [str((builtins_path.parent / t).resolve()) for t in
+                            ([tunings] if isinstance(tunings, str) else tunings)]
+                entry["tuned_with"] = absolute[0] if isinstance(tunings, str) else absolute
             combined[name] = entry
         merged[task] = combined
     return merged

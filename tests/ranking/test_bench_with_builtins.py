@@ -54,3 +54,13 @@ def test_the_builtin_runs_in_the_directory_are_reused(tmp_path):
     done, chunks = execute.plan(second, "quick", out)
     assert {entry.name for chunk in chunks for entry in chunk.entries} == {"mine_fast"}
     assert {name for (task, _, _, name) in done} >= set(BUILTIN["diagnosis"]) | {"mine"}
+
+
+def test_a_tracking_file_gets_the_builtin_pairs_their_tunings_found_from_the_builtin_file(tmp_path):
+    """The built-in pairs come with a tracking entry, the tuned ones' tuning files (relative to the built-in
+    file) found and checked against the file's suite."""
+    mine = tiny_suite.entries()
+    del mine["diagnosis"]
+    mine["tracking"] = {"mine": mine["tracking"].pop("proposed")}
+    bench = load_bench(tiny_suite.write(tmp_path, mine), with_builtins=True)
+    assert [e.name for e in bench.of("tracking")] == ["mine", *BUILTIN["tracking"]] and bench.of("diagnosis") == []
