@@ -241,25 +241,21 @@ def _apply_inertia(m: float, h: np.ndarray, inertia: np.ndarray, motion: np.ndar
     _cross(h[0], h[1], h[2], w, out[3:], -1.0)
 
 
-@numba.njit(cache=True, nogil=True, fastmath=False, error_model="numpy", **WITHOUT_RUNTIME)
-def _evaluate(parent, offset_position, offset_rotation, hinge, axis, anchor, reference, gravity, sparse_row,
-              sparse_column, mass, first_moment, inertia, armature, qpos, qvel, applied, sparse_M, factor,
-              diagonal_inverse, qacc, bias, velocity_points, momentum_points, coriolis_transpose,
-              gravity_torque, scratch):  # pragma: no cover - compiled (tested through its wrapper)
-    """:meth:`RigidTree.evaluate` over the points ``p``: kinematics and each node's inertia in world coordinates,
-    Newton-Euler (the first ``velocity_points`` points), composite inertias, C^T qd and G where
-    ``momentum_points`` asks, M, L'DL and the solve. One point's numbers come from its inputs alone (its working
-    arrays, views of ``scratch``, are written before they are read at every point); the momentum terms only add
-    outputs, the other quantities are computed as without them."""
-    points, n = qpos.shape
-    # The working arrays: views of the caller's buffer (:func:`scratch_size`), so that the kernel allocates nothing.
+#: The compiled kernel's parts: inlined into :func:`_evaluate` by Numba before typing (``inline="always"``), so
+#: that the cut costs no call and passes no array (parts compiled apart cost about 45% more per point).
+_PART = {"cache": True, "nogil": True, "inline": "always"}
+
+
+@numba.njit(**_PART)
+def _views(scratch: np.ndarray, n: int) -> tuple:
+    """The kernel's working arrays: views of the caller's buffer (:func:`scratch_size`), so that it allocates
+    nothing."""
     o = 0
     rotation = scratch[o:o + 9 * n].reshape((n, 3, 3))
     o += 9 * n
     position = scratch[o:o + 3 * n].reshape((n, 3))
     o += 3 * n
-    # Each joint's motion subspace S in world coordinates [w; v at the origin].
-    subspace = scratch[o:o + 6 * n].reshape((n, 6))
+    subspace = scratch[o:o + 6 * n].reshape((n, 6))  # each joint's motion subspace S, world [w; v at the origin]
     o += 6 * n
     velocity = scratch[o:o + 6 * n].reshape((n, 6))
     o += 6 * n
@@ -285,6 +281,241 @@ def _evaluate(parent, offset_position, offset_rotation, hinge, axis, anchor, ref
     h = scratch[o + 42:o + 45]  # a node's first moment about its body origin, world axes
     if o + 45 != scratch.shape[0]:  # the views would run past a shorter buffer: unchecked memory
         raise ValueError("the scratch buffer is not scratch_size(n) long")
+    return (rotation, position, subspace, velocity, acceleration, force, c_mass, c_first, c_inertia, dense, rhs,
+            subtree_momentum, momentum, column, base, before, turn, world_axis, world_anchor, h)
+
+
+@numba.njit(**_PART)
+def _place(i, displacement, up, offset_position, offset_rotation, hinge, axis, anchor, rotation, position,
+           subspace, before, turn, world_axis, world_anchor):  # pragma: no cover - compiled
+    """Node i's frame in the world (``rotation``, ``position``) and its motion subspace, from its parent's frame,
+    its offset and its joint's displacement: a hinge turns the body about its axis through the anchor
+    (Rodrigues), a slide moves it along the axis."""
+    for r in range(3):
+        for c in range(3):
+            if up < 0:
+                before[r, c] = offset_rotation[i, r, c]
+            else:
+                before[r, c] = (rotation[up, r, 0] * offset_rotation[i, 0, c]
+                                + rotation[up, r, 1] * offset_rotation[i, 1, c]
+                                + rotation[up, r, 2] * offset_rotation[i, 2, c])
+        if up < 0:
+            position[i, r] = offset_position[i, r]
+        else:
+            position[i, r] = (position[up, r] + rotation[up, r, 0] * offset_position[i, 0]
+                              + rotation[up, r, 1] * offset_position[i, 1]
+                              + rotation[up, r, 2] * offset_position[i, 2])
+    for r in range(3):
+        world_axis[r] = _row_dot(before, r, axis[i])
+        world_anchor[r] = position[i, r] + _row_dot(before, r, anchor[i])
+    if hinge[i]:
+        s, c1 = np.sin(displacement), 1.0 - np.cos(displacement)
+        x, y, z = axis[i, 0], axis[i, 1], axis[i, 2]
+        turn[0, 0] = 1.0 - c1 * (y * y + z * z)
+        turn[1, 1] = 1.0 - c1 * (x * x + z * z)
+        turn[2, 2] = 1.0 - c1 * (x * x + y * y)
+        turn[0, 1] = c1 * x * y - s * z
+        turn[1, 0] = c1 * x * y + s * z
+        turn[0, 2] = c1 * x * z + s * y
+        turn[2, 0] = c1 * x * z - s * y
+        turn[1, 2] = c1 * y * z - s * x
+        turn[2, 1] = c1 * y * z + s * x
+        for r in range(3):
+            for c in range(3):
+                rotation[i, r, c] = before[r, 0] * turn[0, c] + before[r, 1] * turn[1, c] + before[r, 2] * turn[2, c]
+        for r in range(3):
+            position[i, r] = world_anchor[r] - _row_dot(rotation[i], r, anchor[i])
+        for r in range(3):
+            subspace[i, r] = world_axis[r]
+        subspace[i, 3] = world_anchor[1] * world_axis[2] - world_anchor[2] * world_axis[1]
+        subspace[i, 4] = world_anchor[2] * world_axis[0] - world_anchor[0] * world_axis[2]
+        subspace[i, 5] = world_anchor[0] * world_axis[1] - world_anchor[1] * world_axis[0]
+    else:
+        for r in range(3):
+            for c in range(3):
+                rotation[i, r, c] = before[r, c]
+        for r in range(3):
+            position[i, r] += world_axis[r] * displacement
+        subspace[i, :3] = 0.0
+        for r in range(3):
+            subspace[i, 3 + r] = world_axis[r]
+
+
+@numba.njit(**_PART)
+def _world_inertia(m, first_moment, inertia, rotation, d, turn, h, c_inertia, c_first):  # pragma: no cover
+    """A node's inertia in world coordinates about the world origin (its mass ``m``, first moment and inertia
+    about its body origin in its body frame; its frame ``rotation``, ``d``): R I R' shifted by the position d,
+    I_O = R I R' - m [d][d] - [d][h] - [h][d] with h = R h_body, into ``c_inertia`` and ``c_first``."""
+    for r in range(3):
+        h[r] = _row_dot(rotation, r, first_moment)
+    for r in range(3):
+        for c in range(3):
+            turn[r, c] = (inertia[r, 0] * rotation[c, 0] + inertia[r, 1] * rotation[c, 1]
+                          + inertia[r, 2] * rotation[c, 2])
+    for r in range(3):
+        for c in range(3):
+            c_inertia[r, c] = rotation[r, 0] * turn[0, c] + rotation[r, 1] * turn[1, c] + rotation[r, 2] * turn[2, c]
+    # -[a][b] = (a . b) E - b a'; the shift is m(-[d][d]) + (-[d][h]) + (-[h][d]).
+    dd, dh = d[0] * d[0] + d[1] * d[1] + d[2] * d[2], d[0] * h[0] + d[1] * h[1] + d[2] * h[2]
+    for r in range(3):
+        for c in range(3):
+            shift = -m * d[c] * d[r] - h[r] * d[c] - d[r] * h[c]
+            if r == c:
+                shift += m * dd + 2.0 * dh
+            c_inertia[r, c] += shift
+    for r in range(3):
+        c_first[r] = m * d[r] + h[r]
+
+
+@numba.njit(**_PART)
+def _newton_euler_forward(p, n, parent, qvel, gravity, subspace, velocity, acceleration, force, column, momentum,
+                          c_mass, c_first, c_inertia, subtree_momentum, with_momentum):  # pragma: no cover
+    """Newton-Euler, forward: velocities, accelerations with qdd = 0 and the base at -gravity, and each node's
+    force I a + V x* (I V) (its spatial momentum I V kept where ``with_momentum``)."""
+    for i in range(n):
+        up = parent[i]
+        speed = qvel[p, i]
+        for k in range(6):
+            velocity[i, k] = (0.0 if up < 0 else velocity[up, k]) + subspace[i, k] * speed
+            column[k] = subspace[i, k] * speed
+        if up < 0:
+            acceleration[i, :3] = 0.0
+            for r in range(3):
+                acceleration[i, 3 + r] = -gravity[r]
+        else:
+            for k in range(6):
+                acceleration[i, k] = acceleration[up, k]
+        # + V x S qd (motion cross product: [w x a_w; w x a_v + v x a_w])
+        w, v = velocity[i, :3], velocity[i, 3:]
+        _cross(w[0], w[1], w[2], column[:3], acceleration[i, :3], 1.0)
+        _cross(w[0], w[1], w[2], column[3:], acceleration[i, 3:], 1.0)
+        _cross(v[0], v[1], v[2], column[:3], acceleration[i, 3:], 1.0)
+        # f = I a + V x* (I V) (force cross product: [w x f_n + v x f_f; w x f_f])
+        _apply_inertia(c_mass[i], c_first[i], c_inertia[i], acceleration[i], force[i])
+        _apply_inertia(c_mass[i], c_first[i], c_inertia[i], velocity[i], momentum)
+        if with_momentum:
+            for k in range(6):
+                subtree_momentum[i, k] = momentum[k]
+        _cross(w[0], w[1], w[2], momentum[:3], force[i, :3], 1.0)
+        _cross(v[0], v[1], v[2], momentum[3:], force[i, :3], 1.0)
+        _cross(w[0], w[1], w[2], momentum[3:], force[i, 3:], 1.0)
+
+
+@numba.njit(**_PART)
+def _backward(p, n, parent, subspace, force, bias, subtree_momentum, c_mass, c_first, c_inertia, with_velocity,
+              with_momentum):  # pragma: no cover - compiled
+    """Backward: Newton-Euler's joint forces (C qd + G into ``bias``), each subtree's momentum where
+    ``with_momentum``, and the composite inertias for the CRBA."""
+    for i in range(n - 1, -1, -1):
+        up = parent[i]
+        if with_velocity:
+            total = 0.0
+            for k in range(6):
+                total += subspace[i, k] * force[i, k]
+            bias[p, i] = total
+        if up >= 0:
+            if with_velocity:
+                for k in range(6):
+                    force[up, k] += force[i, k]
+            if with_momentum:
+                for k in range(6):
+                    subtree_momentum[up, k] += subtree_momentum[i, k]
+            c_mass[up] += c_mass[i]
+            for r in range(3):
+                c_first[up, r] += c_first[i, r]
+                for c in range(3):
+                    c_inertia[up, r, c] += c_inertia[i, r, c]
+
+
+@numba.njit(**_PART)
+def _momentum_terms(p, n, velocity, subspace, subtree_momentum, c_mass, c_first, c_inertia, base, column,
+                    coriolis_transpose, gravity_torque):  # pragma: no cover - compiled
+    """C^T qd = (V_i x S_i)' h_i and G_i = S_i' I^c_i a_0 (the module docstring) at point p."""
+    for i in range(n):
+        w, v, s_w, s_v = velocity[i, :3], velocity[i, 3:], subspace[i, :3], subspace[i, 3:]
+        column[:] = 0.0  # V_i x S_i = [w x s_w; w x s_v + v x s_w]
+        _cross(w[0], w[1], w[2], s_w, column[:3], 1.0)
+        _cross(w[0], w[1], w[2], s_v, column[3:], 1.0)
+        _cross(v[0], v[1], v[2], s_w, column[3:], 1.0)
+        total = 0.0
+        for k in range(6):
+            total += column[k] * subtree_momentum[i, k]
+        coriolis_transpose[p, i] = total
+        _apply_inertia(c_mass[i], c_first[i], c_inertia[i], base, column)
+        total = 0.0
+        for k in range(6):
+            total += subspace[i, k] * column[k]
+        gravity_torque[p, i] = total
+
+
+@numba.njit(**_PART)
+def _mass_and_factor(p, n, parent, subspace, c_mass, c_first, c_inertia, armature, column, dense, sparse_row,
+                     sparse_column, sparse_M, factor, diagonal_inverse):  # pragma: no cover - compiled
+    """Composite rigid bodies, M[i, j] = S_j' (I^c_i S_i) along i's ancestors j, into ``sparse_M``; then
+    M = L' D L in ``dense`` from the last row up (mj_factorM's order; a tree's structure has no fill-in), into
+    ``factor`` and ``diagonal_inverse``."""
+    for i in range(n):
+        _apply_inertia(c_mass[i], c_first[i], c_inertia[i], subspace[i], column)
+        j = i
+        while j >= 0:
+            total = 0.0
+            for k in range(6):
+                total += subspace[j, k] * column[k]
+            dense[i, j] = total
+            j = parent[j]
+        dense[i, i] += armature[p, i]
+    for entry in range(len(sparse_row)):
+        sparse_M[p, entry] = dense[sparse_row[entry], sparse_column[entry]]
+    for k in range(n - 1, -1, -1):
+        inverse = 1.0 / dense[k, k]
+        j = parent[k]
+        while j >= 0:
+            scaled = dense[k, j] * inverse
+            i = j
+            while i >= 0:
+                dense[j, i] -= scaled * dense[k, i]
+                i = parent[i]
+            dense[k, j] = scaled
+            j = parent[j]
+    for entry in range(len(sparse_row)):
+        factor[p, entry] = dense[sparse_row[entry], sparse_column[entry]]
+    for i in range(n):
+        diagonal_inverse[p, i] = 1.0 / dense[i, i]
+
+
+@numba.njit(**_PART)
+def _solve(p, n, parent, applied, bias, diagonal_inverse, dense, rhs, qacc):  # pragma: no cover - compiled
+    """qacc = M^-1 (applied - bias) from the factor in ``dense``: x <- L'^-1 x, x <- D^-1 x, x <- L^-1 x."""
+    for i in range(n):
+        rhs[i] = applied[p, i] - bias[p, i]
+    for i in range(n - 1, -1, -1):
+        j = parent[i]
+        while j >= 0:
+            rhs[j] -= dense[i, j] * rhs[i]
+            j = parent[j]
+    for i in range(n):
+        rhs[i] *= diagonal_inverse[p, i]
+    for i in range(n):
+        j = parent[i]
+        while j >= 0:
+            rhs[i] -= dense[i, j] * rhs[j]
+            j = parent[j]
+        qacc[p, i] = rhs[i]
+
+
+@numba.njit(cache=True, nogil=True, fastmath=False, error_model="numpy", **WITHOUT_RUNTIME)
+def _evaluate(parent, offset_position, offset_rotation, hinge, axis, anchor, reference, gravity, sparse_row,
+              sparse_column, mass, first_moment, inertia, armature, qpos, qvel, applied, sparse_M, factor,
+              diagonal_inverse, qacc, bias, velocity_points, momentum_points, coriolis_transpose,
+              gravity_torque, scratch):  # pragma: no cover - compiled (tested through its wrapper)
+    """:meth:`RigidTree.evaluate` over the points ``p``: kinematics and each node's inertia in world coordinates,
+    Newton-Euler (the first ``velocity_points`` points), composite inertias, C^T qd and G where
+    ``momentum_points`` asks, M, L'DL and the solve. One point's numbers come from its inputs alone (its working
+    arrays, views of ``scratch``, are written before they are read at every point); the momentum terms only add
+    outputs, the other quantities are computed as without them."""
+    points, n = qpos.shape
+    (rotation, position, subspace, velocity, acceleration, force, c_mass, c_first, c_inertia, dense, rhs,
+     subtree_momentum, momentum, column, base, before, turn, world_axis, world_anchor, h) = _views(scratch, n)
     base[:3] = 0.0  # a_0 = [0; -gravity]
     for r in range(3):
         base[3 + r] = -gravity[r]
@@ -293,195 +524,23 @@ def _evaluate(parent, offset_position, offset_rotation, hinge, axis, anchor, ref
         with_velocity = p < velocity_points
         with_momentum = with_velocity and any_momentum and momentum_points[p]
         for i in range(n):
-            # The body frame before the joint: the parent's frame composed with the offset.
-            up = parent[i]
-            for r in range(3):
-                for c in range(3):
-                    if up < 0:
-                        before[r, c] = offset_rotation[i, r, c]
-                    else:
-                        before[r, c] = (rotation[up, r, 0] * offset_rotation[i, 0, c]
-                                        + rotation[up, r, 1] * offset_rotation[i, 1, c]
-                                        + rotation[up, r, 2] * offset_rotation[i, 2, c])
-                if up < 0:
-                    position[i, r] = offset_position[i, r]
-                else:
-                    position[i, r] = (position[up, r] + rotation[up, r, 0] * offset_position[i, 0]
-                                      + rotation[up, r, 1] * offset_position[i, 1]
-                                      + rotation[up, r, 2] * offset_position[i, 2])
-            for r in range(3):
-                world_axis[r] = _row_dot(before, r, axis[i])
-                world_anchor[r] = position[i, r] + _row_dot(before, r, anchor[i])
-            displacement = qpos[p, i] - reference[i]
-            if hinge[i]:
-                # Rodrigues: the body turns by the angle about its axis, through the anchor.
-                s, c1 = np.sin(displacement), 1.0 - np.cos(displacement)
-                x, y, z = axis[i, 0], axis[i, 1], axis[i, 2]
-                turn[0, 0] = 1.0 - c1 * (y * y + z * z)
-                turn[1, 1] = 1.0 - c1 * (x * x + z * z)
-                turn[2, 2] = 1.0 - c1 * (x * x + y * y)
-                turn[0, 1] = c1 * x * y - s * z
-                turn[1, 0] = c1 * x * y + s * z
-                turn[0, 2] = c1 * x * z + s * y
-                turn[2, 0] = c1 * x * z - s * y
-                turn[1, 2] = c1 * y * z - s * x
-                turn[2, 1] = c1 * y * z + s * x
-                for r in range(3):
-                    for c in range(3):
-                        rotation[i, r, c] = (before[r, 0] * turn[0, c] + before[r, 1] * turn[1, c]
-                                             + before[r, 2] * turn[2, c])
-                for r in range(3):
-                    position[i, r] = world_anchor[r] - _row_dot(rotation[i], r, anchor[i])
-                for r in range(3):
-                    subspace[i, r] = world_axis[r]
-                subspace[i, 3] = world_anchor[1] * world_axis[2] - world_anchor[2] * world_axis[1]
-                subspace[i, 4] = world_anchor[2] * world_axis[0] - world_anchor[0] * world_axis[2]
-                subspace[i, 5] = world_anchor[0] * world_axis[1] - world_anchor[1] * world_axis[0]
-            else:
-                for r in range(3):
-                    for c in range(3):
-                        rotation[i, r, c] = before[r, c]
-                for r in range(3):
-                    position[i, r] += world_axis[r] * displacement
-                subspace[i, :3] = 0.0
-                for r in range(3):
-                    subspace[i, 3 + r] = world_axis[r]
-            # The node's inertia in world coordinates about the world origin: R I R' shifted by the position d,
-            # I_O = R I R' - m [d][d] - [d][h] - [h][d] with h = R h_body the first moment about the body origin.
-            m, d = mass[p, i], position[i]
-            for r in range(3):
-                h[r] = _row_dot(rotation[i], r, first_moment[p, i])
-            for r in range(3):
-                for c in range(3):
-                    turn[r, c] = (inertia[p, i, r, 0] * rotation[i, c, 0] + inertia[p, i, r, 1] * rotation[i, c, 1]
-                                  + inertia[p, i, r, 2] * rotation[i, c, 2])
-            for r in range(3):
-                for c in range(3):
-                    c_inertia[i, r, c] = (rotation[i, r, 0] * turn[0, c] + rotation[i, r, 1] * turn[1, c]
-                                          + rotation[i, r, 2] * turn[2, c])
-            # -[a][b] = (a . b) E - b a'; the shift is m(-[d][d]) + (-[d][h]) + (-[h][d]).
-            dd, dh = d[0] * d[0] + d[1] * d[1] + d[2] * d[2], d[0] * h[0] + d[1] * h[1] + d[2] * h[2]
-            for r in range(3):
-                for c in range(3):
-                    shift = -m * d[c] * d[r] - h[r] * d[c] - d[r] * h[c]
-                    if r == c:
-                        shift += m * dd + 2.0 * dh
-                    c_inertia[i, r, c] += shift
-            c_mass[i] = m
-            for r in range(3):
-                c_first[i, r] = m * d[r] + h[r]
+            _place(i, qpos[p, i] - reference[i], parent[i], offset_position, offset_rotation, hinge, axis, anchor,
+                   rotation, position, subspace, before, turn, world_axis, world_anchor)
+            _world_inertia(mass[p, i], first_moment[p, i], inertia[p, i], rotation[i], position[i], turn, h,
+                           c_inertia[i], c_first[i])
+            c_mass[i] = mass[p, i]
         if with_velocity:
-            # Newton-Euler, forward: velocities, and accelerations with qdd = 0 and the base at -gravity.
-            for i in range(n):
-                up = parent[i]
-                speed = qvel[p, i]
-                for k in range(6):
-                    velocity[i, k] = (0.0 if up < 0 else velocity[up, k]) + subspace[i, k] * speed
-                    column[k] = subspace[i, k] * speed
-                if up < 0:
-                    acceleration[i, :3] = 0.0
-                    for r in range(3):
-                        acceleration[i, 3 + r] = -gravity[r]
-                else:
-                    for k in range(6):
-                        acceleration[i, k] = acceleration[up, k]
-                # + V x S qd (motion cross product: [w x a_w; w x a_v + v x a_w])
-                w, v = velocity[i, :3], velocity[i, 3:]
-                _cross(w[0], w[1], w[2], column[:3], acceleration[i, :3], 1.0)
-                _cross(w[0], w[1], w[2], column[3:], acceleration[i, 3:], 1.0)
-                _cross(v[0], v[1], v[2], column[:3], acceleration[i, 3:], 1.0)
-                # f = I a + V x* (I V) (force cross product: [w x f_n + v x f_f; w x f_f])
-                _apply_inertia(c_mass[i], c_first[i], c_inertia[i], acceleration[i], force[i])
-                _apply_inertia(c_mass[i], c_first[i], c_inertia[i], velocity[i], momentum)
-                if with_momentum:
-                    for k in range(6):
-                        subtree_momentum[i, k] = momentum[k]
-                _cross(w[0], w[1], w[2], momentum[:3], force[i, :3], 1.0)
-                _cross(v[0], v[1], v[2], momentum[3:], force[i, :3], 1.0)
-                _cross(w[0], w[1], w[2], momentum[3:], force[i, 3:], 1.0)
-        # Backward: Newton-Euler's joint forces, and the composite inertias for the CRBA.
-        for i in range(n - 1, -1, -1):
-            up = parent[i]
-            if with_velocity:
-                total = 0.0
-                for k in range(6):
-                    total += subspace[i, k] * force[i, k]
-                bias[p, i] = total
-            if up >= 0:
-                if with_velocity:
-                    for k in range(6):
-                        force[up, k] += force[i, k]
-                if with_momentum:
-                    for k in range(6):
-                        subtree_momentum[up, k] += subtree_momentum[i, k]
-                c_mass[up] += c_mass[i]
-                for r in range(3):
-                    c_first[up, r] += c_first[i, r]
-                    for c in range(3):
-                        c_inertia[up, r, c] += c_inertia[i, r, c]
+            _newton_euler_forward(p, n, parent, qvel, gravity, subspace, velocity, acceleration, force, column,
+                                  momentum, c_mass, c_first, c_inertia, subtree_momentum, with_momentum)
+        _backward(p, n, parent, subspace, force, bias, subtree_momentum, c_mass, c_first, c_inertia, with_velocity,
+                  with_momentum)
         if with_momentum:
-            # C^T qd = (V_i x S_i)' h_i and G_i = S_i' I^c_i a_0 (the module docstring).
-            for i in range(n):
-                w, v, s_w, s_v = velocity[i, :3], velocity[i, 3:], subspace[i, :3], subspace[i, 3:]
-                column[:] = 0.0  # V_i x S_i = [w x s_w; w x s_v + v x s_w]
-                _cross(w[0], w[1], w[2], s_w, column[:3], 1.0)
-                _cross(w[0], w[1], w[2], s_v, column[3:], 1.0)
-                _cross(v[0], v[1], v[2], s_w, column[3:], 1.0)
-                total = 0.0
-                for k in range(6):
-                    total += column[k] * subtree_momentum[i, k]
-                coriolis_transpose[p, i] = total
-                _apply_inertia(c_mass[i], c_first[i], c_inertia[i], base, column)
-                total = 0.0
-                for k in range(6):
-                    total += subspace[i, k] * column[k]
-                gravity_torque[p, i] = total
-        # Composite rigid bodies: M[i, j] = S_j' (I^c_i S_i) along i's ancestors j.
-        for i in range(n):
-            _apply_inertia(c_mass[i], c_first[i], c_inertia[i], subspace[i], column)
-            j = i
-            while j >= 0:
-                total = 0.0
-                for k in range(6):
-                    total += subspace[j, k] * column[k]
-                dense[i, j] = total
-                j = parent[j]
-            dense[i, i] += armature[p, i]
-        for entry in range(len(sparse_row)):
-            sparse_M[p, entry] = dense[sparse_row[entry], sparse_column[entry]]
-        # M = L' D L, from the last row up (mj_factorM's order; a tree's structure has no fill-in).
-        for k in range(n - 1, -1, -1):
-            inverse = 1.0 / dense[k, k]
-            j = parent[k]
-            while j >= 0:
-                scaled = dense[k, j] * inverse
-                i = j
-                while i >= 0:
-                    dense[j, i] -= scaled * dense[k, i]
-                    i = parent[i]
-                dense[k, j] = scaled
-                j = parent[j]
-        for entry in range(len(sparse_row)):
-            factor[p, entry] = dense[sparse_row[entry], sparse_column[entry]]
-        for i in range(n):
-            diagonal_inverse[p, i] = 1.0 / dense[i, i]
+            _momentum_terms(p, n, velocity, subspace, subtree_momentum, c_mass, c_first, c_inertia, base, column,
+                            coriolis_transpose, gravity_torque)
+        _mass_and_factor(p, n, parent, subspace, c_mass, c_first, c_inertia, armature, column, dense, sparse_row,
+                         sparse_column, sparse_M, factor, diagonal_inverse)
         if with_velocity:
-            # qacc = M^-1 (applied - bias): x <- L'^-1 x, x <- D^-1 x, x <- L^-1 x.
-            for i in range(n):
-                rhs[i] = applied[p, i] - bias[p, i]
-            for i in range(n - 1, -1, -1):
-                j = parent[i]
-                while j >= 0:
-                    rhs[j] -= dense[i, j] * rhs[i]
-                    j = parent[j]
-            for i in range(n):
-                rhs[i] *= diagonal_inverse[p, i]
-            for i in range(n):
-                j = parent[i]
-                while j >= 0:
-                    rhs[i] -= dense[i, j] * rhs[j]
-                    j = parent[j]
-                qacc[p, i] = rhs[i]
+            _solve(p, n, parent, applied, bias, diagonal_inverse, dense, rhs, qacc)
 
 
 @numba.njit(cache=True, nogil=True, fastmath=False, error_model="numpy", **WITHOUT_RUNTIME)
