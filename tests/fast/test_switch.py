@@ -1,8 +1,10 @@
 """The one switch and the one announcement (ftc_mj.fast): FTC_MJ_FAST read at import, set_enabled and switched
-for what is built later, and the first run's line said once per kernel family, only when it will compile."""
+for what is built later, what switching off moves (SWITCH_TOLERANCE, on the main job and a scenario per robot),
+and the first run's line said once per kernel family, only when it will compile."""
 
 from __future__ import annotations
 
+import importlib.util
 import os
 import subprocess
 import sys
@@ -49,3 +51,33 @@ def test_the_announcement_is_said_once_and_only_when_cold(monkeypatch, capsys) -
     fast.announce_compilation("the cold kernels", True, "/some/cache")
     assert capsys.readouterr().err.splitlines() == [
         "compiling the cold kernels (first run on this machine, some seconds; cached in /some/cache)"]
+
+
+def _switch_off_check():
+    """``benchmarks/switch_off.py`` as a module (its comparison is what the test asserts)."""
+    spec = importlib.util.spec_from_file_location("switch_off", ROOT / "benchmarks" / "switch_off.py")
+    module = importlib.util.module_from_spec(spec)
+    sys.modules.setdefault("switch_off", module)  # its dataclass looks its module up
+    spec.loader.exec_module(module)
+    return sys.modules["switch_off"]
+
+
+@pytest.mark.slow  # closed-loop runs, each twice
+@pytest.mark.parametrize(("scenario", "duration"), [
+    ("puma_fault.yaml", 10.3),  # the main job, every variant, past the fault's onset (10 s)
+    ("two_link_tosmo_simple.yaml", 1.0),
+    ("robots/ur5e_fault.yaml", 1.0),
+    ("robots/panda_fault.yaml", 1.0),
+    ("real/ur10e_pushed.yaml", None),  # a log replay: the observers on a real arm's readings
+])
+def test_switching_the_fast_paths_off_moves_nothing_but_a_metrics_last_bits(scenario: str, duration) -> None:
+    """With the fast paths off (in the same process), every series, extras and diagnosis array and detection
+    statistic has the same bits and every metric agrees to SWITCH_TOLERANCE: the chattering sliding-mode loops
+    amplify any difference in the nominal model (1e-15 in it moved the TOSMO variants' converged errors by 0.8%),
+    so this fails at once if an accelerator of the loop stops giving its definition's bits."""
+    check = _switch_off_check()
+    differences, _, _ = check.compare(ROOT / "scenarios" / scenario, duration)
+    assert {d.kind for d in differences} >= {"series", "metric"}
+    assert sum(d.kind == "series" for d in differences) > 20
+    outside = [f"{d.variant} {d.kind} {d.name}: {d.relative:.3g}" for d in differences if not d.within]
+    assert not outside, outside
