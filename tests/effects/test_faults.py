@@ -112,6 +112,35 @@ def test_float_delivers_nothing() -> None:
     np.testing.assert_array_equal(torque[K0:, [0, 2]], -COMMAND[K0:, [0, 2]])
 
 
+def _limited(fault: ActuatorFault, limits: np.ndarray | None) -> tuple[np.ndarray, np.ndarray]:
+    applied = ActuatorFaults([fault], T, NJ, limits)
+    out, torque = np.empty((N, NJ)), np.empty((N, NJ))
+    for k in range(N):
+        applied.apply(k, COMMAND[k])
+        out[k], torque[k] = applied.delivered, applied.torque
+    return out, torque
+
+
+@pytest.mark.parametrize("kind, parameter", [("float", None), ("bias", 20.0 * np.ones((N, NJ))),
+                                             ("loss_of_effectiveness", 0.5 * np.ones((N, NJ))), ("lock", None)])
+def test_behind_a_torque_limit_the_fault_acts_on_what_the_motor_gives(kind, parameter) -> None:
+    """A motor limited to 5 N m on joint 2 (commanded up to 13): the fault acts on clip(u) and what it delivers
+    stays within the limit (a bias too); MuJoCo adds clip(u), so the plant receives clip(u) + torque = delivered.
+    Without the limits (None: the composition before, ``faults_after_torque_limit: false``) a float's torque is
+    -u, so that the plant, clipping u itself, would receive clip(u) - u."""
+    limits = np.array([np.inf, 5.0, np.inf])
+    out, torque = _limited(make(kind, parameter=parameter), limits)
+    clipped = np.clip(COMMAND, -limits, limits)
+    np.testing.assert_allclose(clipped + torque, out, atol=1e-12)
+    assert (np.abs(out[:, 1]) <= 5.0).all() and np.abs(COMMAND[:, 1]).max() > 10
+    np.testing.assert_array_equal(out[:K0], clipped[:K0])  # before the onset: what the motor gives
+    np.testing.assert_array_equal(out[:, [0, 2]], COMMAND[:, [0, 2]])  # unlimited joints as before
+    if kind == "float":
+        np.testing.assert_array_equal(out[K0:, 1], 0.0)
+        _, unlimited = _limited(make(kind), None)
+        np.testing.assert_array_equal(unlimited[K0:, 1], -COMMAND[K0:, 1])
+
+
 def test_saturation_clips_and_ramps_in() -> None:
     limit = np.array([np.inf, 4.0, np.inf])
     out, _, _ = delivered(make("saturation", parameter=limit))
