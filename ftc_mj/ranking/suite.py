@@ -382,7 +382,7 @@ def load_suite(name_or_path: str | Path, file: str = "") -> Suite:
     text = str(name_or_path)
     path = Path(text) if text.endswith((".yaml", ".yml")) else SUITES / f"{text}.yaml"
     if not path.is_file():
-        shipped = sorted(p.stem for p in SUITES.glob("*.yaml") if not p.stem.endswith("-entries"))
+        shipped = sorted(p.stem for p in SUITES.glob("*.yaml") if not p.stem.endswith(("-entries", "-tuned")))
         raise InputError(file or text, "suite", f"no suite {text!r} (shipped: {', '.join(shipped)})")
     raw = read_yaml_mapping(path, "a benchmark suite")
     return Suite(path.resolve(), validate(SuiteSpec, raw, str(path)))

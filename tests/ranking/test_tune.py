@@ -166,3 +166,21 @@ def test_the_tuner_mends_a_deliberately_bad_gain(tmp_path):
     first = suite["populations"]["tune"]["seed"]
     assert record["seeds"] == list(range(first, first + 4)) and record["population"] == "tune"
     assert record["budget"]["candidates"] == 4 and record["budget"]["generations"] == 3 and record["budget"]["runs"] == 8
+
+
+def test_the_shipped_tuned_rows_carry_their_records_gains():
+    """v2-entries.yaml's ``*_tuned`` rows are the gains v2-tuned.yaml records, tuned on the tune seeds only."""
+    from ftc_mj.ranking.entries import DEFAULT_ENTRIES
+    from ftc_mj.ranking.suite import seed_ranges
+
+    bench = load_bench()
+    record = yaml.safe_load((DEFAULT_ENTRIES.parent / "v2-tuned.yaml").read_text())
+    entries = {e.name: e for e in bench.of("diagnosis")}
+    raw = yaml.safe_load(DEFAULT_ENTRIES.read_text())["diagnosis"]
+    for name, tuned in record["entries"].items():
+        assert raw[f"{name}_tuned"]["tuned_with"] == "v2-tuned.yaml"
+        assert raw[f"{name}_tuned"]["gains_from"].startswith("tuned: ")
+        for robot in bench.suite.spec.robots:
+            assert entries[f"{name}_tuned"].sections[robot] == {"type": tuned["type"], "gains": tuned["tuned"][robot]}
+            assert entries[name].sections[robot]["gains"] == tuned["design"][robot]
+    assert set(record["seeds"]) <= set(seed_ranges(bench.suite.spec)["tune"])
