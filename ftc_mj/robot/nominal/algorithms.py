@@ -73,9 +73,8 @@ def evaluate_tree(parent, offset_position, offset_rotation, hinge, axis, anchor,
     world_axis, world_anchor = np.empty((points, n, 3)), np.empty((points, n, 3))
     for i in range(n):  # the kinematic chain, parents first
         up = parent[i]
-        if up < 0:
-            before = np.broadcast_to(offset_rotation[i], (points, 3, 3))
-            place = np.broadcast_to(offset_position[i], (points, 3))
+        if up < 0:  # (3, 3) and (3,): broadcast over the points below
+            before, place = offset_rotation[i], offset_position[i]
         else:
             before = _matmul(rotation[:, up], offset_rotation[i])
             rotation_up, offset = rotation[:, up], offset_position[i]
