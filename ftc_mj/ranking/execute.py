@@ -29,6 +29,7 @@ from functools import partial
 from pathlib import Path
 from typing import Any
 
+import mujoco
 import numpy as np
 import pyarrow as pa
 import pyarrow.parquet as pq
@@ -41,6 +42,7 @@ from ftc_mj.ranking.suite import REFERENCE, TASKS
 from ftc_mj.campaign import execute as campaign_execute
 from ftc_mj.campaign.population import digest
 from ftc_mj.outputs.files import parquet_bytes, write_atomic
+from ftc_mj.robot.check import torque_limits
 
 
 @dataclass
@@ -90,6 +92,11 @@ def protocol_digest(bench: Bench, robot: str, task: str, population: str, tier: 
             content["torque_limit"] = robot_spec.get("torque_limit") or []
         if population == "faults":
             content["cases"] = suite.fault_cases(robot, task)
+            if task == "diagnosis" and model.is_file() and np.isfinite(torque_limits(
+                    mujoco.MjModel.from_xml_path(str(model)))).any():
+                # Actuator faults act on what the limited motor gives (the runs before the fix gave a floating
+                # joint commanded beyond its limit the excess with the opposite sign): those runs are redone.
+                content["faults_after_torque_limit"] = True
             content["draws"] = "per case, seeds and mass scales"  # the campaign's case_draws
         else:
             content.pop("faults")

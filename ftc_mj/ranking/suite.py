@@ -299,9 +299,7 @@ class Suite:
             out["robot"]["torque_limits"] = list(limit)
             if not base["robot"].get("joints"):  # an MJCF in the testbed's form: limits need it rebuilt
                 out["robot"]["joints"] = self._joint_names(robot)
-        elif task == "diagnosis" or not self.calibrated:
-            # The runs as computed before actuator faults acted after the motor's limit (suite v1, and suite
-            # v2's diagnosis task, whose populations are not to change within the version).
+        elif not self.calibrated:  # suite v1's runs as computed before faults acted after the motor's limit
             out["faults_after_torque_limit"] = False
         return out
 

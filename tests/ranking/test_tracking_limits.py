@@ -1,6 +1,7 @@
 """The tracking task's actuators: every entry under the robot's torque limits, applied by the plant (MuJoCo's
 ``ctrlrange``), the actuator faults acting on what the limited motor gives; the diagnosis task's populations
-and runs as they were (their protocol digests do not see the tracking limits)."""
+do not see the tracking limits (their protocol digests stay), and their fault populations on an arm whose
+motors limit the torque were redone with the faults acting after the limit."""
 
 from __future__ import annotations
 
@@ -30,7 +31,7 @@ def test_tracking_plant_clips_at_the_suites_limit_and_diagnosis_keeps_its_own(tm
     np.testing.assert_array_equal(tracking.torque_limits, limit)
     assert tracking.model.actuator_ctrllimited.all() and tracking.spec.faults_after_torque_limit
     diagnosis = load_scenario(_scenario(tmp_path, suite, robot, "diagnosis", {REFERENCE: suite.loop(robot)}))
-    assert not diagnosis.spec.faults_after_torque_limit  # suite v2's diagnosis runs as they were computed
+    assert diagnosis.spec.faults_after_torque_limit  # the fix in the diagnosis task too
     if robot in ("two_link", "puma560"):  # their model files have no limits, and diagnosis keeps none
         assert np.isinf(diagnosis.torque_limits).all()
 
@@ -81,3 +82,20 @@ def test_every_tracking_entry_gets_at_most_the_limit_and_a_float_gets_nothing(tm
                 np.testing.assert_allclose(received[on, joint], 0.0, atol=1e-9, err_msg=result.name)
             exceeded += int((np.abs(result.tau[finite]) > limit).any())
     assert exceeded >= 1
+
+
+def test_diagnosis_faults_on_a_torque_limited_arm_were_redone_with_the_fix():
+    """The fault population's digest names the fix where the model clips the command (UR5e, Panda), so runs made
+    with faults acting on the raw command are not reused; healthy populations (no fault) and unlimited arms keep
+    theirs."""
+    bench = load_bench()
+    for robot in bench.suite.spec.robots:
+        limited = np.isfinite(load_scenario(bench.suite.scenarios[robot]).torque_limits).any()
+        assert limited == (robot in ("ur5e", "panda"))
+    import ftc_mj.ranking.execute as execute
+    from unittest import mock
+    digests = {robot: protocol_digest(bench, robot, "diagnosis", "faults", "full") for robot in bench.suite.spec.robots}
+    with mock.patch.object(execute, "torque_limits", lambda model: np.full(model.nu, np.inf)):
+        unlimited = {robot: protocol_digest(bench, robot, "diagnosis", "faults", "full")
+                     for robot in bench.suite.spec.robots}
+    assert {robot for robot in digests if digests[robot] != unlimited[robot]} == {"ur5e", "panda"}
