@@ -20,7 +20,7 @@ COMMANDS = {
     "figures": "draw a run's figures (PNG, SVG, PDF) from its recording",
     "report": "Markdown tables from a run's --json metrics",
     "campaign": "Monte Carlo, sweeps and fault-diagnosis statistics: run, report, replay",
-    "tune": "robust gain tuning (CMA-ES) on a campaign's population",
+    "tune": "robust gain tuning (CMA-ES): a variant on a campaign, or bench entries on P_d",
     "bench": "benchmark: score methods on a versioned suite",
     "robot": "check a robot before its first run: per-joint numbers, warnings",
     "calibrate": "per-joint diagnosis thresholds: for a false-alarm rate, or from a healthy log",

@@ -439,16 +439,16 @@ def per_kind(w: Windows) -> dict[str, float]:
 TUNED_SUFFIX = "_tuned"
 
 
-def apart(tuned: Score, design: Score) -> str:
-    """A tuned row against its design-rule row on one score (higher is better): ``better`` only when the tuned
-    row's interval lies wholly above the design row's (its low end above the other's high end, strictly),
-    ``worse`` when wholly below, ``not apart`` otherwise (overlapping or touching intervals, or a missing one)."""
+def apart(tuned: Score, design: Score, higher_is_better: bool = True) -> str:
+    """A tuned row against its design-rule row on one score: ``better`` only when the tuned row's interval lies
+    wholly on the better side of the design row's (its low end above the other's high end, strictly, where
+    higher is better), ``worse`` when wholly on the other side, ``not apart`` otherwise (overlapping or touching
+    intervals, or a missing one)."""
     if not all(np.isfinite(v) for v in (tuned.low, tuned.high, design.low, design.high)):
         return "not apart"
-    if tuned.low > design.high:
-        return "better"
-    if tuned.high < design.low:
-        return "worse"
+    above, below = tuned.low > design.high, tuned.high < design.low
+    if above or below:
+        return "better" if above == higher_is_better else "worse"
     return "not apart"
 
 

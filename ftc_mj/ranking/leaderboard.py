@@ -184,6 +184,7 @@ def markdown(bench: Bench, tier: str, rows: list[dict[str, Any]], info: dict[str
                 lines.append("| " + " | ".join(cells) + " |")
             lines.append("")
             if task == "tracking":
+                lines += _tuned_pairs(rows, task, robot, names)
                 lines += _kind_table((medians or {}).get(robot, {}))
         lines += [f"### {task.capitalize()} entries: where the gains come from", ""]
         lines += [f"- `{name}` ({entry.label}): {entry.gains_from}" for name, entry in entries.items()] + [""]
@@ -191,6 +192,29 @@ def markdown(bench: Bench, tier: str, rows: list[dict[str, Any]], info: dict[str
         lines += ["![ROC per robot](figures/roc.png)", ""]
     lines += ["![Ranked scores](figures/ranked.png)", ""]
     return "\n".join(lines) + "\n"
+
+
+def _tuned_pairs(rows: list[dict[str, Any]], task: str, robot: str, names: list[str]) -> list[str]:
+    """Each ``<name>_tuned`` row against its ``<name>`` row: per score, whether the intervals are apart
+    (:func:`~ftc_mj.ranking.calibrated.apart`; better only when the tuned row's lies wholly on the better side)."""
+    from ftc_mj.ranking.calibrated import TUNED_SUFFIX, apart
+
+    scores: dict[str, dict[str, sc.Score]] = {}
+    for r in rows:
+        if r["task"] == task and r["robot"] == robot:
+            scores.setdefault(r["entry"], {})[r["score"]] = sc.Score(r["value"], r["low"], r["high"], r["n"])
+    pairs = [(name, name[:-len(TUNED_SUFFIX)]) for name in scores
+             if name.endswith(TUNED_SUFFIX) and name[:-len(TUNED_SUFFIX)] in scores]
+    if not pairs:
+        return []
+    lines = ["Tuned rows against their design rows, per score: better only where the tuned row's interval lies "
+             "wholly on the better side of the design row's, worse where wholly on the other side:", "",
+             "| tuned | design | " + " | ".join(SCORES[task][n][0] for n in names) + " |",
+             "|" + "---|" * (len(names) + 2)]
+    for tuned, design in sorted(pairs):
+        cells = [apart(scores[tuned][n], scores[design][n], SCORES[task][n][2]) for n in names]
+        lines.append(f"| `{tuned}` | `{design}` | " + " | ".join(cells) + " |")
+    return lines + [""]
 
 
 def _kind_table(medians: dict[str, dict[str, float]]) -> list[str]:

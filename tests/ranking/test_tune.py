@@ -149,6 +149,7 @@ def test_a_bench_tuning_of_an_unknown_entry_is_refused(tmp_path, capsys):
 
 
 @pytest.mark.slow
+@pytest.mark.filterwarnings("ignore:overflow encountered:RuntimeWarning")  # the bad gain's residual
 def test_the_tuner_mends_a_deliberately_bad_gain(tmp_path):
     """The momentum observer with K = 2500 1/s: K dt = 2.5, its discrete residual diverges and detects nothing
     (P_d 0 on the tune population). Three generations of four candidates, on 4 draws of a reduced protocol with
@@ -184,3 +185,12 @@ def test_the_shipped_tuned_rows_carry_their_records_gains():
             assert entries[f"{name}_tuned"].sections[robot] == {"type": tuned["type"], "gains": tuned["tuned"][robot]}
             assert entries[name].sections[robot]["gains"] == tuned["design"][robot]
     assert set(record["seeds"]) <= set(seed_ranges(bench.suite.spec)["tune"])
+
+
+@pytest.mark.parametrize("tuned, design, verdict", [
+    ((0.10, 0.20), (0.20, 0.30), "not apart"),      # touching
+    ((0.10, 0.1999), (0.20, 0.30), "better"),       # lower is better: wholly below
+    ((0.3001, 0.40), (0.20, 0.30), "worse"),
+])
+def test_where_lower_is_better_a_tuned_row_is_better_only_wholly_below(tuned, design, verdict):
+    assert cal.apart(_score(*tuned), _score(*design), higher_is_better=False) == verdict
