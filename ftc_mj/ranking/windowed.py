@@ -6,7 +6,7 @@ residual units) and the delay-against-false-alarm front."""
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from functools import lru_cache
 from pathlib import Path
 from typing import Any
@@ -30,6 +30,16 @@ SANITY_ROWS = {"oracle_fault": "the true fault torque + 1% white noise (a perfec
 @lru_cache(maxsize=64)
 def _population(path: Path) -> cal.Population:
     return cal.Population.of(load(path))
+
+
+def _entry_population(found: Found, name: str) -> cal.Population:
+    """The population of ``found``'s chunk with the entry's envelope under ``name``: an entry whose runs are
+    another's (the same method and gains on this robot, e.g. a tuning that kept the design gains) was
+    simulated under that entry's name."""
+    population = _population(found.results / WINDOWS)
+    if found.variant == name or found.variant not in population.envelopes:
+        return population
+    return replace(population, envelopes={**population.envelopes, name: population.envelopes[found.variant]})
 
 
 @dataclass
@@ -59,7 +69,7 @@ def robot_board(bench: Bench, robot: str, done: dict[tuple[str, str, str, str], 
     board = RobotBoard(robot, layers, rate=1.0 / float(suite.resolved[robot].get("control_dt", 0.001)))
     names = list(SANITY) + [e.name for e in bench.of("diagnosis")]
     for name in names:
-        populations = [_population(done["diagnosis", robot, population, name].results / WINDOWS)
+        populations = [_entry_population(done["diagnosis", robot, population, name], name)
                        for population in ("calibrate", "healthy", "faults")]
         w, _ = cal.windows(name, *populations, layers, calibration.false_alarm, ACTS * unit)
         board.windows[name] = w
