@@ -154,7 +154,7 @@ class ScenarioSpec(Strict):
     actuator_faults: list[ActuatorFaultSpec] = Field([], description="Faults of what the actuators deliver "
                                                      "(loss of effectiveness, bias, lock...); default: none.")
     faults_after_torque_limit: StrictBool = Field(True,
-        description="Whether an actuator fault acts on what the torque-limited motor gives (default: a floating joint gets no torque whatever the command) or on the command, the motor's limit clipping after it (false: a float on a joint commanded beyond its limit then receives the excess with the opposite sign; kept only so that suite v2's diagnosis runs stay as they were computed).")
+        description="Whether an actuator fault acts on what the torque-limited motor gives (default: a floating joint gets no torque whatever the command) or on the command, the motor's limit clipping after it (false: a float on a joint commanded beyond its limit then receives the excess with the opposite sign; kept only so that suite v1's runs stay as they were computed).")
     sensors: SensorsSpec = Field(SensorsSpec(), description="Sensor effects (noise, quantisation, faults) of "
                                  "the encoders and tachometers; default: exact readings.")
     nominal: NominalSpec = Field(NominalSpec(), description="The controllers' and observers' model of the "
