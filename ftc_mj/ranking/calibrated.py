@@ -34,6 +34,7 @@ from collections.abc import Callable
 from dataclasses import dataclass, field
 
 import numpy as np
+from scipy import stats
 
 from ftc_mj.ranking.score import BOOTSTRAP_SEED, Score, mann_whitney
 
@@ -461,17 +462,19 @@ def tuned_verdict(verdicts: list[str]) -> str:
     return "mixed" if "better" in verdicts else "not apart"
 
 
-def chance_interval(healthy: int, faulty: int) -> tuple[float, float]:
-    """The 95% range of a useless detector's AUC: 1/2 +- 1.96 sd, sd = sqrt((n_h + n_f + 1) / (12 n_h n_f)) the
-    Mann-Whitney statistic's under no difference between the healthy and the faulty windows. An AUC outside it
-    is one that chance alone gives in 5% of samples; the bootstrap's percentile interval, on a dozen faulty
-    windows, is narrower than that (it missed 1/2 for a noise row at AUC 0.35, z = -1.5)."""
+def chance_interval(healthy: int, faulty: int, level: float = 0.95) -> tuple[float, float]:
+    """The ``level`` range of a useless detector's AUC: 1/2 +- z sd, sd = sqrt((n_h + n_f + 1) / (12 n_h n_f)) the
+    Mann-Whitney statistic's under no difference between the healthy and the faulty windows (z = 1.96 at 95%).
+    An AUC outside the 95% range is one that chance alone gives in 5% of samples; the bootstrap's percentile
+    interval, on a dozen faulty windows, is narrower than that (it missed 1/2 for a noise row at AUC 0.35,
+    z = -1.5). A claim over several robots at once takes the family-wise level (Bonferroni: 1 - 0.05 / robots)."""
     sd = np.sqrt((healthy + faulty + 1) / (12.0 * max(healthy, 1) * max(faulty, 1)))
-    return 0.5 - 1.96 * sd, 0.5 + 1.96 * sd
+    z = float(stats.norm.ppf(0.5 + level / 2.0))
+    return 0.5 - z * sd, 0.5 + z * sd
 
 
-def consistent_with_chance(auc: float, healthy: int, faulty: int) -> bool:
-    low, high = chance_interval(healthy, faulty)
+def consistent_with_chance(auc: float, healthy: int, faulty: int, level: float = 0.95) -> bool:
+    low, high = chance_interval(healthy, faulty, level)
     return bool(low <= auc <= high)
 
 

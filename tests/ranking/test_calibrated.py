@@ -168,3 +168,14 @@ def test_the_false_alarm_check_counts_off_rows_against_chance_and_holm_finds_a_b
     assert broken.holm_rejected == ("broken",)
     law = cal.false_alarm_law([32, 32], 32, 0.05)
     assert law.sum() == pytest.approx(1.0) and np.dot(np.arange(65), law) == pytest.approx(64 * 2 / 33)
+
+
+def test_chance_interval_at_a_family_wise_level_covers_as_often_as_it_says():
+    """Four robots' claim at a family-wise 5%: each robot's range covers a useless detector in 1 - 0.05/4 of
+    samples (98.75%), wider than the 95% range."""
+    rng = np.random.default_rng(5)
+    level = 1.0 - 0.05 / 4
+    inside = [cal.consistent_with_chance(mann_whitney(rng.random(64), rng.random(12)), 64, 12, level)
+              for _ in range(4000)]
+    assert 0.98 <= np.mean(inside) <= 0.995
+    assert cal.chance_interval(64, 12, level)[1] > cal.chance_interval(64, 12)[1]

@@ -70,7 +70,10 @@ def test_a_third_party_noise_observer_scores_one_half(board, robot):
     rows, _, _ = board
     auc = rows[robot, "noise", "auc"]
     healthy, faulty = rows[robot, "noise", "false_alarm"]["n"], rows[robot, "noise", "pd"]["n"]
-    assert auc["low"] <= 0.5 <= auc["high"] or consistent_with_chance(auc["value"], healthy, faulty), auc
+    # One claim over the four robots, at a family-wise 5%: each robot's AUC within chance's 1 - 0.05/4 range
+    # (the 95% range alone fails one robot of four in 19% of draws of a perfectly useless observer).
+    family = 1.0 - 0.05 / len(ROBOTS)
+    assert auc["low"] <= 0.5 <= auc["high"] or consistent_with_chance(auc["value"], healthy, faulty, family), auc
     assert rows[robot, "oracle_fault", "auc"]["value"] >= 0.99
 
 
