@@ -64,10 +64,9 @@ class NominalBatch(Protocol):
     coriolis_transpose: np.ndarray | None
     gravity: np.ndarray | None
 
-    @property
-    def qacc(self) -> np.ndarray:
-        """``(points, n)``: M^-1 (applied - C qd - G) at each point, from the last :meth:`evaluate` (not in a
-        ``mass_only`` batch)."""
+    #: ``(points, n)``: M^-1 (applied - C qd - G) at each point, from the last :meth:`evaluate` (not in a
+    #: ``mass_only`` batch).
+    qacc: np.ndarray
 
     def evaluate(self) -> None:
         """Forward dynamics at every point (positions, velocities and applied forces as set), or M alone in a

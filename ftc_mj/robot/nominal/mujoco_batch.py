@@ -33,7 +33,7 @@ class MuJoCoNominal(NominalBatch):
             self.batch.set_const()
         self.qpos, self.qvel = self.batch.bind("qpos"), self.batch.bind("qvel")
         self.applied = self.batch.bind("qfrc_applied")
-        self._qacc, self._sparse_M = self.batch.bind("qacc"), self.batch.bind("M")
+        self.qacc, self._sparse_M = self.batch.bind("qacc"), self.batch.bind("M")
         self.factor, self.diagonal_inverse = self.batch.bind("qLD"), self.batch.bind("qLDiagInv")
         self._stage = _POSITION_STAGE if mass_only else _ACCELERATION_STAGE
         self._dense = DenseMass(model, len(mass_scale))
@@ -47,10 +47,6 @@ class MuJoCoNominal(NominalBatch):
         self.batch.forward(stage=self._stage)
         if self._terms is not None:
             self._terms.evaluate()
-
-    @property
-    def qacc(self) -> np.ndarray:
-        return self._qacc
 
     def mass_matrices(self) -> np.ndarray:
         return self._dense.update(self._sparse_M)

@@ -45,7 +45,7 @@ class TreeNominal(NominalBatch):
         points = len(mass_scale) + len(extra)
         self._tree, self._inertias = tree, tree.scaled(np.concatenate([np.asarray(mass_scale, dtype=float), extra]))
         self.qpos, self.qvel, self.applied = np.zeros((points, n)), np.zeros((points, n)), np.zeros((points, n))
-        self._qacc, self._bias = np.zeros((points, n)), np.zeros((points, n))
+        self.qacc, self._bias = np.zeros((points, n)), np.zeros((points, n))
         self._sparse_M = np.zeros((points, model.nM))
         self.factor, self.diagonal_inverse = np.zeros((points, model.nM)), np.ones((points, n))
         self._dense = DenseMass(model, points)
@@ -87,7 +87,7 @@ class TreeNominal(NominalBatch):
         return self._tree.arguments(
             *(array[points] for array in self._inertias), self.qpos[points], self.qvel[points],
             self.applied[points], self._sparse_M[points], self.factor[points], self.diagonal_inverse[points],
-            self._qacc[points], self._bias[points], True, cut(self._momentum_points),
+            self.qacc[points], self._bias[points], True, cut(self._momentum_points),
             cut(self.coriolis_transpose), cut(self.gravity),
             velocity_points=min(max(velocity_points - points.start, 0), points.stop - points.start))
 
@@ -104,10 +104,6 @@ class TreeNominal(NominalBatch):
         _run(first)  # the first thread's share on the calling thread, meanwhile
         for future in pending:
             future.result()
-
-    @property
-    def qacc(self) -> np.ndarray:
-        return self._qacc
 
     def mass_matrices(self) -> np.ndarray:
         return self._dense.update(self._sparse_M)
