@@ -25,7 +25,8 @@ reference rows, the nominal model's): each call compares those with the ones bou
 kernel again where one is another object, so that an array is read as the type it was compiled for. The
 engine hands the same objects every period (its buffers), so it binds once per run; a caller that hands new
 arrays at every call (a view of another row each period) pays a binding per call, the typing of every
-argument (about 0.3 ms a period for the NFTSMC), and should keep buffers as the engine does.
+argument (``benchmarks/fused_laws.py`` shows what binding once saves), and should keep buffers as the
+engine does.
 """
 
 from __future__ import annotations

@@ -220,7 +220,8 @@ def _announce() -> None:
 def _cross(a0: float, a1: float, a2: float, b: np.ndarray, out: np.ndarray, sign: float) -> None:
     """``out`` += sign (a x b). Compiled apart, not inlined by Numba: LLVM inlines a function this small at each
     of its twenty-odd call sites anyway (the same bits and cost per point), while Numba's inlining before typing
-    types it again at every site (about a quarter of the kernel's first compilation)."""
+    types it again at every site, which made most of the cut kernel's extra first compilation
+    (``benchmarks/first_compile.py``)."""
     out[0] += sign * (a1 * b[2] - a2 * b[1])
     out[1] += sign * (a2 * b[0] - a0 * b[2])
     out[2] += sign * (a0 * b[1] - a1 * b[0])
@@ -245,8 +246,9 @@ def _apply_inertia(m: float, h: np.ndarray, inertia: np.ndarray, motion: np.ndar
 
 
 #: The compiled kernel's parts: inlined into :func:`_evaluate` by Numba before typing (``inline="always"``), so
-#: that the cut costs no call and passes no array (parts compiled apart cost about 45% more per point: LLVM
-#: does not inline functions this large). Each is typed again at each of its call sites, so a part has one.
+#: that the cut costs no call and passes no array (parts compiled apart cost markedly more per point, as
+#: ``benchmarks/rigid_cost.py`` shows against such a version: LLVM does not inline functions this large).
+#: Numba types a part again at each of its call sites, so each part has one.
 _PART = {"cache": True, "nogil": True, "inline": "always"}
 
 
