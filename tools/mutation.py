@@ -86,6 +86,7 @@ TARGETS: dict[str, Target] = {
     "score": Target(("ftc_mj/ranking/score.py",), ("tests/ranking/test_score.py", "tests/ranking/test_score_edges.py")),
     "statistics": Target(("ftc_mj/campaign/statistics.py",), ("tests/campaign/test_statistics.py",
                                                                "tests/campaign/test_statistics_coverage.py",
+                                                               "tests/campaign/test_statistics_edges.py",
                                                                "tests/campaign/test_verdicts.py")),
 }
 
