@@ -69,15 +69,18 @@ def main(argv: Sequence[str] | None = None, prog: str = PROG) -> int:
                          "entry is scored already)")
     bench = load_bench(args.bench, with_builtins=args.with_builtins)
     bench.suite.tier(args.tier)
-    if bench.suite.calibrated and bench.of("diagnosis"):
-        from ftc_mj.ranking.sizing import check_faults_act
-
-        check_faults_act(bench.suite, args.tier)  # a fault case that would not act: refused
     out = args.out or Path("results") / "bench" / f"{bench.suite.version}-{args.tier}"
     _check_out(out)
     outputs = Outputs(str(args.bench or "command line"))
     outputs.add("--out", out, directory=True)
     outputs.check([] if args.bench is None else [args.bench])
+    # The stored results are read before anything is simulated (a damaged file is refused at once); the check
+    # that every fault case acts simulates a healthy loop per robot.
+    planned = execute.plan(bench, args.tier, out)
+    if bench.suite.calibrated and bench.of("diagnosis"):
+        from ftc_mj.ranking.sizing import check_faults_act
+
+        check_faults_act(bench.suite, args.tier)  # a fault case that would not act: refused
     start = time.perf_counter()
 
     def progress(done: int, total: int) -> None:
@@ -85,7 +88,7 @@ def main(argv: Sequence[str] | None = None, prog: str = PROG) -> int:
             print(f"\r{done} / {total} runs simulated ({time.perf_counter() - start:.0f} s)", end="",
                   file=sys.stderr, flush=True)
 
-    info = execute.run(bench, args.tier, out, workers=args.workers, progress=progress)
+    info = execute.run(bench, args.tier, out, workers=args.workers, progress=progress, planned=planned)
     if not args.quiet and info["simulated_runs"]:
         print(file=sys.stderr)
     info["workers"] = args.workers or execute.campaign_execute.default_workers()

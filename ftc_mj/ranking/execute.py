@@ -207,11 +207,12 @@ def write_chunk(bench: Bench, chunk: Chunk, tier: str) -> Path:
 
 def run(bench: Bench, tier: str, out: Path, *, workers: int | None = None,
         progress: Callable[[int, int], None] = lambda done, total: None,
-        only: tuple[str, ...] | None = None) -> dict[str, Any]:
+        only: tuple[str, ...] | None = None,
+        planned: tuple[dict[tuple[str, str, str, str], Found], list[Chunk]] | None = None) -> dict[str, Any]:
     """Simulate what is missing into ``out`` (of the populations ``only``, by default all); what was done and
-    simulated, and the wall time."""
+    simulated, and the wall time. ``planned``: :func:`plan`'s answer for the same arguments, made already."""
     start = time.perf_counter()
-    done, chunks = plan(bench, tier, out, only)
+    done, chunks = plan(bench, tier, out, only) if planned is None else planned
     workers = workers or campaign_execute.default_workers()
     campaigns, tasks, owner = [], [], {}
     for chunk in chunks:

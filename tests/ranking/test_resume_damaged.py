@@ -38,3 +38,22 @@ def test_a_damaged_table_of_a_finished_campaign_is_one_line(tmp_path):
     assert str(raised.value).startswith(f"{tmp_path / 'runs/diagnosis/arm/healthy/abc/results/runs.parquet'}: "
                                         "cannot be read")
     assert find_done(tmp_path, "diagnosis", "arm", "healthy", "another protocol") == {}
+
+
+def test_the_bench_command_reads_stored_results_before_it_simulates(tmp_path, monkeypatch, capsys):
+    """``ftc-mj bench`` refuses a damaged ``entries.json`` before its first simulation (the check that every
+    fault case acts runs a healthy loop per robot: seconds, minutes with the fast paths off)."""
+    import ftc_mj.ranking.sizing as sizing
+    from ftc_mj.cli import bench
+
+    def simulates(*args, **kwargs):
+        raise AssertionError("a loop was simulated before the stored results were read")
+
+    monkeypatch.setattr(sizing, "check_faults_act", simulates)
+    out = tmp_path / "results"
+    manifest = out / "runs" / "diagnosis" / "two_link" / "healthy" / "abc" / "entries.json"  # a suite v2 robot
+    manifest.parent.mkdir(parents=True)
+    manifest.write_text('{"protocol": "p", "entr')
+    assert bench.main(["--out", str(out), "--quiet", "--workers", "1"]) == 2
+    error = capsys.readouterr().err.strip()
+    assert error.count("\n") == 0 and "entries.json: cannot be read (truncated or damaged" in error
