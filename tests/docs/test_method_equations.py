@@ -4,7 +4,9 @@ Every docstring and ``#:`` comment of :mod:`ftc_mj.methods` (what the methods re
 show) writes its symbols and laws as ``:math:`` or ``.. math::``: outside mathematics, code and literal
 blocks no plain-text equation is left (``x1_hat``, ``e_dot``, ``x1~``, ``M^-1``, ``sign(s)``, ``dz/dt``,
 ``|e|``, ``Psi``, ``<=``, ...), and neither in the tutorials' prose nor on the methods-at-a-glance page
-(``$...$`` there). Every built-in method's page section shows at least one equation and cites where it comes
+(``$...$`` there), nor on any other hand-written page of the site (explanation, results, reference,
+getting started: the same check, plus velocities, plain gain indices and functions spelled out: ``M qdd``,
+``k1``, ``tanh(``). Every built-in method's page section shows at least one equation and cites where it comes
 from (an equation number or a book's section), and every piece of mathematics converts to MathML with no
 command left as text.
 """
@@ -166,6 +168,7 @@ def _markdown_prose(text: str) -> str:
     text = re.sub(r"\$\$.*?\$\$", " ", text, flags=re.DOTALL)
     text = re.sub(r"\$[^$\n]+\$", " ", text)
     text = re.sub(r"\]\([^)]*\)", "]", text)
+    text = re.sub(r"^\s*\|(?:\s*:?-+:?\s*\|)+\s*$", " ", text, flags=re.MULTILINE)  # a table's rule, aligned
     return re.sub(r"\b(?:kg m|rad/s|m/s|rad|1/s)\^\d", " ", text)
 
 
@@ -176,3 +179,54 @@ def test_the_tutorials_and_the_methods_at_a_glance_write_their_equations_as_math
     assert not left, "\n".join(left)
     assert plain_equations(_markdown_prose("a law u = -M(x1) (u_eq + u_sw) in [kg m^2]"))
     assert not plain_equations(_markdown_prose("a law $u = -M(x_1) u_{sw}$ in kg m^2\n```\nqd_hat = x^2\n```"))
+
+
+#: Notation the pages write as mathematics beside :data:`PLAIN` (the docstrings name their configuration's
+#: fields ``k1``, ``qd`` in prose, the pages in code font): a velocity or acceleration spelled out, a gain
+#: with a plain index, a function of the formulas.
+PAGE_PLAIN = re.compile(r"\bq(?:d|dd|ddd)\b|\b[kp]\d\b|\b(?:tanh|sin|cos|tan|log|ln)\(")
+
+#: Pages that a command writes as it is, checked where they are generated: the benchmark's leaderboard
+#: (``ftc-mj bench``) and the tuning reports (``ftc-mj tune``).
+GENERATED = ("results/benchmark-v2-full.md", "results/tuning/*/report.md")
+
+
+def _page_plain_equations(text: str) -> list[str]:
+    """The plain-text notation left in a page's prose, each with its line."""
+    prose = _markdown_prose(text)
+    hits = plain_equations(prose)
+    for line in _prose(prose).splitlines():
+        hits += [f"{match.group(0)!r} in: {line.strip()}" for match in PAGE_PLAIN.finditer(line)]
+    return hits
+
+
+def _hand_written_pages() -> list[Path]:
+    docs = ROOT / "docs"
+    generated = {path for pattern in GENERATED for path in docs.glob(pattern)}
+    return [page for page in sorted(docs.rglob("*.md")) if page not in generated]
+
+
+def test_the_check_of_the_pages_finds_their_old_plain_text():
+    """The pages' plain text as it was fails, and what replaced it passes: the check can fail."""
+    for old in ("Plant terms, following (3.1) M qdd + C qd + G + F + tau_d = tau and (3.7)",
+                "Levant's k1 = 1.5 L^(1/2), k2 = 1.1 L", "with Gamma x1~ feeding the quantisation error",
+                "| super-twisting: |s|^1 instead of |s|^(1/2) |   |   | yes |",
+                "| momentum: C^T qd - G as G - C^T qd |", "F = o + b qd + c tanh(50 qd) per joint",
+                "NaN, inf, |q| above `divergence.max_position`", "| Gamma | 5 | 22.2 |",
+                "the DO goes past the truth (max |x2~|)", "K_d = 2 sqrt(K_p): a double pole",
+                "the 5-sigma thresholds", "L = 22 (k1 = 7.04, k2 = 24.2)", "On a fresh machine with Python >= 3.11"):
+        assert _page_plain_equations(old), old
+    for new in (r"Plant terms, following (3.1) $M \ddot q + C \dot q + G + F + \tau_d = \tau$ and (3.7)",
+                r"Levant's $k_1 = 1.5 L^{1/2}$, $k_2 = 1.1 L$", r"with $\Gamma \tilde x_1$ feeding the error",
+                r"| super-twisting: $\lvert s \rvert^{1}$ instead of $\lvert s \rvert^{1/2}$ |   |   | yes |",
+                "|---|---:|---:|\n| `qd_hat`, `k1` | the field `tanh` |", "the $5\\sigma$ thresholds"):
+        assert not _page_plain_equations(new), (new, _page_plain_equations(new))
+
+
+def test_every_hand_written_page_writes_its_equations_as_mathematics():
+    pages = _hand_written_pages()
+    names = {page.relative_to(ROOT / "docs").as_posix() for page in pages}
+    assert {"results/reproduction.md", "results/arms.md", "explanation/assumptions.md", "index.md"} <= names
+    assert "results/benchmark-v2-full.md" not in names and len(pages) >= 30
+    left = [f"{page.relative_to(ROOT)}: {hit}" for page in pages for hit in _page_plain_equations(page.read_text())]
+    assert not left, "\n".join(left)
