@@ -485,6 +485,13 @@ def package_tree(root: Path = PACKAGE) -> str:
 _MATH = re.compile(r'<(span|div) class="arithmatex">\\[(\[](.*?)\\[)\]]</\1>', re.DOTALL)
 
 
+#: ``\\lvert \\rvert \\lVert \\rVert``, which latex2mathml writes as one bare ``<mo>`` for both sides: a browser then
+#: spaces them as binary operators (``| s |  =``). Each is carried through the conversion as a private-use
+#: character and written back as an opening or closing fence (``|s| =``).
+_FENCES = {"\\lvert": ("\ue000", "prefix", "&#x0007C;"), "\\rvert": ("\ue001", "postfix", "&#x0007C;"),
+           "\\lVert": ("\ue002", "prefix", "&#x02016;"), "\\rVert": ("\ue003", "postfix", "&#x02016;")}
+
+
 def mathml(html: str) -> str:
     """The pages' mathematics (``pymdownx.arithmatex``'s generic output, ``\\(x\\)`` and ``\\[x\\]``) as MathML
     (``latex2mathml``), which browsers render without a script: the site needs no network, no JavaScript."""
@@ -493,7 +500,13 @@ def mathml(html: str) -> str:
     from latex2mathml.converter import convert
 
     def render(match: re.Match) -> str:
-        return convert(entities.unescape(match.group(2)), display="block" if match.group(1) == "div" else "inline")
+        tex = entities.unescape(match.group(2))
+        for command, (mark, _, _) in _FENCES.items():
+            tex = re.sub(r"(?<!\\left)(?<!\\right)" + re.escape(command) + r"(?![A-Za-z])", mark, tex)
+        out = convert(tex, display="block" if match.group(1) == "div" else "inline")
+        for mark, form, glyph in _FENCES.values():
+            out = out.replace(f"<mi>{mark}</mi>", f'<mo fence="true" form="{form}" stretchy="false">{glyph}</mo>')
+        return out
 
     return _MATH.sub(render, html)
 

@@ -37,3 +37,14 @@ def test_the_momentum_observers_equations_are_written_as_math():
     text = reference._rst_to_md(momentum.__doc__)
     assert text.count("\\[") >= 3 and text.count("\\(") >= 10
     assert "\\tau" in momentum.__doc__ and "\t" not in momentum.__doc__  # a raw docstring: no tab from \tau
+
+
+def test_absolute_values_and_norms_are_fences_not_operators():
+    """``\\lvert s \\rvert`` as an opening and a closing fence (latex2mathml alone writes two bare ``<mo>``, which
+    a browser spaces as operators: ``| s |  =``), with or without a power; ``\\left\\lvert`` is left alone."""
+    out = reference.mathml('<span class="arithmatex">\\(\\lvert s \\rvert^{1/2} \\le \\lVert \\hat s(0) \\rVert\\)</span>')
+    assert out.count('form="prefix"') == 2 and out.count('form="postfix"') == 2
+    assert "<mo>&#x0007C;</mo>" not in out and "\ue000" not in out and "\ue001" not in out
+    assert out.index('form="prefix"') < out.index("<mi>s</mi>") < out.index('form="postfix"')
+    stretchy = reference.mathml('<span class="arithmatex">\\(\\left\\lvert \\frac{a}{b} \\right\\rvert\\)</span>')
+    assert "<mfrac>" in stretchy and 'stretchy="true"' in stretchy and "\ue000" not in stretchy

@@ -38,7 +38,7 @@ PLAIN = {
     "derivative": r"\bd\w*/dt\b",
     "absolute value": r"\|[^|\s`][^|`]*[^|\s`]\||\|\w\|",
     "Greek spelled out": r"\b(?:Psi|Gamma|Delta|Lambda|Xi|zeta|lambda|alpha|beta|gamma|kappa|rho|omega|sigma|"
-                         r"phi|mu|tau|nu|epsilon)(?:_?\w)?\b",
+                         r"phi|mu|tau|nu|epsilon)(?:_?\w)?\b(?!-binomial)",  # the beta-binomial law is a name
     "comparison": r"<=|>=|!=",
     "reference trajectory": r"\bx{1,2}d*_d\b",
     "integral": r"\bintegral_",
