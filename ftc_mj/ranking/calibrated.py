@@ -26,11 +26,16 @@ Intervals: 95% percentile bootstrap, clustered by draw: a healthy run's windows 
 that share a draw (a campaign's common random numbers) are resampled together; suite v2 gives each fault case
 its own draws (seeds and mass scales), so there its runs are the clusters. The thresholds are held at their
 calibrated values. Runs whose reference loop diverged are counted apart and never scored.
+
+Paired comparisons (:func:`paired_differences`): every entry of a robot is a monitor of the same simulated runs,
+so two entries' windows are the same windows; the difference of a score between them is resampled with the same
+clusters for both (a paired cluster bootstrap), its p-value the percentile interval's inversion, and a family of
+such tests adjusted by Holm's step-down (:func:`holm`).
 """
 
 from __future__ import annotations
 
-from collections.abc import Callable
+from collections.abc import Callable, Iterator, Sequence
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -215,14 +220,10 @@ def false_alarm_check(rows: dict[str, tuple[int, list[int], int]], alpha: float)
     count_law = np.ones(1)  # the number of off rows: a Poisson-binomial
     for p in p_calibrated:
         count_law = np.convolve(count_law, [1 - p, p])
-    ordered = sorted(p_rows.items(), key=lambda item: item[1])
-    rejected = []
-    for i, (name, p) in enumerate(ordered):
-        if p > 0.05 / (len(ordered) - i):
-            break
-        rejected.append(name)
+    adjusted = dict(zip(p_rows, holm(list(p_rows.values()))))
+    rejected = tuple(name for name, _ in sorted(p_rows.items(), key=lambda item: item[1]) if adjusted[name] <= 0.05)
     return FalseAlarmCheck(len(p_rows), off, float(sum(p_exact)), float(sum(p_calibrated)),
-                           float(count_law[off:].sum()), tuple(rejected))
+                           float(count_law[off:].sum()), rejected)
 
 
 def pooled_false_alarm(windows: list[Windows], clusters: list[str], resamples: int = RESAMPLES
@@ -355,29 +356,41 @@ def _take(w: Windows, healthy: np.ndarray, fault: np.ndarray) -> Windows:
                             else getattr(w, key)[fault]) for key in Windows.__dataclass_fields__})
 
 
-def clustered(w: Windows, statistic: Callable[[Windows], dict[str, float]], resamples: int = RESAMPLES
-              ) -> dict[str, tuple[float, float]]:
-    """Each statistic's 95% percentile interval, healthy runs and fault draws resampled as clusters."""
+def _cluster_draws(w: Windows, resamples: int) -> Iterator[tuple[np.ndarray, np.ndarray]]:
+    """The clustered bootstrap's resamples of ``w``: per resample, the indices of its healthy and of its faulty
+    windows, healthy runs and fault draws drawn with replacement as clusters, from :data:`BOOTSTRAP_SEED`. Every
+    entry of one robot has the same clusters (its runs), so it is resampled alike: the draws of a pair of entries
+    (:func:`paired_differences`) are those of each one's own interval."""
     rng = np.random.default_rng(BOOTSTRAP_SEED)
     h_ids, h_inverse = np.unique(w.healthy_cluster, return_inverse=True)
     f_ids, f_inverse = np.unique(w.fault_cluster, return_inverse=True)
     h_members = [np.flatnonzero(h_inverse == i) for i in range(h_ids.size)]
     f_members = [np.flatnonzero(f_inverse == i) for i in range(f_ids.size)]
-    draws: dict[str, list[float]] = {}
     for _ in range(resamples):
         h = np.concatenate([h_members[i] for i in rng.integers(0, len(h_members), len(h_members))]) \
             if h_members else np.zeros(0, int)
         f = np.concatenate([f_members[i] for i in rng.integers(0, len(f_members), len(f_members))]) \
             if f_members else np.zeros(0, int)
+        yield h, f
+
+
+def _percentiles(values: list[float], alpha: float = 0.05) -> tuple[float, float]:
+    """The percentile interval at 1 - ``alpha`` of a bootstrap's finite values (NaN, NaN when none is)."""
+    finite = np.asarray(values, dtype=float)
+    finite = finite[np.isfinite(finite)]
+    tail = 50.0 * alpha
+    return (float(np.percentile(finite, tail)), float(np.percentile(finite, 100.0 - tail))) if finite.size \
+        else (np.nan, np.nan)
+
+
+def clustered(w: Windows, statistic: Callable[[Windows], dict[str, float]], resamples: int = RESAMPLES
+              ) -> dict[str, tuple[float, float]]:
+    """Each statistic's 95% percentile interval, healthy runs and fault draws resampled as clusters."""
+    draws: dict[str, list[float]] = {}
+    for h, f in _cluster_draws(w, resamples):
         for name, value in statistic(_take(w, h, f)).items():
             draws.setdefault(name, []).append(value)
-    out = {}
-    for name, values in draws.items():
-        finite = np.asarray(values, dtype=float)
-        finite = finite[np.isfinite(finite)]
-        out[name] = (float(np.percentile(finite, 2.5)), float(np.percentile(finite, 97.5))) if finite.size \
-            else (np.nan, np.nan)
-    return out
+    return {name: _percentiles(values) for name, values in draws.items()}
 
 
 def scores(w: Windows, resamples: int = RESAMPLES) -> dict[str, Score]:
@@ -451,6 +464,109 @@ def apart(tuned: Score, design: Score, higher_is_better: bool = True) -> str:
     if above or below:
         return "better" if above == higher_is_better else "worse"
     return "not apart"
+
+
+def same_windows(a: Windows, b: Windows) -> bool:
+    """Whether two entries' windows are the same windows, element by element: the same runs (healthy clusters)
+    and draws (fault clusters), strata, fault cases and acting faults. So are any two entries of one robot's
+    board: monitors of the same simulated runs (the reference loop's, which no monitor changes; seeds and run ids
+    depend on the run alone, :mod:`ftc_mj.ranking.execute`), their windows in the same order."""
+    keys = ("healthy_cluster", "healthy_stratum", "window_seconds", "fault_cluster", "fault_stratum", "fault_kind",
+            "fault_size", "acts")
+    return all(np.array_equal(getattr(a, key), getattr(b, key)) for key in keys)
+
+
+@dataclass(frozen=True)
+class Difference:
+    """One score's paired difference between two entries scored on the same windows (first less second)."""
+
+    value: float
+    #: 95% percentile interval of the difference, both entries resampled with the same clusters.
+    low: float
+    high: float
+    #: Two-sided bootstrap p-value of no difference (:func:`bootstrap_p_value`).
+    p_value: float
+    resamples: int
+
+    def as_dict(self) -> dict[str, float]:
+        return {"difference": self.value, "low": self.low, "high": self.high, "p_value": self.p_value,
+                "resamples": self.resamples}
+
+
+def bootstrap_p_value(differences: np.ndarray) -> float:
+    """The two-sided p-value of no difference from a bootstrap's differences: twice the smaller share of them on
+    either side of 0 (ties count on both sides), the inversion of the percentile interval (the smallest alpha
+    whose 1 - alpha interval excludes 0; Davison and Hinkley 1997, Bootstrap Methods and their Application,
+    ch. 4), with the Monte Carlo correction (k + 1) / (B + 1) so that B draws never claim p = 0 (North, Curtis and
+    Sham 2002, Am. J. Hum. Genet. 71(2), 439-441). 1 where every difference is 0 (an entry against itself) or
+    none is finite."""
+    finite = differences[np.isfinite(differences)]
+    if finite.size == 0:
+        return 1.0
+    beyond = min(int((finite <= 0).sum()), int((finite >= 0).sum()))
+    return float(min(1.0, 2.0 * (beyond + 1) / (finite.size + 1)))
+
+
+def paired_differences(a: Windows, b: Windows, names: Sequence[str] = ("auc", "pd"), resamples: int = RESAMPLES
+                       ) -> dict[str, Difference]:
+    """Each score of ``names`` (:data:`SCORES`): entry a's less entry b's on the same windows, with its 95%
+    paired clustered percentile interval and bootstrap p-value.
+
+    A paired cluster bootstrap: each resample draws the healthy runs and fault draws once (:func:`_cluster_draws`,
+    the seed of every interval) and scores both entries on the same resampled windows, so that what the two
+    entries share (the run's trajectory, its mass scale, its fault) cancels in the difference as it does in the
+    data; the marginal intervals' overlap ignores that pairing and calls apart only differences far larger than
+    either interval's half-width. Chosen over DeLong et al. (1988, Biometrics 44(3), 837-845: the paired AUCs'
+    covariance from their placement values) because it keeps the windows' clustering (DeLong's treats windows as
+    independent, and windows of one run are not: tests/ranking/test_clustered_coverage.py) and because one
+    resampling serves every score (P_d too), the thresholds held at their calibrated values as in
+    :func:`clustered`.
+
+    Raises:
+        ValueError: the two entries' windows are not the same (:func:`same_windows`): nothing to pair.
+    """
+    if not same_windows(a, b):
+        raise ValueError("the two entries were not scored on the same windows (runs, draws, strata): not paired")
+    hours = a.window_seconds / 3600.0
+    first, second = _point(a, hours), _point(b, hours)
+    draws: dict[str, list[float]] = {name: [] for name in names}
+    for h, f in _cluster_draws(a, resamples):
+        first_draw, second_draw = _point(_take(a, h, f), hours[h]), _point(_take(b, h, f), hours[h])
+        for name in names:
+            draws[name].append(first_draw[name] - second_draw[name])
+    out = {}
+    for name in names:
+        values = np.asarray(draws[name], dtype=float)
+        out[name] = Difference(float(first[name] - second[name]), *_percentiles(draws[name]),
+                               bootstrap_p_value(values), resamples)
+    return out
+
+
+def holm(p_values: Sequence[float]) -> np.ndarray:
+    """Holm's (1979) step-down adjusted p-values, in the order given: the i-th smallest p times (m + 1 - i), made
+    non-decreasing, capped at 1. A hypothesis is rejected at family-wise level alpha iff its adjusted p-value is
+    at most alpha, whatever the dependence between the tests (Holm, Scand. J. Statist. 6(2), 65-70)."""
+    p = np.asarray(p_values, dtype=float)
+    order = np.argsort(p, kind="stable")
+    adjusted = np.empty_like(p)
+    adjusted[order] = np.minimum(1.0, np.maximum.accumulate((p.size - np.arange(p.size)) * p[order]))
+    return adjusted
+
+
+def paired_resamples(tests: int, alpha: float = 0.05) -> int:
+    """The paired bootstrap's resamples for a family of ``tests``: its smallest p-value, 2 / (B + 1), a fifth of
+    Holm's first threshold alpha / tests at most (so that a difference no resample crosses 0 is called apart),
+    and never fewer than the intervals' :data:`RESAMPLES`."""
+    return max(RESAMPLES, int(np.ceil(10.0 * tests / alpha)) - 1)
+
+
+def paired_verdict(difference: Difference, adjusted_p: float, higher_is_better: bool = True,
+                   alpha: float = 0.05) -> str:
+    """``better`` or ``worse`` when the family-wise adjusted p-value is at most alpha (the difference's side and
+    the score's direction say which), ``not apart`` otherwise."""
+    if not (np.isfinite(difference.value) and adjusted_p <= alpha) or difference.value == 0:
+        return "not apart"
+    return "better" if (difference.value > 0) == higher_is_better else "worse"
 
 
 def tuned_verdict(verdicts: list[str]) -> str:

@@ -339,6 +339,7 @@ def write(bench: Bench, tier: str, out: Path, done: dict[tuple[str, str, str, st
     boards = None
     if bench.suite.calibrated and bench.of("diagnosis"):
         boards = {robot: windowed.robot_board(bench, robot, done) for robot in bench.suite.spec.robots}
+        windowed.compare_tuned(boards)
         rows = windowed.rows(bench, boards) + rows
     info = {**info, "versions": versions()}
     written = [out / "leaderboard.md", out / "leaderboard.csv", out / "leaderboard.parquet", out / "bench.json"]
@@ -363,6 +364,7 @@ def write(bench: Bench, tier: str, out: Path, done: dict[tuple[str, str, str, st
         alpha = bench.suite.spec.calibration.false_alarm
         meta["false_alarms"] = {**{robot: windowed.false_alarms({robot: b}, alpha) for robot, b in boards.items()},
                                 "every robot": windowed.false_alarms(boards, alpha)}
+        meta["tuned_pairs"] = {robot: {"pairs": b.pairs, "check": b.paired_check} for robot, b in boards.items()}
         write_atomic(written[3], (json.dumps(meta, indent=2) + "\n").encode())
     written.append(_save(ranked_figure(bench, rows), out / "figures" / "ranked.png"))
     return written

@@ -1,6 +1,7 @@
 """Suite v2's diagnosis leaderboard: every entry's window scores at calibrated thresholds
 (:mod:`ftc_mj.ranking.calibrated`) beside the three sanity rows and their gate, per robot; the per-stratum
-table, P_d per fault kind, the runs whose reference loop diverged (apart, never scored), and the figures: the
+table, the tuned rows against their design rows (paired differences, Holm over every robot's pairs), P_d per
+fault kind, the runs whose reference loop diverged (apart, never scored), and the figures: the
 pooled ROC, the detectability curves (P_d at the common false-alarm probability against the bias size in
 residual units) and the delay-against-false-alarm front."""
 
@@ -58,6 +59,10 @@ class RobotBoard:
     rate: float = 1000.0
     #: Calibration runs whose peaks set the thresholds (the diverged ones left out).
     calibration_runs: int = 0
+    #: The tuned rows against their design rows, paired (:func:`compare_tuned`; None until compared), and the
+    #: paired test's own check on the sanity rows (oracle_fault against null).
+    pairs: list[dict[str, Any]] | None = None
+    paired_check: dict[str, Any] = field(default_factory=dict)
 
 
 def robot_board(bench: Bench, robot: str, done: dict[tuple[str, str, str, str], Found],
@@ -125,6 +130,7 @@ def markdown(bench: Bench, boards: dict[str, RobotBoard]) -> list[str]:
     suite = bench.suite
     alpha = suite.spec.calibration.false_alarm
     entries = {e.name: e for e in bench.of("diagnosis")}
+    compare_tuned(boards)
     lines = [
         f"Diagnosis is scored on windows ({', '.join(f'{L:g} s' for L in suite.spec.calibration.windows)} from each "
         "onset, the same statistic for healthy and faulty runs) at each entry's thresholds, calibrated on "
@@ -224,26 +230,104 @@ def _fa_summary(where: str, boards: dict[str, RobotBoard], alpha: float) -> str:
             "scored healthy runs, the thresholds held).")
 
 
+#: The scores a tuned row is compared on with its design row, and the family-wise level of the verdicts.
+PAIRED_SCORES = ("auc", "pd")
+FAMILY_ALPHA = 0.05
+
+
+def _tuned_rows(board: RobotBoard) -> list[tuple[str, str]]:
+    """(tuned, design) for each ``<name>_tuned`` row of the board beside its ``<name>`` row."""
+    return sorted((name, name[:-len(cal.TUNED_SUFFIX)]) for name in board.scores
+                  if name.endswith(cal.TUNED_SUFFIX) and name[:-len(cal.TUNED_SUFFIX)] in board.scores)
+
+
+def compare_tuned(boards: dict[str, RobotBoard], resamples: int | None = None) -> None:
+    """Each board's tuned rows against their design rows (``board.pairs``), paired: the difference tuned - design
+    of each of :data:`PAIRED_SCORES` on the same windows with its clustered paired interval and p-value
+    (:func:`~ftc_mj.ranking.calibrated.paired_differences`), the p-values adjusted by Holm over every test of
+    ``boards`` at once (every robot's pairs and both scores: the leaderboard's claims about the tuned rows are
+    made over them together), with enough resamples for that family
+    (:func:`~ftc_mj.ranking.calibrated.paired_resamples`). Holm rather than Bonferroni: the same family-wise
+    guarantee under any dependence (the pairs share runs), never less power. Beside each, the marginal
+    intervals' overlap (:func:`~ftc_mj.ranking.calibrated.apart`). Boards already compared are kept.
+
+    The test's own check (``board.paired_check``, outside the family): oracle_fault against null on the same
+    windows, which must be apart above on both scores at the family's strictest level (Holm's first threshold,
+    alpha / tests); where it is not, the board's paired verdicts are withheld."""
+    if all(board.pairs is not None for board in boards.values()):
+        return
+    found = [(robot, tuned, design) for robot, board in boards.items() for tuned, design in _tuned_rows(board)]
+    tests = len(found) * len(PAIRED_SCORES)
+    resamples = resamples or cal.paired_resamples(tests, FAMILY_ALPHA)
+    for board in boards.values():
+        if found and all(name in board.windows for name in ("oracle_fault", "null")):
+            check = cal.paired_differences(board.windows["oracle_fault"], board.windows["null"], PAIRED_SCORES,
+                                           resamples)
+            strictest = {score: min(1.0, check[score].p_value * tests) for score in PAIRED_SCORES}
+            board.paired_check = {
+                "first": "oracle_fault", "second": "null",
+                **{score: {**check[score].as_dict(), "p_strictest": strictest[score],
+                           "verdict": cal.paired_verdict(check[score], strictest[score], True, FAMILY_ALPHA)}
+                   for score in PAIRED_SCORES}}
+            board.paired_check["passed"] = all(board.paired_check[score]["verdict"] == "better"
+                                               for score in PAIRED_SCORES)
+    differences = [cal.paired_differences(boards[robot].windows[tuned], boards[robot].windows[design],
+                                          PAIRED_SCORES, resamples) for robot, tuned, design in found]
+    adjusted = iter(cal.holm([d[score].p_value for d in differences for score in PAIRED_SCORES]))
+    for board in boards.values():
+        board.pairs = []
+    for (robot, tuned, design), difference in zip(found, differences):
+        board = boards[robot]
+        row: dict[str, Any] = {"tuned": tuned, "design": design, "tests": tests, "family_alpha": FAMILY_ALPHA}
+        paired, marginal = [], []
+        for score in PAIRED_SCORES:
+            higher, p_holm = cal.SCORES[score][2], float(next(adjusted))
+            paired.append(cal.paired_verdict(difference[score], p_holm, higher, FAMILY_ALPHA))
+            marginal.append(cal.apart(board.scores[tuned][score], board.scores[design][score], higher))
+            row[score] = {**difference[score].as_dict(), "p_holm": p_holm, "verdict": paired[-1],
+                          "marginal": marginal[-1]}
+        row["verdict"], row["marginal_verdict"] = cal.tuned_verdict(paired), cal.tuned_verdict(marginal)
+        board.pairs.append(row)
+
+
+def _difference_text(d: dict[str, Any]) -> str:
+    if not np.isfinite(d["difference"]):
+        return "-"
+    return f"{d['difference']:+.3g} [{d['low']:+.3g}, {d['high']:+.3g}]"
+
+
 def tuned_pairs(board: RobotBoard) -> list[str]:
-    """The tuned rows against their design-rule rows (``<name>_tuned`` beside ``<name>``): the AUC's and P_d's
-    intervals and whether they are apart (:func:`~ftc_mj.ranking.calibrated.apart`); a tuned row is called better
-    only when one is apart above and none below."""
-    pairs = [(name, name[:-len(cal.TUNED_SUFFIX)]) for name in board.scores
-             if name.endswith(cal.TUNED_SUFFIX) and name[:-len(cal.TUNED_SUFFIX)] in board.scores]
-    if not pairs:
+    """The tuned rows against their design-rule rows (``<name>_tuned`` beside ``<name>``), as compared by
+    :func:`compare_tuned` (which must have run): each row's AUC and P_d with their marginal intervals, the paired
+    difference with its interval and Holm-adjusted p-value, the paired verdict (better only when a difference is
+    apart above and none below), and the marginal intervals' overlap verdict beside it."""
+    if not board.pairs:
         return []
-    lines = ["", "Tuned rows against their design-rule rows: better only where an interval (AUC or P_d) lies "
-             "wholly above the design row's, worse where wholly below.", "",
-             "| tuned | design | AUC tuned | AUC design | AUC | P_d tuned | P_d design | P_d | verdict |",
-             "|---|---|---|---|---|---|---|---|---|"]
-    for tuned, design in sorted(pairs):
-        cells, verdicts = [f"`{tuned}`", f"`{design}`"], []
-        for score in ("auc", "pd"):
-            a, b = board.scores[tuned][score], board.scores[design][score]
-            verdicts.append(cal.apart(a, b))
-            cells += [_text(a), _text(b), verdicts[-1]]
-        cells.append(f"**{cal.tuned_verdict(verdicts)}**")
+    first, check = board.pairs[0], board.paired_check
+    withheld = not check.get("passed", False)
+    lines = ["", "Tuned rows against their design-rule rows, paired: both rows are scored on the same windows of "
+             "the same runs, so the difference (tuned - design) is resampled with the same runs and draws for both "
+             "(95% interval). Its p-value is adjusted by Holm over the "
+             f"{first['tests']} tests of this leaderboard (every robot's tuned pairs, AUC and P_d; "
+             f"{first['auc']['resamples']} resamples); a tuned row is better or worse where an adjusted p-value is "
+             f"at most {first['family_alpha']:g}. \"Marginal\": the verdict of the two rows' own intervals "
+             "(apart only where they do not overlap), which ignores the pairing.", "",
+             "| tuned | design | AUC tuned | AUC design | AUC difference | p (Holm) | P_d tuned | P_d design | "
+             "P_d difference | p (Holm) | paired verdict | marginal |",
+             "|---|---|---|---|---|---|---|---|---|---|---|---|"]
+    for row in board.pairs:
+        cells = [f"`{row['tuned']}`", f"`{row['design']}`"]
+        for score in PAIRED_SCORES:
+            cells += [_text(board.scores[row['tuned']][score]), _text(board.scores[row['design']][score]),
+                      _difference_text(row[score]), f"{row[score]['p_holm']:.2g}"]
+        cells += ["withheld (the check below failed)" if withheld else f"**{row['verdict']}**",
+                  row["marginal_verdict"]]
         lines.append("| " + " | ".join(cells) + " |")
+    if check:
+        lines += ["", f"The paired test's own check: `oracle_fault` (perfect) against `null` (useless) on the same "
+                  "windows, apart above on both scores at the family's strictest level "
+                  f"({first['family_alpha']:g} / {first['tests']}): AUC {_difference_text(check['auc'])}, P_d "
+                  f"{_difference_text(check['pd'])} ({'yes' if check['passed'] else 'NO'})."]
     return lines
 
 

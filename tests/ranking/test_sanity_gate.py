@@ -7,7 +7,9 @@ plugin, are scored by ``ftc-mj bench``.
 It fails the suite unless, on every robot: oracle_fault's AUC >= 0.99 and its P_d at the common false-alarm
 probability >= 0.95 on the faults that act; null's AUC is at chance (1/2 in its bootstrap interval, or the AUC
 within the 95% range the Mann-Whitney statistic has under no difference); no entry's AUC interval lies above
-oracle_luaf's; and the third-party noise observer's AUC is at chance alike.
+oracle_luaf's; the third-party noise observer's AUC is at chance alike; and the paired comparison of a tuned row
+with its design row calls oracle_fault apart above null and a "tuned" noise row that kept its gains not apart
+from its design row (a difference of exactly 0).
 
 What it does not cover: the quick tier's small biases (0.3 and 1 residual unit), on which the observers'
 point AUCs exceed oracle_luaf's on three robots, inside its interval (docs/results/baselines.md says why: the
@@ -46,9 +48,10 @@ def board(tmp_path_factory):
         patch.setitem(observers.BUILTIN, NoiseObserver.name, NoiseObserver)
         folder = tmp_path_factory.mktemp("sanity")
         (folder / "suite.yaml").write_text(yaml.safe_dump(reduced_suite(), sort_keys=False))
-        bench = {"suite": "suite.yaml", "diagnosis": {"noise": {
-            "type": NoiseObserver.name, "reads": ["encoders"], "gains_from": "none: white noise",
-            "gains": {robot: {} for robot in ROBOTS}}}}
+        noise = {"type": NoiseObserver.name, "reads": ["encoders"], "gains_from": "none: white noise",
+                 "gains": {robot: {} for robot in ROBOTS}}
+        # A "tuned" row that kept its design gains: the same monitor twice, for the paired comparison's pipeline.
+        bench = {"suite": "suite.yaml", "diagnosis": {"noise": noise, "noise_tuned": noise}}
         (folder / "bench.yaml").write_text(yaml.safe_dump(bench, sort_keys=False))
         out = folder / "out"
         assert main([str(folder / "bench.yaml"), "--out", str(out), "--workers", "1", "--quiet"]) == 0
@@ -96,7 +99,25 @@ def test_the_false_alarms_are_said_against_chance(board):
     text = (out / "leaderboard.md").read_text()
     assert text.count("rows (sanity rows included) are \"(off)\"") == len(ROBOTS) + 1
     every = info["false_alarms"]["every robot"]
-    assert every["rows"] == len(ROBOTS) * 4 and every["holm_rejected"] == []
+    assert every["rows"] == len(ROBOTS) * 5 and every["holm_rejected"] == []
     assert every["expected_rate"] == [pytest.approx(1 / 17)]
     assert abs(every["pooled"]["value"] - 1 / 17) < 3 * every["threshold_spread"][0], every
     assert every["expected_off_calibrated"] > every["expected_off_exact"]
+
+
+@pytest.mark.parametrize("robot", ROBOTS)
+def test_the_paired_comparison_scores_a_perfect_and_a_useless_entry_as_such(board, robot):
+    """Through the bench: oracle_fault against null apart above on both scores at the family's strictest level
+    (the check the leaderboard prints), and a tuned row that is its design row differing by exactly 0, not
+    apart."""
+    _, info, out = board
+    pairs = info["tuned_pairs"][robot]
+    check = pairs["check"]
+    assert check["passed"] and check["auc"]["difference"] > 0.4 and check["pd"]["difference"] > 0.8, check
+    (row,) = pairs["pairs"]
+    assert (row["tuned"], row["design"], row["verdict"]) == ("noise_tuned", "noise", "not apart")
+    for score in ("auc", "pd"):
+        assert (row[score]["difference"], row[score]["low"], row[score]["high"], row[score]["p_holm"]) == \
+            (0.0, 0.0, 0.0, 1.0)
+    assert "The paired test's own check: `oracle_fault` (perfect) against `null`" in (out / "leaderboard.md") \
+        .read_text()

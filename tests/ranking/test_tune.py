@@ -16,8 +16,9 @@ from ftc_mj.ranking import calibrated as cal
 from ftc_mj.ranking.entries import TUNING_RECORD, load_bench
 from ftc_mj.ranking.score import Score
 from ftc_mj.ranking.tune import chosen_runs
-from ftc_mj.ranking.windowed import RobotBoard, tuned_pairs
+from ftc_mj.ranking.windowed import RobotBoard, compare_tuned, tuned_pairs
 from reduced_v2 import reduced_suite
+from test_paired_differences import _pair
 
 
 def _score(low: float, high: float) -> Score:
@@ -44,16 +45,25 @@ def test_the_verdict_of_both_scores():
 
 
 def test_the_leaderboard_pairs_each_tuned_row_with_its_design_row():
-    same = {"auc": _score(0.8, 0.9), "pd": _score(0.7, 0.8)}
-    board = RobotBoard("arm", [], scores={
-        "momentum": same, "momentum_tuned": {"auc": _score(0.91, 0.95), "pd": _score(0.75, 0.85)},
-        "ndob": same, "ndob_tuned": same, "kalman": same})
+    """Each ``<name>_tuned`` row beside its ``<name>`` row, compared paired (tests/ranking/test_windowed.py has
+    the verdicts); a row without its design row, or a design row alone, makes no pair."""
+    rng = np.random.default_rng(8)
+    useless, better = _pair(rng, faulty_gain=3.0)
+    perfect, _ = _pair(rng, faulty_gain=0.0)
+    perfect.fault_z[:] = 100.0
+    windows = {"oracle_fault": perfect, "null": useless, "momentum": useless, "momentum_tuned": better,
+               "ndob": useless, "ndob_tuned": useless, "kalman": useless, "eso_tuned": better}
+    board = RobotBoard("arm", [], windows=windows, scores={name: cal.scores(w, 100) for name, w in windows.items()})
+    board.scores.pop("eso_tuned")
+    board.windows.pop("eso_tuned")
+    compare_tuned({"arm": board}, resamples=200)
     lines = tuned_pairs(board)
     rows = {line.split(" | ")[0].strip("| `"): line for line in lines if line.startswith("| `")}
     assert set(rows) == {"momentum_tuned", "ndob_tuned"}
-    assert rows["momentum_tuned"].endswith("**better** |") and "| better |" in rows["momentum_tuned"]
-    assert rows["ndob_tuned"].endswith("**not apart** |")
-    assert tuned_pairs(RobotBoard("arm", [], scores={"kalman": same})) == []
+    assert "| **better** |" in rows["momentum_tuned"] and "| **not apart** |" in rows["ndob_tuned"]
+    alone = RobotBoard("arm", [], windows={"kalman": useless}, scores={"kalman": board.scores["kalman"]})
+    compare_tuned({"arm": alone})
+    assert alone.pairs == [] and tuned_pairs(alone) == []
 
 
 def test_each_draw_is_run_healthy_and_under_one_fault_case():
