@@ -179,22 +179,33 @@ def test_the_tuner_mends_a_deliberately_bad_gain(tmp_path):
     assert record["budget"]["candidates"] == 4 and record["budget"]["generations"] == 3 and record["budget"]["runs"] == 8
 
 
-def test_the_shipped_tuned_rows_carry_their_records_gains():
-    """v2-entries.yaml's ``*_tuned`` rows are the gains v2-tuned.yaml records, tuned on the tune seeds only."""
+@pytest.mark.parametrize("record_name", ["v2-tuned.yaml", "v2-tuned-others.yaml"])
+def test_the_shipped_tuned_rows_carry_their_records_gains(record_name):
+    """v2-entries.yaml's ``*_tuned`` rows are the gains their record (v2-tuned.yaml, v2-tuned-others.yaml) holds,
+    tuned on the tune seeds only, with the same budget."""
     from ftc_mj.ranking.entries import DEFAULT_ENTRIES
     from ftc_mj.ranking.suite import seed_ranges
 
     bench = load_bench()
-    record = yaml.safe_load((DEFAULT_ENTRIES.parent / "v2-tuned.yaml").read_text())
+    record = yaml.safe_load((DEFAULT_ENTRIES.parent / record_name).read_text())
+    first = yaml.safe_load((DEFAULT_ENTRIES.parent / "v2-tuned.yaml").read_text())
     entries = {e.name: e for e in bench.of("diagnosis")}
     raw = yaml.safe_load(DEFAULT_ENTRIES.read_text())["diagnosis"]
     for name, tuned in record["entries"].items():
-        assert raw[f"{name}_tuned"]["tuned_with"] == "v2-tuned.yaml"
+        assert raw[f"{name}_tuned"]["tuned_with"] == record_name
         assert raw[f"{name}_tuned"]["gains_from"].startswith("tuned: ")
         for robot in bench.suite.spec.robots:
             assert entries[f"{name}_tuned"].sections[robot] == {"type": tuned["type"], "gains": tuned["tuned"][robot]}
             assert entries[name].sections[robot]["gains"] == tuned["design"][robot]
     assert set(record["seeds"]) <= set(seed_ranges(bench.suite.spec)["tune"])
+    assert (record["budget"], record["seeds"], record["tier"]) == (first["budget"], first["seeds"], first["tier"])
+
+
+def test_every_shipped_observer_has_a_tuned_row():
+    """One tuning effort for all: each built-in diagnosis entry (but the tuned rows) has its ``<name>_tuned`` row."""
+    names = {e.name for e in load_bench().of("diagnosis")}
+    design = {name for name in names if not name.endswith("_tuned")}
+    assert {f"{name}_tuned" for name in design} <= names and len(design) == 11
 
 
 @pytest.mark.parametrize("tuned, design, verdict", [
