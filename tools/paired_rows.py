@@ -8,6 +8,11 @@ Every row of a robot is a monitor of runs with the same seeds, mass scales and f
 on the same windows (checked: :func:`ftc_mj.ranking.calibrated.paired_differences` refuses otherwise). Each OTHER
 row (default: every diagnosis row of the bench but REFERENCE) less REFERENCE, AUC and P_d, with the paired
 clustered bootstrap interval; the p-values adjusted by Holm over every robot, row and score printed (one family).
+A row may be a sanity row too (``oracle_fault``, ``oracle_luaf``, ``null``).
+
+The test's own check comes first, per robot, as the leaderboard makes it: ``oracle_fault`` (perfect) against
+``null`` (useless) on the same windows must be apart above on both scores at the family's strictest level
+(alpha / tests); where it is not, that robot's verdicts (``*``) are withheld.
 """
 
 from __future__ import annotations
@@ -18,7 +23,7 @@ from pathlib import Path
 
 from ftc_mj.config.errors import InputError
 from ftc_mj.ranking import calibrated as cal
-from ftc_mj.ranking import execute
+from ftc_mj.ranking import execute, windows as stored
 from ftc_mj.ranking.entries import load_bench
 from ftc_mj.ranking.sizing import ACTS
 from ftc_mj.ranking.windowed import FAMILY_ALPHA, PAIRED_SCORES, _entry_population
@@ -36,7 +41,7 @@ def windows(bench, done, robot: str, name: str) -> cal.Windows:
     return found
 
 
-def main() -> None:
+def main(argv: list[str] | None = None) -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("bench")
     parser.add_argument("out", help="the tier's output directory (its runs/ are read)")
@@ -44,9 +49,9 @@ def main() -> None:
     parser.add_argument("others", nargs="*")
     parser.add_argument("--tier", default="full")
     parser.add_argument("--robots", nargs="*")
-    args = parser.parse_args()
+    args = parser.parse_args(argv)
     bench = load_bench(args.bench)
-    names = [e.name for e in bench.of("diagnosis")]
+    names = [e.name for e in bench.of("diagnosis")] + list(stored.SANITY)
     for field, name in [("reference", args.reference)] + [(f"others.{i}", n) for i, n in enumerate(args.others)]:
         if name not in names:
             raise InputError(args.bench, field, f"{name!r} is not a diagnosis row (its rows: {', '.join(names)})")
@@ -57,10 +62,19 @@ def main() -> None:
     done, missing = execute.plan(bench, args.tier, Path(args.out))
     if missing:
         raise InputError(args.out, "runs", f"{len(missing)} campaigns are not simulated; run ftc-mj bench first")
-    others = args.others or [n for n in names if n != args.reference]
+    others = args.others or [n for n in names if n != args.reference and n not in stored.SANITY]
     tests = len(robots) * len(others) * len(PAIRED_SCORES)
     resamples = cal.paired_resamples(tests, FAMILY_ALPHA)
-    found = []
+    found, passed = [], {}
+    print(f"the test's own check, oracle_fault - null at the family's strictest level ({FAMILY_ALPHA} / {tests}):")
+    for robot in robots:
+        check = cal.paired_differences(windows(bench, done, robot, "oracle_fault"),
+                                       windows(bench, done, robot, "null"), PAIRED_SCORES, resamples)
+        passed[robot] = all(check[score].low > 0 and check[score].p_value * tests <= FAMILY_ALPHA
+                            for score in PAIRED_SCORES)
+        print(f"{robot:9s} " + " | ".join(f"{score} {check[score].value:+.4f} [{check[score].low:+.4f}, "
+                                          f"{check[score].high:+.4f}]" for score in PAIRED_SCORES)
+              + ("  passed" if passed[robot] else "  FAILED: this robot's verdicts are withheld"))
     for robot in robots:
         reference = windows(bench, done, robot, args.reference)
         for name in others:
@@ -73,7 +87,7 @@ def main() -> None:
         for score in PAIRED_SCORES:
             d, p = difference[score], float(next(adjusted))
             cells.append(f"{score} {d.value:+.4f} [{d.low:+.4f}, {d.high:+.4f}] p {p:.3g}"
-                         + (" *" if p <= FAMILY_ALPHA and (d.low > 0 or d.high < 0) else ""))
+                         + (" *" if passed[robot] and p <= FAMILY_ALPHA and (d.low > 0 or d.high < 0) else ""))
         print(f"{robot:9s} {name:22s} " + " | ".join(cells))
 
 

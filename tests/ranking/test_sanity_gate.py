@@ -121,3 +121,28 @@ def test_the_paired_comparison_scores_a_perfect_and_a_useless_entry_as_such(boar
             (0.0, 0.0, 0.0, 1.0)
     assert "The paired test's own check: `oracle_fault` (perfect) against `null`" in (out / "leaderboard.md") \
         .read_text()
+
+
+def test_the_paired_rows_tool_checks_its_pipeline_and_scores_a_row_against_itself_as_zero(board, capsys):
+    """``tools/paired_rows.py`` (the between-method comparisons of baselines.md) on the same stored runs: its own
+    check (oracle_fault against null) passes on every robot, a row against the same monitor differs by exactly 0
+    and the useless rows are never called apart (no ``*``)."""
+    import importlib.util
+
+    _, _, out = board
+    spec = importlib.util.spec_from_file_location("paired_rows", Path(__file__).resolve().parents[2] / "tools"
+                                                  / "paired_rows.py")
+    tool = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(tool)
+    with pytest.MonkeyPatch.context() as patch:
+        registry._discover.cache_clear()
+        patch.setitem(observers.BUILTIN, NoiseObserver.name, NoiseObserver)
+        tool.main([str(out.parent / "bench.yaml"), str(out), "noise", "noise_tuned", "null", "--tier", "quick"])
+    registry._discover.cache_clear()
+    printed = capsys.readouterr().out.splitlines()
+    checks = [line for line in printed if line.split(" ")[0] in ROBOTS and "passed" in line]
+    assert len(checks) == len(ROBOTS), printed
+    rows = {tuple(line.split()[:2]): line for line in printed if line.split(" ")[0] in ROBOTS and "p " in line}
+    for robot in ROBOTS:
+        assert "auc +0.0000 [+0.0000, +0.0000] p 1 | pd +0.0000 [+0.0000, +0.0000] p 1" in rows[robot, "noise_tuned"]
+        assert "*" not in rows[robot, "null"]
