@@ -333,15 +333,25 @@ def tuned_pairs(board: RobotBoard) -> list[str]:
 
 def _styles(names: list[str]) -> dict[str, tuple[str, str, str | None]]:
     """Colour, line style and marker per row: the sanity rows grey and black, entries the palette's order with
-    a marker each, so that identical curves stay apart."""
+    a marker each, so that identical curves stay apart; a tuned row its design row's colour and marker, dashed
+    (a wrapped palette's second round dash-dotted), so that each pair reads as one method."""
+    from ftc_mj.ranking.calibrated import TUNED_SUFFIX
     from ftc_mj.ranking.leaderboard import _colours
 
-    base = _colours([n for n in names if n not in SANITY])
+    def design(name: str) -> str | None:
+        base_name = name.removesuffix(TUNED_SUFFIX)
+        return base_name if name.endswith(TUNED_SUFFIX) and base_name in names else None
+
+    entries = [n for n in names if n not in SANITY and design(n) is None]
+    base = _colours(entries)
     markers = ("o", "s", "^", "v", "D", "x", "+", "<", ">", "P", "*", "h")
     out: dict[str, tuple[str, str, str | None]] = {
         "oracle_fault": ("#000000", ":", None), "oracle_luaf": ("#7f7f7f", "--", None), "null": ("#bbbbbb", ":", None)}
-    for i, name in enumerate(n for n in names if n not in SANITY):
-        out[name] = (base[name][0], base[name][1], markers[i % len(markers)])
+    for i, name in enumerate(entries):
+        out[name] = (base[name][0], "-." if base[name][1] != "-" else "-", markers[i % len(markers)])
+    for name in names:
+        if (of := design(name)) is not None:
+            out[name] = (out[of][0], "--", out[of][2])
     return out
 
 
@@ -376,8 +386,8 @@ def _legend(fig: Figure, panels: list) -> Figure:
 
 
 def roc_figure(boards: dict[str, RobotBoard]) -> Figure:
-    fig, panels = _panels(boards, "ROC of the pooled windows (z = peak / calibrated threshold), AUC in the legends",
-                          "false-alarm probability per window", "detection probability")
+    fig, panels = _panels(boards, "ROC of the pooled windows (z = peak / calibrated threshold); each row's AUC in "
+                          "the tables", "false-alarm probability per window", "detection probability")
     for ax, board, styles in panels:
         for name, w in board.windows.items():
             if not (w.healthy_z.size and w.fault_z.size):
@@ -387,12 +397,9 @@ def roc_figure(boards: dict[str, RobotBoard]) -> Figure:
             p_d = np.array([np.mean(w.fault_z > c) for c in thresholds])
             colour, style, marker = styles[name]
             ax.plot(np.concatenate(([1.0], p_fa)), np.concatenate(([1.0], p_d)), color=colour, linestyle=style,
-                    marker=marker, markevery=0.2, markersize=3, linewidth=1.0,
-                    label=f"{name} {board.scores[name]['auc'].value:.2f}")
+                    marker=marker, markevery=0.2, markersize=3, linewidth=1.0, label=name)
         ax.plot([0, 1], [0, 1], color="#dddddd", linewidth=0.6)
-        ax.legend(fontsize=5, loc="lower right", ncol=2)
-    fig.tight_layout()
-    return fig
+    return _legend(fig, panels)  # below the panels: inside one, some twenty rows hid the curves
 
 
 def detectability_figure(boards: dict[str, RobotBoard], alpha: float) -> Figure:
