@@ -18,6 +18,7 @@ import numpy as np
 import pyarrow as pa
 import pyarrow.parquet as pq
 from matplotlib.figure import Figure
+from matplotlib.ticker import FormatStrFormatter, LogLocator, NullFormatter
 
 from ftc_mj.outputs.figures import over_alike, same_roc
 from ftc_mj.ranking import score as sc
@@ -285,21 +286,27 @@ def ranked_figure(bench: Bench, rows: list[dict[str, Any]]) -> Figure:
     for t, task in enumerate(tasks):
         key = sc.RANKED_BY[task]
         label, unit, _ = SCORES[task][key]
-        styles = _colours([e.name for e in bench.of(task)])
+        # The other figures' colours: a tuned row its design row's, drawn hollow.
+        styles = windowed.line_styles([e.name for e in bench.of(task)])
         for r, robot in enumerate(robots):
             ax = axes[t][r]
-            order = [name for name in ranked(rows, task, robot) if name in styles]  # sanity rows: their table
+            order = [name for name in ranked(rows, task, robot) if name in styles]  # the sanity rows too: the scale
             by_entry = {row["entry"]: row for row in rows if row["task"] == task and row["robot"] == robot
                         and row["score"] == key}
             for y, name in enumerate(reversed(order)):
-                row = by_entry[name]
+                row, (colour, style, _) = by_entry[name], styles[name]
                 if np.isfinite(row["value"]):
                     ax.errorbar(row["value"], y, xerr=[[row["value"] - row["low"]], [row["high"] - row["value"]]],
-                                fmt="o", color=styles[name][0], capsize=3, markersize=4)
+                                fmt="o", color=colour, capsize=3, markersize=4,
+                                markerfacecolor="white" if style == "--" else colour)
             ax.set_yticks(range(len(order)), list(reversed(order)), fontsize=7)
             ax.set_xlabel(f"{label}" + (f" [{unit}]" if unit else ""), fontsize=8)
-            if task == "tracking":
+            if task == "tracking":  # plain numbers at 1, 2 and 5 per decade: the default's minor labels collided
                 ax.set_xscale("log")
+                ax.xaxis.set_major_locator(LogLocator(subs=(1.0, 2.0, 5.0)))
+                ax.xaxis.set_major_formatter(FormatStrFormatter("%g"))
+                ax.xaxis.set_minor_formatter(NullFormatter())
+                ax.tick_params(axis="x", labelsize=7)
             ax.set_title(f"{task}: {robot}", fontsize=9)
             ax.grid(alpha=0.3, axis="x")
     fig.suptitle(f"Benchmark {bench.suite.version}: ranked scores with 95% intervals (best on top)", fontsize=10)

@@ -331,7 +331,7 @@ def tuned_pairs(board: RobotBoard) -> list[str]:
     return lines
 
 
-def _styles(names: list[str]) -> dict[str, tuple[str, str, str | None]]:
+def line_styles(names: list[str]) -> dict[str, tuple[str, str, str | None]]:
     """Colour, line style and marker per row: the sanity rows grey and black, entries the palette's order with
     a marker each, so that identical curves stay apart; a tuned row its design row's colour and marker, dashed
     (a wrapped palette's second round dash-dotted), so that each pair reads as one method."""
@@ -372,7 +372,7 @@ def _panels(boards: dict[str, RobotBoard], title: str, xlabel: str, ylabel: str
         ax.set_ylabel(ylabel, fontsize=8)
         ax.tick_params(labelsize=7)
         ax.grid(alpha=0.3, which="both")
-        panels.append((ax, board, _styles(list(board.windows))))
+        panels.append((ax, board, line_styles(list(board.windows))))
     fig.suptitle(title, fontsize=9)
     return fig, panels
 
