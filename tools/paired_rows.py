@@ -25,20 +25,12 @@ from ftc_mj.config.errors import InputError
 from ftc_mj.ranking import calibrated as cal
 from ftc_mj.ranking import execute, windows as stored
 from ftc_mj.ranking.entries import load_bench
-from ftc_mj.ranking.sizing import ACTS
-from ftc_mj.ranking.windowed import FAMILY_ALPHA, PAIRED_SCORES, _entry_population
+from ftc_mj.ranking.windowed import FAMILY_ALPHA, PAIRED_SCORES, entry_windows
 
 
 def windows(bench, done, robot: str, name: str) -> cal.Windows:
     """One row's calibrated windows on one robot, as the leaderboard makes them (no bootstrap of its own)."""
-    suite = bench.suite
-    spec, calibration = suite.spec.robots[robot], suite.spec.calibration
-    layers = cal.strata(suite.spec.protocol.onsets, spec.fault_joints, calibration.windows)
-    populations = [_entry_population(done["diagnosis", robot, population, name], name)
-                   for population in ("calibrate", "healthy", "faults")]
-    found, _ = cal.windows(name, *populations, layers, calibration.false_alarm,
-                           ACTS * min(spec.residual_unit or spec.torque_scale))
-    return found
+    return entry_windows(bench, robot, done, name)[0]
 
 
 def main(argv: list[str] | None = None) -> None:

@@ -35,7 +35,7 @@ such tests adjusted by Holm's step-down (:func:`holm`).
 
 from __future__ import annotations
 
-from collections.abc import Callable, Iterator, Sequence
+from collections.abc import Callable, Collection, Iterator, Sequence
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -451,6 +451,13 @@ def per_kind(w: Windows) -> dict[str, float]:
 
 #: A tuned entry's name: its design-rule entry's and this suffix (the leaderboard pairs them).
 TUNED_SUFFIX = "_tuned"
+
+
+def design_row(name: str, names: Collection[str]) -> str | None:
+    """The design-rule row a tuned row ``<name>_tuned`` is compared with, where that row is among ``names``;
+    None for any other row."""
+    design = name.removesuffix(TUNED_SUFFIX)
+    return design if design != name and design in names else None
 
 
 def apart(tuned: Score, design: Score, higher_is_better: bool = True) -> str:

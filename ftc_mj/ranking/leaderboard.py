@@ -22,6 +22,7 @@ from matplotlib.ticker import FormatStrFormatter, LogLocator, NullFormatter
 
 from ftc_mj.outputs.figures import over_alike, same_roc
 from ftc_mj.ranking import score as sc
+from ftc_mj.ranking.calibrated import design_row
 from ftc_mj.ranking import windowed
 from ftc_mj.ranking.execute import Found, damaged
 from ftc_mj.ranking.entries import Bench
@@ -198,14 +199,13 @@ def markdown(bench: Bench, tier: str, rows: list[dict[str, Any]], info: dict[str
 def _tuned_pairs(rows: list[dict[str, Any]], task: str, robot: str, names: list[str]) -> list[str]:
     """Each ``<name>_tuned`` row against its ``<name>`` row: per score, whether the intervals are apart
     (:func:`~ftc_mj.ranking.calibrated.apart`; better only when the tuned row's lies wholly on the better side)."""
-    from ftc_mj.ranking.calibrated import TUNED_SUFFIX, apart
+    from ftc_mj.ranking.calibrated import apart
 
     scores: dict[str, dict[str, sc.Score]] = {}
     for r in rows:
         if r["task"] == task and r["robot"] == robot:
             scores.setdefault(r["entry"], {})[r["score"]] = sc.Score(r["value"], r["low"], r["high"], r["n"])
-    pairs = [(name, name[:-len(TUNED_SUFFIX)]) for name in scores
-             if name.endswith(TUNED_SUFFIX) and name[:-len(TUNED_SUFFIX)] in scores]
+    pairs = [(name, design) for name in scores if (design := design_row(name, scores))]
     if not pairs:
         return []
     lines = ["Tuned rows against their design rows, per score: better only where the tuned row's interval lies "
@@ -287,18 +287,19 @@ def ranked_figure(bench: Bench, rows: list[dict[str, Any]]) -> Figure:
         key = sc.RANKED_BY[task]
         label, unit, _ = SCORES[task][key]
         # The other figures' colours: a tuned row its design row's, drawn hollow.
-        styles = windowed.line_styles([e.name for e in bench.of(task)])
+        names = [e.name for e in bench.of(task)]
+        styles = windowed.line_styles(names)
         for r, robot in enumerate(robots):
             ax = axes[t][r]
             order = [name for name in ranked(rows, task, robot) if name in styles]  # the sanity rows too: the scale
             by_entry = {row["entry"]: row for row in rows if row["task"] == task and row["robot"] == robot
                         and row["score"] == key}
             for y, name in enumerate(reversed(order)):
-                row, (colour, style, _) = by_entry[name], styles[name]
+                row, colour = by_entry[name], styles[name][0]
                 if np.isfinite(row["value"]):
                     ax.errorbar(row["value"], y, xerr=[[row["value"] - row["low"]], [row["high"] - row["value"]]],
                                 fmt="o", color=colour, capsize=3, markersize=4,
-                                markerfacecolor="white" if style == "--" else colour)
+                                markerfacecolor="white" if design_row(name, names) else colour)
             ax.set_yticks(range(len(order)), list(reversed(order)), fontsize=7)
             ax.set_xlabel(f"{label}" + (f" [{unit}]" if unit else ""), fontsize=8)
             if task == "tracking":  # plain numbers at 1, 2 and 5 per decade: the default's minor labels collided

@@ -65,21 +65,35 @@ class RobotBoard:
     paired_check: dict[str, Any] = field(default_factory=dict)
 
 
+def _protocol(bench: Bench, robot: str) -> tuple[Any, float]:
+    """The robot's window strata and the bias below which a fault counts as not acting (residual units)."""
+    suite = bench.suite
+    spec = suite.spec.robots[robot]
+    layers = cal.strata(suite.spec.protocol.onsets, spec.fault_joints, suite.spec.calibration.windows)
+    return layers, ACTS * min(spec.residual_unit or spec.torque_scale)
+
+
+def entry_windows(bench: Bench, robot: str, done: dict[tuple[str, str, str, str], Found], name: str
+                  ) -> tuple[cal.Windows, list[Any]]:
+    """One row's calibrated windows on one robot (an entry or a sanity row), and its three populations
+    (calibration, healthy, faults) as stored."""
+    layers, acts = _protocol(bench, robot)
+    populations = [_entry_population(done["diagnosis", robot, population, name], name)
+                   for population in ("calibrate", "healthy", "faults")]
+    w, _ = cal.windows(name, *populations, layers, bench.suite.spec.calibration.false_alarm, acts)
+    return w, populations
+
+
 def robot_board(bench: Bench, robot: str, done: dict[tuple[str, str, str, str], Found],
                 resamples: int = cal.RESAMPLES) -> RobotBoard:
-    suite = bench.suite
-    spec, calibration = suite.spec.robots[robot], suite.spec.calibration
-    layers = cal.strata(suite.spec.protocol.onsets, spec.fault_joints, calibration.windows)
-    unit = min(spec.residual_unit or spec.torque_scale)
-    board = RobotBoard(robot, layers, rate=1.0 / float(suite.resolved[robot].get("control_dt", 0.001)))
+    layers, acts = _protocol(bench, robot)
+    board = RobotBoard(robot, layers, rate=1.0 / float(bench.suite.resolved[robot].get("control_dt", 0.001)))
     names = list(SANITY) + [e.name for e in bench.of("diagnosis")]
     for name in names:
-        populations = [_entry_population(done["diagnosis", robot, population, name], name)
-                       for population in ("calibrate", "healthy", "faults")]
-        w, _ = cal.windows(name, *populations, layers, calibration.false_alarm, ACTS * unit)
+        w, populations = entry_windows(bench, robot, done, name)
         board.windows[name] = w
         board.scores[name] = cal.scores(w, resamples)
-        board.fronts[name] = cal.front(name, *populations, layers, ACTS * unit)
+        board.fronts[name] = cal.front(name, *populations, layers, acts)
         if name == SANITY[0]:
             board.diverged = {population: pop.diverged for population, pop in
                               zip(("calibrate", "healthy", "faults"), populations)}
@@ -237,8 +251,7 @@ FAMILY_ALPHA = 0.05
 
 def _tuned_rows(board: RobotBoard) -> list[tuple[str, str]]:
     """(tuned, design) for each ``<name>_tuned`` row of the board beside its ``<name>`` row."""
-    return sorted((name, name[:-len(cal.TUNED_SUFFIX)]) for name in board.scores
-                  if name.endswith(cal.TUNED_SUFFIX) and name[:-len(cal.TUNED_SUFFIX)] in board.scores)
+    return sorted((name, design) for name in board.scores if (design := cal.design_row(name, board.scores)))
 
 
 def compare_tuned(boards: dict[str, RobotBoard], resamples: int | None = None) -> None:
@@ -335,14 +348,9 @@ def line_styles(names: list[str]) -> dict[str, tuple[str, str, str | None]]:
     """Colour, line style and marker per row: the sanity rows grey and black, entries the palette's order with
     a marker each, so that identical curves stay apart; a tuned row its design row's colour and marker, dashed
     (a wrapped palette's second round dash-dotted), so that each pair reads as one method."""
-    from ftc_mj.ranking.calibrated import TUNED_SUFFIX
     from ftc_mj.ranking.leaderboard import _colours
 
-    def design(name: str) -> str | None:
-        base_name = name.removesuffix(TUNED_SUFFIX)
-        return base_name if name.endswith(TUNED_SUFFIX) and base_name in names else None
-
-    entries = [n for n in names if n not in SANITY and design(n) is None]
+    entries = [n for n in names if n not in SANITY and cal.design_row(n, names) is None]
     base = _colours(entries)
     markers = ("o", "s", "^", "v", "D", "x", "+", "<", ">", "P", "*", "h")
     out: dict[str, tuple[str, str, str | None]] = {
@@ -350,8 +358,8 @@ def line_styles(names: list[str]) -> dict[str, tuple[str, str, str | None]]:
     for i, name in enumerate(entries):
         out[name] = (base[name][0], "-." if base[name][1] != "-" else "-", markers[i % len(markers)])
     for name in names:
-        if (of := design(name)) is not None:
-            out[name] = (out[of][0], "--", out[of][2])
+        if (design := cal.design_row(name, names)) is not None:
+            out[name] = (out[design][0], "--", out[design][2])
     return out
 
 
